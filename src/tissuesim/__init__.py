@@ -1,0 +1,46 @@
+"""tissuesim: accurate, real-time soft-tissue surface deformation and incision (hybrid FEM + PBD).
+
+Public API (imported lazily, so ``import tissuesim`` stays fast and Numba kernels compile only when used)::
+
+    surface = tissuesim.read_surface("liver.obj", scale=0.01)        # or tissuesim.models.liver()
+    hybrid = tissuesim.HybridMesh.build(surface)                      # M_S + M'_S + M_V + maps (§5)
+    solver = tissuesim.make_solver("hybrid", hybrid)                  # or "pbd", "mass-spring", "embedded", "fem"
+    positions = solver.solve_static(node, [0.0, 0.0, 1.0])            # (n, 3) surface positions [m]
+"""
+
+from importlib import import_module
+
+__version__ = "0.1.0"
+
+# public name -> module that defines it
+_EXPORTS = {
+    "SurfaceMesh": "tissuesim.mesh.surface",
+    "TetMesh": "tissuesim.mesh.tetmesh",
+    "HybridMesh": "tissuesim.mesh.hybrid",
+    "read_surface": "tissuesim.io",
+    "Material": "tissuesim.fem.material",
+    "LinearFEM": "tissuesim.fem.linear",
+    "make_solver": "tissuesim.solvers",
+    "PinHead": "tissuesim.interaction",
+    "TissuesimError": "tissuesim.errors",
+    "MeshError": "tissuesim.errors",
+    "MaterialError": "tissuesim.errors",
+    "BoundaryConditionError": "tissuesim.errors",
+    "SolverError": "tissuesim.errors",
+    "BundleError": "tissuesim.errors",
+}
+_SUBMODULES = {"models": "tissuesim.mesh.models"}
+
+__all__ = sorted([*_EXPORTS, *_SUBMODULES, "__version__"])
+
+
+def __getattr__(name):
+    if name in _EXPORTS:
+        return getattr(import_module(_EXPORTS[name]), name)
+    if name in _SUBMODULES:
+        return import_module(_SUBMODULES[name])
+    raise AttributeError(f"module 'tissuesim' has no attribute {name!r}")
+
+
+def __dir__():
+    return __all__

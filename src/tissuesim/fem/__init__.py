@@ -1,0 +1,1 @@
+"""Linear finite elements on tetrahedra (§3, §6.2)."""

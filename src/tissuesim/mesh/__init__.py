@@ -1,0 +1,1 @@
+"""Meshes of the hybrid model: surfaces, tetrahedral volumes, validation, simplification (§5) and the hybrid mesh."""
