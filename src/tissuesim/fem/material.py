@@ -1,0 +1,75 @@
+"""Isotropic linear-elastic material: Young's modulus and Poisson's ratio → the elastic matrix D of eq (4)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import MaterialError
+
+# The paper's tissue (§8.3): E = 5.5 kPa, ν = 0.3.
+DEFAULT_YOUNGS_MODULUS = 5500.0
+DEFAULT_POISSON_RATIO = 0.3
+
+
+@dataclass(frozen=True)
+class Material:
+    """Isotropic, homogeneous, linear-elastic material (small strain).
+
+    Attributes:
+        youngs_modulus: E [Pa], finite and > 0.
+        poisson_ratio: ν [-], finite, in (-1, 0.5). ν = 0.5 (incompressible) makes λ infinite: linear tets lock and
+            D is undefined, so it is refused rather than approximated.
+    """
+
+    youngs_modulus: float = DEFAULT_YOUNGS_MODULUS
+    poisson_ratio: float = DEFAULT_POISSON_RATIO
+
+    def __post_init__(self):
+        for name in ("youngs_modulus", "poisson_ratio"):
+            value = getattr(self, name)
+            try:
+                value = float(value)
+            except (TypeError, ValueError):
+                raise MaterialError(f"{name} must be a real number, got {value!r}") from None
+            if not math.isfinite(value):
+                raise MaterialError(f"{name} must be finite, got {value}")
+            object.__setattr__(self, name, value)
+        if self.youngs_modulus <= 0.0:
+            raise MaterialError(
+                f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus:g}; soft tissue is ~1e3-1e5 Pa "
+                "(the paper uses 5500)"
+            )
+        if not -1.0 < self.poisson_ratio < 0.5:
+            raise MaterialError(
+                f"poisson_ratio must lie in (-1, 0.5), got {self.poisson_ratio:g}; for nearly incompressible "
+                "tissue use e.g. 0.45-0.49 (0.5 makes the Lame parameter lambda infinite)"
+            )
+
+    @property
+    def lame_lambda(self) -> float:
+        """First Lamé parameter λ = Eν / ((1+ν)(1−2ν)) [Pa]."""
+        e, nu = self.youngs_modulus, self.poisson_ratio
+        return e * nu / ((1.0 + nu) * (1.0 - 2.0 * nu))
+
+    @property
+    def shear_modulus(self) -> float:
+        """Shear modulus μ = G = E / (2(1+ν)) [Pa] (second Lamé parameter)."""
+        return self.youngs_modulus / (2.0 * (1.0 + self.poisson_ratio))
+
+    @property
+    def bulk_modulus(self) -> float:
+        """Bulk modulus K = E / (3(1−2ν)) [Pa]."""
+        return self.youngs_modulus / (3.0 * (1.0 - 2.0 * self.poisson_ratio))
+
+    def elasticity_matrix(self) -> np.ndarray:
+        """``(6, 6) float64`` D [Pa] of eq (4), σ = D ε, Voigt order (xx, yy, zz, xy, yz, zx) with engineering
+        shear strains (γ_xy = 2 ε_xy), matching the strain matrix B of :mod:`tissuesim.fem.assembly`."""
+        lam, mu = self.lame_lambda, self.shear_modulus
+        d = np.zeros((6, 6))
+        d[:3, :3] = lam
+        d[[0, 1, 2], [0, 1, 2]] = lam + 2.0 * mu
+        d[[3, 4, 5], [3, 4, 5]] = mu
+        return d
