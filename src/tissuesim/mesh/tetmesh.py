@@ -98,3 +98,33 @@ class TetMesh:
     def boundary_nodes(self) -> np.ndarray:
         """``(k,) int32`` sorted indices of the nodes on the boundary surface."""
         return np.unique(self.boundary_triangles).astype(np.int32)
+
+
+# Kuhn (Freudenthal) split of a hex into six tets around its main diagonal, corners numbered 4i + 2j + k for the
+# offsets (i, j, k) ∈ {0,1}³; every hex is cut the same way, so neighbouring hexes' face diagonals match.
+_KUHN_TETS = np.array([[0, 4, 6, 7], [0, 4, 5, 7], [0, 2, 6, 7], [0, 2, 3, 7], [0, 1, 5, 7], [0, 1, 3, 7]])
+
+
+def structured_box(size, divisions, *, origin=(0.0, 0.0, 0.0)) -> TetMesh:
+    """A conforming structured tet mesh of the box ``origin`` .. ``origin + size`` (``(3,)`` [m] each):
+    ``divisions`` ``(3,) int`` hexes per axis, each split into six tets (Kuhn split). For tests with known
+    solutions (patch test, cantilever) and benchmarks; node ``(i, j, k)`` of the grid has index
+    ``(i (ny+1) + j) (nz+1) + k``."""
+    size = np.asarray(size, dtype=np.float64)
+    divisions = np.asarray(divisions)
+    if size.shape != (3,) or not np.all(np.isfinite(size)) or np.any(size <= 0):
+        raise MeshError(f"box size must be three positive lengths [m], got {size.tolist()}")
+    if divisions.shape != (3,) or divisions.dtype.kind not in "iu" or np.any(divisions < 1):
+        raise MeshError(f"box divisions must be three integers >= 1, got {divisions.tolist()}")
+    nx, ny, nz = (int(d) for d in divisions)
+    axes = [np.linspace(0.0, s, d + 1) for s, d in zip(size, (nx, ny, nz))]
+    points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3) + np.asarray(origin, float)
+    index = np.arange(len(points)).reshape(nx + 1, ny + 1, nz + 1)
+    corners = np.stack(
+        [index[i : i + nx, j : j + ny, k : k + nz].ravel() for i in (0, 1) for j in (0, 1) for k in (0, 1)], axis=1
+    )
+    tets = corners[:, _KUHN_TETS].reshape(-1, 4)
+    # Half of the Kuhn tets come out left-handed; swapping two nodes orients them positively.
+    negative = tet_signed_volumes(points, tets) < 0
+    tets[negative] = tets[negative][:, [0, 2, 1, 3]]
+    return TetMesh(points, tets)
