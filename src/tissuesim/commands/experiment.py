@@ -1,0 +1,83 @@
+"""``tissuesim experiment``: the paper's §8.3 experiments into a results folder (tables, plots, report, JSON)."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+HELP = "reproduce the paper's experiments (§8.3, Tables 1-5, Figs 12-15) into a results folder"
+
+
+def add_arguments(parser) -> None:
+    # Values are read as text and checked in run(), so a bad one is a one-line error (exit 1), not a usage dump.
+    parser.add_argument("models", nargs="*", metavar="MODEL",
+                        help="built-in model (cube, sphere, liver, steak), surface file or saved hybrid bundle; "
+                             "default: the four built-in models")
+    parser.add_argument("--output", "-o", default="results", metavar="DIR",
+                        help="results folder, created if absent (default: results)")
+    parser.add_argument("--quick", action="store_true",
+                        help="CI-sized smoke run: coarse models (400 vertices), forces 1 and 10 N, few timed steps")
+    parser.add_argument("--forces", nargs="+", metavar="N", help="load magnitudes in newtons "
+                        "(default: 0.5 1 2 5 10 20; with --quick: 1 10)")
+    parser.add_argument("--loads", nargs="+", metavar="LOAD", help="tension and/or pressure (default: both)")
+    parser.add_argument("--methods", nargs="+", metavar="METHOD",
+                        help="solvers to compare; fem (the reference) is always run (default: all five)")
+    parser.add_argument("--resolution", metavar="VERTICES",
+                        help="surface vertices of the built-in models (default: the paper's Table-1 sizes)")
+    parser.add_argument("--scale", default="1", metavar="FACTOR",
+                        help="factor from a surface file's unit to metres, e.g. 0.01 for cm (default: 1)")
+    parser.add_argument("--steps", metavar="COUNT", help="timed steps per case and method (default: 30; quick: 5)")
+    parser.add_argument("--no-plots", action="store_true", help="skip the radar plots")
+    parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
+
+
+def run(args) -> int:
+    from ..errors import SolverError
+    from ..experiments.output import check_output_folder, write_outputs
+    from ..experiments.protocol import METHODS, REFERENCE
+    from ..experiments.run import ExperimentConfig, run_experiment
+    from ..mesh.models import MODELS
+
+    output = check_output_folder(args.output)  # refuse a bad target before minutes of work
+    models = tuple(args.models) or tuple(MODELS)
+    for spec in models:
+        if spec not in MODELS and not Path(spec).is_file():
+            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(MODELS)}) nor an existing "
+                              "file; name one of those or give a mesh path")
+    options = {"models": models}
+    if args.forces:
+        options["forces"] = tuple(_number(value, "--forces", "newtons") for value in args.forces)
+    if args.loads:
+        options["loads"] = tuple(args.loads)
+    if args.methods:
+        options["methods"] = tuple(dict.fromkeys([*args.methods, REFERENCE]))
+        unknown = [m for m in args.methods if m not in METHODS]
+        if unknown:
+            raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
+    if args.resolution is not None:
+        options["resolution"] = int(_number(args.resolution, "--resolution", "vertices", integer=True))
+    options["scale"] = _number(args.scale, "--scale", "factor")
+    if args.steps is not None:
+        options["timing_steps"] = int(_number(args.steps, "--steps", "steps", integer=True))
+    config = ExperimentConfig.quick(**options) if args.quick else ExperimentConfig(**options)
+
+    start = time.perf_counter()
+    data = run_experiment(config, progress=not args.quiet)
+    paths = write_outputs(data, output, plots=not args.no_plots)
+    print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
+          f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return 0
+
+
+def _number(text: str, option: str, unit: str, *, integer: bool = False) -> float:
+    from ..errors import SolverError
+
+    try:
+        value = float(text)
+    except ValueError:
+        raise SolverError(f"{option} takes numbers ({unit}), got {text!r}") from None
+    if value != value or value in (float("inf"), float("-inf")) or value <= 0 or (integer and value != int(value)):
+        kind = "a positive whole number" if integer else "a positive finite number"
+        raise SolverError(f"{option} takes {kind} ({unit}), got {text!r}")
+    return value

@@ -1,0 +1,195 @@
+"""The paper's Tables 1–5 as Markdown, our figures beside the published ones, from a results document.
+
+Column names follow the paper: "Ours" is the ``hybrid`` method, "MSM" is ``mass-spring``, "FEM" the fine-volume
+reference; "Emb." is the embedded-surface baseline the paper does not have. Ratios: Ours/PBD and Ours/MSM of the
+RMSE (below 1: the hybrid is more accurate), Ours/PBD and FEM/Ours of the per-step time (FEM/Ours above 1: the
+hybrid is faster than the fine FEM). Ratio summaries are means over load cases of the per-case ratios.
+"""
+
+from __future__ import annotations
+
+import math
+
+from . import paper
+from .protocol import REFERENCE
+
+LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM"}
+COMPARED = ("hybrid", "pbd", "mass-spring", "embedded")
+
+# name -> (table, numerator method, denominator method, quantity): the ratios of the closing summary.
+RATIOS = {
+    "Ours/PBD RMSE": ("rmse", "hybrid", "pbd"),
+    "Ours/MSM RMSE": ("rmse", "hybrid", "mass-spring"),
+    "Ours/Emb. RMSE": ("rmse", "hybrid", "embedded"),
+    "FEM/Ours step": ("time", "fem", "hybrid"),
+    "Ours/PBD step": ("time", "hybrid", "pbd"),
+}
+
+
+def index(data: dict) -> dict:
+    """``{(model, load, force_N, method): record}`` of a results document."""
+    return {(r["model"], r["load"], float(r["force_N"]), r["method"]): r for r in data["records"]}
+
+
+def models_of(data: dict) -> list[str]:
+    return list(dict.fromkeys(r["model"] for r in data["records"]))
+
+
+def cases_of(data: dict, model: str) -> list[tuple[str, float]]:
+    return list(dict.fromkeys((r["load"], float(r["force_N"])) for r in data["records"] if r["model"] == model))
+
+
+def methods_of(data: dict, model: str) -> list[str]:
+    present = {r["method"] for r in data["records"] if r["model"] == model}
+    return [m for m in (*COMPARED, REFERENCE) if m in present]
+
+
+def measured_ratio(data: dict, model: str, quantity: str, numerator: str, denominator: str) -> float | None:
+    """Mean over ``model``'s cases of ``numerator/denominator`` of ``rmse_mm`` or ``step_ms`` (None if absent)."""
+    field = "rmse_mm" if quantity == "rmse" else "step_ms"
+    records = index(data)
+    ratios = []
+    for load, force in cases_of(data, model):
+        top, bottom = records.get((model, load, force, numerator)), records.get((model, load, force, denominator))
+        if top and bottom and bottom[field] > 0:
+            ratios.append(top[field] / bottom[field])
+    return sum(ratios) / len(ratios) if ratios else None
+
+
+def published_ratio(model: str, quantity: str, numerator: str, denominator: str) -> float | None:
+    table = paper.RMSE_MM if quantity == "rmse" else paper.TIME_MS
+    return paper.mean_ratio(table, model, numerator, denominator)
+
+
+def ratio_summary(data: dict) -> dict:
+    """``{model: {ratio name: (ours, paper or None)}}`` for the ratios in :data:`RATIOS`."""
+    return {model: {name: (measured_ratio(data, model, *spec), published_ratio(model, *spec))
+                    for name, spec in RATIOS.items()} for model in models_of(data)}
+
+
+# --------------------------------------------------------------------------------------------------- Markdown
+def fmt(value, digits: int = 4) -> str:
+    """A number for a table cell: ``digits`` significant figures, "–" when missing."""
+    if value is None or (isinstance(value, float) and not math.isfinite(value)):
+        return "–"
+    return f"{value:.{digits}g}"
+
+
+def markdown_table(header: list[str], rows: list[list[str]]) -> str:
+    lines = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
+    return "\n".join(lines)
+
+
+def table1(data: dict) -> str:
+    """Table 1: mesh sizes (nodes, elements, in-memory size), ours beside the paper's."""
+    rows = []
+    for model in models_of(data):
+        info = data["metadata"]["models"][model]
+        published = paper.TABLE1.get(model, {})
+        for mesh, label in (("surface", "fine surface M_S"), ("volume", "coarse volume M_V"),
+                            ("fine_volume", "fine volume (FEM)")):
+            ours = info.get(mesh) or {}
+            theirs = published.get(mesh, (None, None, None))
+            rows.append([model, label, fmt(ours.get("nodes"), 6), fmt(ours.get("elements"), 6),
+                         fmt(ours.get("size_kB"), 4), fmt(theirs[0], 6), fmt(theirs[1], 6), fmt(theirs[2], 6)])
+    return markdown_table(["Model", "Mesh", "#node", "#elem", "size (kB)", "paper #node", "paper #elem",
+                           "paper size (kB)"], rows)
+
+
+def rmse_table(data: dict, model: str) -> str:
+    """Table 2/3 for one model: RMSE [mm] of each method against FEM, relative RMSE, published figures, ratios."""
+    records = index(data)
+    methods = [m for m in methods_of(data, model) if m != REFERENCE]
+    header = (["Load", "Force"] + [f"{LABELS[m]} (mm)" for m in methods] + [f"{LABELS[m]} rel." for m in methods]
+              + ["paper Ours", "paper PBD", "paper MSM", "Ours/PBD", "paper", "Ours/MSM", "paper", "best"])
+    rows = []
+    for load, force in cases_of(data, model):
+        got = {m: records.get((model, load, force, m)) for m in methods}
+        rmse = {m: (r["rmse_mm"] if r else None) for m, r in got.items()}
+        pub = {m: paper.rmse_mm(model, load, force, m) for m in ("hybrid", "pbd", "mass-spring")}
+        best = min((m for m in methods if rmse[m] is not None), key=lambda m: rmse[m], default=None)
+        rows.append([load, f"{force:g} N"] + [fmt(rmse[m]) for m in methods]
+                    + [fmt(got[m]["relative_rmse"] if got[m] else None, 3) for m in methods]
+                    + [fmt(pub[m]) for m in ("hybrid", "pbd", "mass-spring")]
+                    + [fmt(_div(rmse.get("hybrid"), rmse.get("pbd")), 3), fmt(_div(pub["hybrid"], pub["pbd"]), 3),
+                       fmt(_div(rmse.get("hybrid"), rmse.get("mass-spring")), 3),
+                       fmt(_div(pub["hybrid"], pub["mass-spring"]), 3), LABELS.get(best, "–")])
+    return markdown_table(header, rows)
+
+
+def time_table(data: dict, model: str) -> str:
+    """Table 4/5 for one model: per-step time [ms] of each method, equilibrium time, published figures, ratios."""
+    records = index(data)
+    methods = methods_of(data, model)
+    header = (["Load", "Force"] + [f"{LABELS[m]} step" for m in methods]
+              + ["paper Ours", "paper PBD", "paper MSM", "paper FEM", "Ours/PBD", "paper", "FEM/Ours", "paper"]
+              + [f"{LABELS[m]} equil." for m in methods])
+    rows = []
+    for load, force in cases_of(data, model):
+        got = {m: records.get((model, load, force, m)) for m in methods}
+        step = {m: (r["step_ms"] if r else None) for m, r in got.items()}
+        pub = {m: paper.time_ms(model, load, force, m) for m in ("hybrid", "pbd", "mass-spring", "fem")}
+        rows.append([load, f"{force:g} N"] + [fmt(step[m], 3) for m in methods]
+                    + [fmt(pub[m], 3) for m in ("hybrid", "pbd", "mass-spring", "fem")]
+                    + [fmt(_div(step.get("hybrid"), step.get("pbd")), 3), fmt(_div(pub["hybrid"], pub["pbd"]), 3),
+                       fmt(_div(step.get("fem"), step.get("hybrid")), 3), fmt(_div(pub["fem"], pub["hybrid"]), 3)]
+                    + [fmt(got[m]["equilibrium_ms"] if got[m] else None, 3) for m in methods])
+    return markdown_table(header, rows)
+
+
+def ratio_table(data: dict) -> str:
+    """The headline ratios per model, ours beside the paper's."""
+    summary = ratio_summary(data)
+    header = ["Model"] + [f"{name} ({who})" for name in RATIOS for who in ("ours", "paper")]
+    rows = [[model] + [fmt(v, 3) for name in RATIOS for v in summary[model][name]] for model in summary]
+    return markdown_table(header, rows)
+
+
+def tables_markdown(data: dict) -> str:
+    """The whole ``tables.md``: Table 1, the RMSE tables (2, 3), the time tables (4, 5), extra models, ratios."""
+    models = models_of(data)
+    meta = data["metadata"]
+    options = meta["options"]
+    parts = [
+        "# The paper's Tables 1–5, reproduced",
+        "",
+        f"tissuesim {meta['tissuesim']}, {meta['date']}, {meta['machine']['processor']} "
+        f"({meta['machine']['cpus']} CPUs), Python {meta['python']}. Forces {', '.join(f'{f:g}' for f in options['forces'])} N; "
+        f"step times are medians of {options['timing_steps']} steps after {options['warmup_steps']} warm-up steps.",
+        "",
+        "Ours = hybrid (§6), PBD = surface-only PBD, MSM = mass-spring, Emb. = embedded surface (not in the paper), "
+        "FEM = fine-volume linear FEM, the reference. RMSE is eq 26 over the 50 surface nodes nearest the load "
+        "node [mm]; rel. = RMSE / the reference's RMS displacement over those nodes. Paper columns are the "
+        "published figures (– where it has none).",
+        "",
+        "## Headline ratios (means over load cases)",
+        "",
+        ratio_table(data),
+        "",
+        "## Table 1: models",
+        "",
+        "Sizes are in-memory (float64 coordinates + int32 indices); the paper's are file sizes.",
+        "",
+        table1(data),
+    ]
+    for number, title, table, kind in ((2, "RMSE on the real mesh models (mm)", paper.RMSE_TABLE, rmse_table),
+                                       (3, "RMSE on the shape models (mm)", paper.RMSE_TABLE, rmse_table),
+                                       (4, "Time on the shape models (ms)", paper.TIME_TABLE, time_table),
+                                       (5, "Time on the real mesh models (ms)", paper.TIME_TABLE, time_table)):
+        members = [m for m in models if table.get(m) == number]
+        if not members:
+            continue
+        parts += ["", f"## Table {number}: {title}"]
+        for model in members:
+            parts += ["", f"### {model}", "", kind(data, model)]
+    extra = [m for m in models if m not in paper.RMSE_TABLE]
+    for model in extra:
+        parts += ["", f"## Additional model: {model}", "", "### RMSE (mm)", "", rmse_table(data, model), "",
+                  "### Time (ms)", "", time_table(data, model)]
+    parts += ["", "## Notes on the published tables", ""] + [f"- {note}" for note in paper.NOTES]
+    return "\n".join(parts) + "\n"
+
+
+def _div(a, b):
+    return a / b if a is not None and b not in (None, 0) else None
