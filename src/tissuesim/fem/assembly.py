@@ -61,8 +61,8 @@ def element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray:
     db = material.elasticity_matrix() @ b  # (m, 6, 12)
     k = np.matmul(b.transpose(0, 2, 1), db)
     k *= mesh.volumes[:, None, None]
-    # BᵀDB is symmetric in exact arithmetic; averaging with the transpose makes it so bit for bit, which keeps the
-    # assembled K exactly symmetric (tests and symmetric factorisations rely on it).
+    # BᵀDB is symmetric in exact arithmetic; averaging with the transpose makes each K^e so bit for bit (the
+    # assembled K is then symmetric to round-off: duplicates of (i, j) and (j, i) may be summed in other orders).
     k += k.transpose(0, 2, 1)
     k *= 0.5
     return k

@@ -1,0 +1,129 @@
+"""LinearFEM: boundary-condition checks, full solve, and the cached-column fast path for point loads."""
+
+import numpy as np
+import pytest
+
+from tissuesim.errors import BoundaryConditionError, MeshError, SolverError
+from tissuesim.fem.linear import LinearFEM
+from tissuesim.mesh.regions import bottom_nodes
+from tissuesim.mesh.tetmesh import TetMesh, structured_box
+
+RNG = np.random.default_rng(3)
+
+
+@pytest.fixture(scope="module")
+def box():
+    return structured_box((0.04, 0.03, 0.02), (4, 3, 2))
+
+
+@pytest.fixture(scope="module")
+def fem(box):
+    return LinearFEM(box, fixed=bottom_nodes(box.points))
+
+
+def test_solve_balances_loads_and_keeps_supports(fem, box):
+    forces = RNG.normal(size=(box.node_count, 3)) * 1e-2
+    free = ~fem.fixed_dofs
+    forces[~free] = 0.0
+    u = fem.solve(forces)
+    assert u.shape == (box.node_count, 3)
+    assert np.all(u[fem.fixed_dofs] == 0.0)
+    r = fem.reactions(u)
+    np.testing.assert_allclose(r[free], forces[free], atol=1e-12 * np.abs(forces).max())
+    # Global equilibrium: support reactions carry the whole applied load.
+    np.testing.assert_allclose(r[~free.all(axis=1)].sum(axis=0), -forces.sum(axis=0), rtol=1e-9)
+
+
+def test_fast_path_equals_full_solve(fem, box):
+    top = np.flatnonzero(box.points[:, 2] > 0.0199)
+    load_nodes = top[[0, 5, 9]]
+    load_forces = RNG.normal(size=(3, 3))
+    forces = np.zeros((box.node_count, 3))
+    forces[load_nodes] = load_forces
+    full = fem.solve(forces)
+    out_nodes = RNG.permutation(box.node_count)[:40]
+    fast = fem.point_load_response(load_nodes, load_forces, output_nodes=out_nodes)
+    assert np.abs(fast - full[out_nodes]).max() <= 1e-12 * np.abs(full).max()
+    assert set(load_nodes) <= set(fem.cached_nodes)
+    # Writing into a caller's buffer gives the same numbers (and reuses it).
+    buffer = np.full((out_nodes.size, 3), np.nan)
+    again = fem.point_load_response(load_nodes, load_forces, output_nodes=out_nodes, out=buffer)
+    assert again is buffer and np.array_equal(buffer, fast)
+
+
+def test_load_on_a_fixed_node_moves_nothing(fem, box):
+    fixed = int(np.flatnonzero(fem.fixed_dofs.all(axis=1))[0])
+    u = fem.point_load_response([fixed], [[1.0, 2.0, 3.0]], output_nodes=np.arange(box.node_count))
+    assert np.all(u == 0.0)
+
+
+def test_influence_is_cached_and_read_only(fem):
+    g = fem.influence(30)
+    assert g is fem.influence(30) and not g.flags.writeable and g.shape == (fem.node_count, 3, 3)
+    # Maxwell–Betti reciprocity: K⁻¹ is symmetric, so G_j[i] = G_i[j]ᵀ.
+    np.testing.assert_allclose(fem.influence(31)[30], g[31].T, rtol=1e-10, atol=1e-14)
+    fem.precompute([1, 2, 30])
+    assert {1, 2, 30} <= set(fem.cached_nodes)
+    fem.clear_cache()
+    assert fem.cached_nodes.size == 0
+
+
+def test_dof_mask_allows_roller_supports(box):
+    # Roller on the bottom (z only) plus two corner pins: statically determinate, exact for a uniform lift.
+    mask = np.zeros((box.node_count, 3), dtype=bool)
+    bottom = box.points[:, 2] == 0.0
+    mask[bottom, 2] = True
+    mask[0, :] = True
+    corner = int(np.flatnonzero(bottom & (box.points[:, 1] == 0.0) & (box.points[:, 0] > 0.0399))[0])
+    mask[corner, 1] = True
+    fem = LinearFEM(box, fixed=mask)
+    assert fem.free_dofs.size == 3 * box.node_count - mask.sum()
+    node_mask = LinearFEM(box, fixed=bottom)
+    assert node_mask.fixed_dofs[bottom].all() and not node_mask.fixed_dofs[~bottom].any()
+
+
+@pytest.mark.parametrize(
+    "fixed, words",
+    [
+        (None, "no fixed node"),
+        (np.array([], dtype=np.int64), "no fixed node"),
+        (np.array([0, 10_000]), "outside"),
+        (np.array([0.0, 1.0]), "integer"),
+        (np.array([5]), "single fixed node"),
+        (np.array([0, 1, 2]), "collinear"),  # three nodes on the grid's z line at x = y = 0
+    ],
+)
+def test_refuses_supports_that_leave_rigid_modes(box, fixed, words):
+    with pytest.raises(BoundaryConditionError, match=words):
+        LinearFEM(box, fixed=fixed)
+
+
+def test_refuses_an_unsupported_piece():
+    a = structured_box((1.0, 1.0, 1.0), (1, 1, 1))
+    b = structured_box((1.0, 1.0, 1.0), (1, 1, 1), origin=(3.0, 0.0, 0.0))
+    two = TetMesh(np.vstack([a.points, b.points]), np.vstack([a.tets, b.tets + a.node_count]))
+    with pytest.raises(BoundaryConditionError, match="piece of the mesh"):
+        LinearFEM(two, fixed=np.arange(4))  # only the first cube is held
+    LinearFEM(two, fixed=np.r_[np.arange(4), a.node_count + np.arange(4)])
+
+
+def test_refuses_orphan_nodes():
+    a = structured_box((1.0, 1.0, 1.0), (1, 1, 1))
+    orphan = TetMesh(np.vstack([a.points, [[5.0, 5.0, 5.0]]]), a.tets)
+    with pytest.raises(MeshError, match="belong to no tet.*8"):
+        LinearFEM(orphan, fixed=np.arange(4))
+
+
+def test_refuses_bad_forces_and_nodes(fem, box):
+    with pytest.raises(SolverError, match="shape"):
+        fem.solve(np.zeros((box.node_count, 2)))
+    bad = np.zeros((box.node_count, 3))
+    bad[7, 1] = np.nan
+    with pytest.raises(SolverError, match="non-finite.*7"):
+        fem.solve(bad)
+    with pytest.raises(SolverError, match="outside"):
+        fem.point_load_response([box.node_count], [[0, 0, 1.0]], output_nodes=[0])
+    with pytest.raises(SolverError, match="load_forces"):
+        fem.point_load_response([1, 2], [[0, 0, 1.0]], output_nodes=[0])
+    with pytest.raises(SolverError, match="out must"):
+        fem.point_load_response([1], [[0, 0, 1.0]], output_nodes=[0, 1], out=np.zeros((3, 3)))
