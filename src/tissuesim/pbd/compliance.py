@@ -1,0 +1,82 @@
+"""XPBD compliance of the surface layer from the tissue's material (beyond the paper: DESIGN "PBD has no unit").
+
+The fine surface is treated as a thin elastic layer (membrane + shell) of Young's modulus E [Pa], Poisson ratio ν
+and thickness h [m]; h is the one free scalar a solver calibrates against the FEM reference.
+
+Stretch (eq 8), membrane springs after Van Gelder (1998), "Approximate simulation of elastic membranes by
+triangulated spring meshes", J. Graphics Tools 3(2):
+
+    k_e = E h Σ_{T ∋ e} A_T / l_e²          [N/m]
+
+For an equilateral triangle lattice of side a this gives k = E h √3/2, and such a lattice's in-plane Young's
+modulus is 2k/(√3 h) = E exactly (its Poisson ratio is fixed at 1/3 by the spring network, so ν does not enter).
+A boundary edge has one triangle and so half the stiffness, as a free edge should.
+
+Bending (eq 10), discrete-shell hinges after Grinspun et al. (2003), "Discrete shells", SCA: the plate energy
+½ D ∫ (2H)² dA, with the mean curvature of the hinge's third of the two triangles 2H ≈ θ|e|/A_e and
+A_e = (A1 + A2)/3, gives ½ k_b (θ − φ)² with
+
+    k_b = 3 D |e|² / (A1 + A2),   D = E h³ / (12 (1 − ν²))          [N·m/rad²]
+
+XPBD compliance is the inverse stiffness, α = 1/k (Macklin et al. 2016, U = ½ α⁻¹ C²): m/N for stretch and
+1/(N·m) for bending. Node masses lump the layer's mass (density × area × h) a third to each triangle corner.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import MaterialError
+from ..mesh.surface import SurfaceMesh
+from .topology import SurfaceConstraints
+
+DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, the paper's tissue (§8.3)
+DEFAULT_POISSON_RATIO = 0.3
+DEFAULT_DENSITY = 1000.0  # kg/m³, soft tissue ≈ water
+
+
+def _check(youngs_modulus: float, poisson_ratio: float, thickness: float) -> None:
+    if not (np.isfinite(youngs_modulus) and youngs_modulus > 0.0):
+        raise MaterialError(f"Young's modulus must be a positive finite number of pascals, got {youngs_modulus!r}")
+    if not (np.isfinite(poisson_ratio) and -1.0 < poisson_ratio < 0.5):
+        raise MaterialError(f"Poisson ratio must lie in (-1, 0.5), got {poisson_ratio!r}")
+    if not (np.isfinite(thickness) and thickness > 0.0):
+        raise MaterialError(f"surface layer thickness must be a positive finite number of metres, got {thickness!r}")
+
+
+def membrane_stiffness(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                       thickness: float) -> np.ndarray:
+    """``(e,) float64`` stretch stiffness k_e = E h Σ A_T / l_e² per edge [N/m] (Van Gelder 1998)."""
+    _check(youngs_modulus, DEFAULT_POISSON_RATIO, thickness)
+    return youngs_modulus * thickness * constraints.edge_area / constraints.rest_length ** 2
+
+
+def hinge_stiffness(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                    poisson_ratio: float = DEFAULT_POISSON_RATIO, thickness: float) -> np.ndarray:
+    """``(b,) float64`` bending stiffness k_b = 3 D |e|²/(A1 + A2) per hinge [N·m/rad²] (Grinspun et al. 2003)."""
+    _check(youngs_modulus, poisson_ratio, thickness)
+    flexural_rigidity = youngs_modulus * thickness ** 3 / (12.0 * (1.0 - poisson_ratio ** 2))
+    length = constraints.rest_length[constraints.hinge_edge]
+    return 3.0 * flexural_rigidity * length ** 2 / constraints.hinge_area
+
+
+def shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                     poisson_ratio: float = DEFAULT_POISSON_RATIO,
+                     thickness: float) -> tuple[np.ndarray, np.ndarray]:
+    """XPBD compliances ``(stretch (e,) [m/N], bending (b,) [1/(N·m)])`` of a layer of thickness h [m]."""
+    k_e = membrane_stiffness(constraints, youngs_modulus=youngs_modulus, thickness=thickness)
+    k_b = hinge_stiffness(constraints, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                          thickness=thickness)
+    return 1.0 / k_e, 1.0 / k_b
+
+
+def shell_masses(surface: SurfaceMesh, *, thickness: float, density: float = DEFAULT_DENSITY) -> np.ndarray:
+    """``(n,) float64`` lumped node masses [kg]: density × A_T × h / 3 to each corner of every triangle.
+
+    A node in no triangle gets mass 0; give it a prescribed position (inverse mass 0) or drop it.
+    """
+    _check(DEFAULT_YOUNGS_MODULUS, DEFAULT_POISSON_RATIO, thickness)
+    if not (np.isfinite(density) and density > 0.0):
+        raise MaterialError(f"density must be a positive finite number of kg/m³, got {density!r}")
+    share = np.repeat(surface.triangle_areas * (density * thickness / 3.0), 3)
+    return np.bincount(surface.triangles.ravel(), weights=share, minlength=surface.vertex_count)

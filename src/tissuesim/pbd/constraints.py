@@ -1,0 +1,167 @@
+"""Stretch and bending constraints of the fine surface M_S (paper §4, eq 7–12), in plain NumPy.
+
+These are the readable reference: one constraint at a time, no Numba. The hot loop in
+:mod:`tissuesim.pbd.kernels` does the same arithmetic in the same order and is tested against these functions.
+
+Conventions (all positions ``(3,) float64`` [m], inverse masses ``w = 1/m`` [1/kg], ``w = 0`` = prescribed):
+
+* Eq 7, generalised to masses as in Müller et al. 2007 §3.3: a constraint ``C(p_1..p_k)`` is projected by
+  ``Δp_i = -s w_i ∇_i C`` with ``s = C / Σ_j w_j |∇_j C|²``.
+* Stretch, eq 8: ``C = |p1 − p2| − l``; its projection is eq 9.
+* Bending, eq 10: ``C = θ − φ`` where θ is the dihedral angle of the hinge as eq 12 writes it (Müller 2007,
+  appendix): with ``P1`` at the origin, ``n1 = p2×p3/|p2×p3|``, ``n2 = p2×p4/|p2×p4|`` and θ = arccos(n1·n2). With
+  the hinge's triangles oriented (P1, P2, P3) and (P2, P1, P4), n1 is triangle 1's outward normal and n2 is minus
+  triangle 2's, so a flat hinge has θ = π and a fold toward the outside makes θ smaller. The paper's text names the
+  normals of ΔP1P3P2 and ΔP1P2P4 instead, which flips the sign of θ − φ and of its gradient together: the correction
+  (eq 11) is the same either way.
+* θ is evaluated as ``atan2(|n1×n2|, n1·n2)`` rather than ``arccos(n1·n2)``: the same angle, but accurate near 0
+  and π, where arccos loses half the digits.
+* Eq 11 with the paper's factor ``4 w_i / Σ_j w_j`` equals eq 7 only when all four masses are equal; we use eq 7's
+  exact mass weighting ``w_i / Σ_j w_j |q_j|²`` (the same for equal masses, and right next to prescribed nodes).
+* Degenerate cases are skipped (zero correction) rather than divided by zero: a zero-length edge (stretch), a
+  zero-area hinge triangle (``|p2×p3|`` or ``|p2×p4|`` ≈ 0), or a hinge at exactly 0 or π where the unsigned angle
+  has no gradient direction (``|n1×n2|`` ≈ 0).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+# Below these, a length [m] / a sine is treated as zero and the constraint is skipped (see module docstring).
+TINY_LENGTH = 1e-300
+TINY_SINE = 1e-12
+
+
+# ---------------------------------------------------------------- stretch (eq 8-9)
+
+def stretch_value(p1, p2, rest_length: float) -> float:
+    """Eq 8: ``C = |p1 − p2| − l`` [m]."""
+    d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
+    return float(np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - rest_length)
+
+
+def stretch_gradient(p1, p2) -> np.ndarray:
+    """``(2, 3)`` gradient of eq 8 with respect to p1, p2: ``±(p1 − p2)/|p1 − p2|`` (zero if p1 = p2)."""
+    d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
+    length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if length <= TINY_LENGTH:
+        return np.zeros((2, 3))
+    n = d / length
+    return np.stack([n, -n])
+
+
+def stretch_correction(p1, p2, w1: float, w2: float, rest_length: float, *, stiffness: float = 1.0) -> np.ndarray:
+    """Eq 9: ``(2, 3)`` corrections ``Δp1, Δp2`` [m], scaled by a PBD stiffness in [0, 1]."""
+    d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
+    length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    wsum = w1 + w2
+    if length <= TINY_LENGTH or wsum <= 0.0:
+        return np.zeros((2, 3))
+    s = stiffness * (length - rest_length) / (wsum * length)
+    return np.stack([-w1 * s * d, w2 * s * d])
+
+
+# ---------------------------------------------------------------- bending (eq 10-12)
+
+def _hinge_frame(p1, p2, p3, p4):
+    """Eq 12's quantities with P1 at the origin, or None when a hinge triangle has (nearly) no area."""
+    p1 = np.asarray(p1, dtype=np.float64)
+    a = np.asarray(p2, dtype=np.float64) - p1
+    b = np.asarray(p3, dtype=np.float64) - p1
+    c = np.asarray(p4, dtype=np.float64) - p1
+    c1 = np.cross(a, b)
+    c2 = np.cross(a, c)
+    l1 = np.sqrt(c1 @ c1)
+    l2 = np.sqrt(c2 @ c2)
+    if l1 <= TINY_LENGTH or l2 <= TINY_LENGTH:
+        return None
+    n1 = c1 / l1
+    n2 = c2 / l2
+    return a, b, c, n1, n2, l1, l2
+
+
+def dihedral_angle(p1, p2, p3, p4) -> float:
+    """θ of eq 10 [rad] in [0, π] (π for a flat hinge; see module docstring). 0 for a degenerate hinge."""
+    frame = _hinge_frame(p1, p2, p3, p4)
+    if frame is None:
+        return 0.0
+    n1, n2 = frame[3], frame[4]
+    cr = np.cross(n1, n2)
+    return float(np.arctan2(np.sqrt(cr @ cr), n1 @ n2))
+
+
+def bending_value(p1, p2, p3, p4, rest_angle: float) -> float:
+    """Eq 10: ``C = θ − φ`` [rad]."""
+    return dihedral_angle(p1, p2, p3, p4) - rest_angle
+
+
+def bending_q(p1, p2, p3, p4) -> np.ndarray | None:
+    """Eq 12: ``(4, 3)`` vectors q1..q4 (Müller's q_i = −∂(n1·n2)/∂p_i), or None for a degenerate hinge."""
+    frame = _hinge_frame(p1, p2, p3, p4)
+    if frame is None:
+        return None
+    a, b, c, n1, n2, l1, l2 = frame
+    d = n1 @ n2
+    q3 = (np.cross(a, n2) + np.cross(n1, a) * d) / l1
+    q4 = (np.cross(a, n1) + np.cross(n2, a) * d) / l2
+    q2 = -(np.cross(b, n2) + np.cross(n1, b) * d) / l1 - (np.cross(c, n1) + np.cross(n2, c) * d) / l2
+    q1 = -q2 - q3 - q4
+    return np.stack([q1, q2, q3, q4])
+
+
+def bending_gradient(p1, p2, p3, p4) -> np.ndarray:
+    """``(4, 3)`` gradient of eq 10 [rad/m]: ``∇_i C = q_i / sin θ`` (zero where degenerate)."""
+    q = bending_q(p1, p2, p3, p4)
+    if q is None:
+        return np.zeros((4, 3))
+    frame = _hinge_frame(p1, p2, p3, p4)
+    cr = np.cross(frame[3], frame[4])
+    sine = np.sqrt(cr @ cr)
+    if sine <= TINY_SINE:
+        return np.zeros((4, 3))
+    return q / sine
+
+
+def bending_correction(p1, p2, p3, p4, w, rest_angle: float, *, stiffness: float = 1.0) -> np.ndarray:
+    """Eq 11 (with eq 7's exact mass weighting): ``(4, 3)`` corrections [m], scaled by a PBD stiffness in [0, 1].
+
+    ``Δp_i = −k w_i sinθ (θ − φ) q_i / Σ_j w_j |q_j|²``, which is ``−k w_i C ∇_i C / Σ_j w_j |∇_j C|²``.
+    """
+    w = np.asarray(w, dtype=np.float64)
+    frame = _hinge_frame(p1, p2, p3, p4)
+    if frame is None:
+        return np.zeros((4, 3))
+    n1, n2 = frame[3], frame[4]
+    cr = np.cross(n1, n2)
+    sine = np.sqrt(cr @ cr)
+    if sine <= TINY_SINE:
+        return np.zeros((4, 3))
+    q = bending_q(p1, p2, p3, p4)
+    denom = float(np.sum(w * np.einsum("ij,ij->i", q, q)))
+    if denom <= 0.0:
+        return np.zeros((4, 3))
+    theta = np.arctan2(sine, n1 @ n2)
+    s = stiffness * sine * (theta - rest_angle) / denom
+    return -(w * s)[:, None] * q
+
+
+# ---------------------------------------------------------------- XPBD (Macklin et al. 2016, eq 18)
+
+def xpbd_multiplier_update(value: float, gradient: np.ndarray, w, lam: float, compliance: float, dt: float) -> float:
+    """Macklin 2016 eq 18: ``Δλ = (−C − α̃ λ) / (Σ_j w_j |∇_j C|² + α̃)``, ``α̃ = α/dt²``.
+
+    Args:
+        value: constraint value C (m or rad).
+        gradient: ``(k, 3)`` ∇C per particle.
+        w: ``(k,)`` inverse masses [1/kg].
+        lam: multiplier accumulated so far this step.
+        compliance: α [m/N for stretch, 1/(N·m) for bending]; 0 gives the hard constraint.
+        dt: time step [s].
+    Returns Δλ; the correction is ``Δp_i = w_i ∇_i C Δλ``. 0 if the denominator vanishes.
+    """
+    w = np.asarray(w, dtype=np.float64)
+    alpha = compliance / (dt * dt)
+    denom = float(np.sum(w * np.einsum("ij,ij->i", gradient, gradient))) + alpha
+    if denom <= 0.0:
+        return 0.0
+    return (-value - alpha * lam) / denom

@@ -1,0 +1,319 @@
+"""Numba step kernels for the fine surface: one call per time step, every solver iteration inside (paper §6.5).
+
+Each step does, for the n surface nodes (arrays are the caller's, updated in place, nothing allocated):
+
+1. eq 15: ``v += f dt w``; then velocity damping ``v *= (1 − damping)`` (Müller et al. 2007's step (6): after the
+   external force, before the prediction; a plain global factor because the bottom is fixed, so damping rigid motion
+   is harmless and it makes quasi-static solves settle);
+2. eq 16: ``p_new = p + v dt`` into the ``predicted`` workspace;
+3. eq 17, first case: prescribed nodes (control nodes, pinned nodes) are set to their targets; they must carry
+   ``inv_mass = 0`` so no projection moves them (the :class:`~tissuesim.pbd.stepper.SurfaceStepper` wrapper
+   arranges this);
+4. ``iterations`` Gauss–Seidel sweeps: every stretch constraint (eq 9) in array order, then every bending constraint
+   (eq 11) in array order;
+5. eq 18: ``v = (p_solve − p)/dt``, ``p = p_solve``.
+
+Two forms share this flow:
+
+* :func:`pbd_step`: the paper's PBD with stiffness coefficients ``k_stretch, k_bend`` in [0, 1], applied per
+  iteration as Müller's ``k' = 1 − (1 − k)^(1/iterations)`` so the stiffness after all sweeps does not depend on
+  the iteration count.
+* :func:`xpbd_step`: XPBD (Macklin et al. 2016) with per-constraint compliance α (stretch [m/N], bending
+  [1/(N·m)]), ``α̃ = α/dt²``, multipliers λ accumulated across sweeps and reset at the start of each step.
+
+The constraint arithmetic is the same, in the same order, as the NumPy reference in
+:mod:`tissuesim.pbd.constraints` (angles by atan2; degenerate constraints skipped). Array loads are copied into
+locals before any write, so aliasing between positions does not force re-reads (DESIGN performance rules).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Same thresholds as the reference (tissuesim.pbd.constraints).
+TINY_LENGTH = 1e-300
+TINY_SINE = 1e-12
+
+
+# ---------------------------------------------------------------- single-constraint projections
+
+@njit(cache=True, inline="always")
+def _project_stretch(x, w, i, j, rest, scale, alpha, lam):
+    """One stretch constraint (eq 8) between nodes i, j of ``x``, in place. Returns the multiplier increment.
+
+    PBD: ``scale`` = k', ``alpha`` = 0, ``lam`` = 0 → eq 9 scaled by k'. XPBD: ``scale`` = 1, ``alpha`` = α̃,
+    ``lam`` = λ so far → Δλ = (−C − α̃λ)/(w_i + w_j + α̃) (|∇C| = 1 per node).
+    """
+    xi0 = x[i, 0]
+    xi1 = x[i, 1]
+    xi2 = x[i, 2]
+    xj0 = x[j, 0]
+    xj1 = x[j, 1]
+    xj2 = x[j, 2]
+    wi = w[i]
+    wj = w[j]
+    d0 = xi0 - xj0
+    d1 = xi1 - xj1
+    d2 = xi2 - xj2
+    length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    denom = wi + wj + alpha
+    if length <= TINY_LENGTH or denom <= 0.0:
+        return 0.0
+    dlam = scale * (-(length - rest) - alpha * lam) / denom
+    s = dlam / length
+    x[i, 0] = xi0 + wi * s * d0
+    x[i, 1] = xi1 + wi * s * d1
+    x[i, 2] = xi2 + wi * s * d2
+    x[j, 0] = xj0 - wj * s * d0
+    x[j, 1] = xj1 - wj * s * d1
+    x[j, 2] = xj2 - wj * s * d2
+    return dlam
+
+
+@njit(cache=True, inline="always")
+def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
+    """One bending constraint (eq 10) on hinge (P1, P2 | P3, P4), in place. Returns the multiplier increment.
+
+    Gradient from eq 12 (P1 at the origin): ∇_i C = q_i / sinθ. PBD (``alpha`` = 0, ``lam`` = 0): eq 11 scaled by
+    k'. XPBD: Δλ = (−C − α̃λ)/(Σ w_j |∇_j C|² + α̃), Δp_i = w_i ∇_i C Δλ.
+    """
+    ox = x[i1, 0]
+    oy = x[i1, 1]
+    oz = x[i1, 2]
+    px2 = x[i2, 0]
+    py2 = x[i2, 1]
+    pz2 = x[i2, 2]
+    px3 = x[i3, 0]
+    py3 = x[i3, 1]
+    pz3 = x[i3, 2]
+    px4 = x[i4, 0]
+    py4 = x[i4, 1]
+    pz4 = x[i4, 2]
+    ax = px2 - ox
+    ay = py2 - oy
+    az = pz2 - oz
+    bx = px3 - ox
+    by = py3 - oy
+    bz = pz3 - oz
+    cx = px4 - ox
+    cy = py4 - oy
+    cz = pz4 - oz
+    w1 = w[i1]
+    w2 = w[i2]
+    w3 = w[i3]
+    w4 = w[i4]
+    # n1 = a×b/|a×b|, n2 = a×c/|a×c|
+    c1x = ay * bz - az * by
+    c1y = az * bx - ax * bz
+    c1z = ax * by - ay * bx
+    c2x = ay * cz - az * cy
+    c2y = az * cx - ax * cz
+    c2z = ax * cy - ay * cx
+    l1 = math.sqrt(c1x * c1x + c1y * c1y + c1z * c1z)
+    l2 = math.sqrt(c2x * c2x + c2y * c2y + c2z * c2z)
+    if l1 <= TINY_LENGTH or l2 <= TINY_LENGTH:
+        return 0.0
+    n1x = c1x / l1
+    n1y = c1y / l1
+    n1z = c1z / l1
+    n2x = c2x / l2
+    n2y = c2y / l2
+    n2z = c2z / l2
+    d = n1x * n2x + n1y * n2y + n1z * n2z
+    crx = n1y * n2z - n1z * n2y
+    cry = n1z * n2x - n1x * n2z
+    crz = n1x * n2y - n1y * n2x
+    sine = math.sqrt(crx * crx + cry * cry + crz * crz)
+    if sine <= TINY_SINE:
+        return 0.0
+    theta = math.atan2(sine, d)
+    # q3 = (a×n2 + (n1×a) d)/l1
+    q3x = ((ay * n2z - az * n2y) + (n1y * az - n1z * ay) * d) / l1
+    q3y = ((az * n2x - ax * n2z) + (n1z * ax - n1x * az) * d) / l1
+    q3z = ((ax * n2y - ay * n2x) + (n1x * ay - n1y * ax) * d) / l1
+    # q4 = (a×n1 + (n2×a) d)/l2
+    q4x = ((ay * n1z - az * n1y) + (n2y * az - n2z * ay) * d) / l2
+    q4y = ((az * n1x - ax * n1z) + (n2z * ax - n2x * az) * d) / l2
+    q4z = ((ax * n1y - ay * n1x) + (n2x * ay - n2y * ax) * d) / l2
+    # q2 = -(b×n2 + (n1×b) d)/l1 - (c×n1 + (n2×c) d)/l2
+    q2x = -((by * n2z - bz * n2y) + (n1y * bz - n1z * by) * d) / l1 \
+        - ((cy * n1z - cz * n1y) + (n2y * cz - n2z * cy) * d) / l2
+    q2y = -((bz * n2x - bx * n2z) + (n1z * bx - n1x * bz) * d) / l1 \
+        - ((cz * n1x - cx * n1z) + (n2z * cx - n2x * cz) * d) / l2
+    q2z = -((bx * n2y - by * n2x) + (n1x * by - n1y * bx) * d) / l1 \
+        - ((cx * n1y - cy * n1x) + (n2x * cy - n2y * cx) * d) / l2
+    q1x = -q2x - q3x - q4x
+    q1y = -q2y - q3y - q4y
+    q1z = -q2z - q3z - q4z
+    qsum = (w1 * (q1x * q1x + q1y * q1y + q1z * q1z) + w2 * (q2x * q2x + q2y * q2y + q2z * q2z)
+            + w3 * (q3x * q3x + q3y * q3y + q3z * q3z) + w4 * (q4x * q4x + q4y * q4y + q4z * q4z))
+    # In gradient form: Σ w|∇C|² = qsum / sin²θ; Δp_i = w_i (q_i / sinθ) Δλ.
+    denom = qsum / (sine * sine) + alpha
+    if denom <= 0.0:
+        return 0.0
+    dlam = scale * (-(theta - rest) - alpha * lam) / denom
+    s = dlam / sine
+    x[i1, 0] = ox + w1 * s * q1x
+    x[i1, 1] = oy + w1 * s * q1y
+    x[i1, 2] = oz + w1 * s * q1z
+    x[i2, 0] = px2 + w2 * s * q2x
+    x[i2, 1] = py2 + w2 * s * q2y
+    x[i2, 2] = pz2 + w2 * s * q2z
+    x[i3, 0] = px3 + w3 * s * q3x
+    x[i3, 1] = py3 + w3 * s * q3y
+    x[i3, 2] = pz3 + w3 * s * q3z
+    x[i4, 0] = px4 + w4 * s * q4x
+    x[i4, 1] = py4 + w4 * s * q4y
+    x[i4, 2] = pz4 + w4 * s * q4z
+    return dlam
+
+
+# ---------------------------------------------------------------- the parts of a step shared by both forms
+
+@njit(cache=True, inline="always")
+def _predict(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping):
+    """Eq 15, damping, eq 16, and eq 17's first case (prescribed nodes to their targets)."""
+    keep = 1.0 - damping
+    for i in range(positions.shape[0]):
+        w = inv_mass[i] * dt
+        for k in range(3):
+            v = (velocities[i, k] + forces[i, k] * w) * keep
+            velocities[i, k] = v
+            predicted[i, k] = positions[i, k] + v * dt
+    for r in range(prescribed.shape[0]):
+        i = prescribed[r]
+        for k in range(3):
+            predicted[i, k] = targets[r, k]
+
+
+@njit(cache=True, inline="always")
+def _finish(positions, velocities, predicted, dt):
+    """Eq 18: ``v = (p_solve − p)/dt``, ``p = p_solve``."""
+    inv_dt = 1.0 / dt
+    for i in range(positions.shape[0]):
+        for k in range(3):
+            p = predicted[i, k]
+            velocities[i, k] = (p - positions[i, k]) * inv_dt
+            positions[i, k] = p
+
+
+# ---------------------------------------------------------------- step entries
+
+@njit(cache=True)
+def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
+             edges, rest_length, k_stretch, bending, rest_angle, k_bend):
+    """One PBD time step (paper §6.5, eq 15–18) with stiffness coefficients; all arrays updated in place.
+
+    Args:
+        positions: ``(n, 3) float64`` node positions p [m]; on return, p_solve.
+        velocities: ``(n, 3) float64`` [m/s]; on return, eq 18's velocities.
+        predicted: ``(n, 3) float64`` workspace [m] (contents ignored, overwritten).
+        inv_mass: ``(n,) float64`` w = 1/m [1/kg]; 0 for prescribed nodes.
+        forces: ``(n, 3) float64`` external force f [N].
+        prescribed: ``(k,) int32/int64`` node indices set to ``targets`` (eq 17, first case).
+        targets: ``(k, 3) float64`` their positions this step [m].
+        dt: time step [s] > 0.  damping: velocity damping factor in [0, 1).  iterations: Gauss–Seidel sweeps ≥ 1.
+        edges: ``(e, 2) int32`` stretch constraints; rest_length: ``(e,) float64`` [m].
+        k_stretch: stretch stiffness in [0, 1] (after all sweeps).
+        bending: ``(b, 4) int32`` hinges (P1, P2 shared edge, P3, P4 opposite); rest_angle: ``(b,) float64`` [rad].
+        k_bend: bending stiffness in [0, 1] (after all sweeps).
+    """
+    _predict(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping)
+    ks = 1.0 - (1.0 - k_stretch) ** (1.0 / iterations)
+    kb = 1.0 - (1.0 - k_bend) ** (1.0 / iterations)
+    for _ in range(iterations):
+        for c in range(edges.shape[0]):
+            _project_stretch(predicted, inv_mass, edges[c, 0], edges[c, 1], rest_length[c], ks, 0.0, 0.0)
+        if kb > 0.0:
+            for c in range(bending.shape[0]):
+                _project_bend(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2], bending[c, 3],
+                              rest_angle[c], kb, 0.0, 0.0)
+    _finish(positions, velocities, predicted, dt)
+
+
+@njit(cache=True)
+def xpbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
+              edges, rest_length, stretch_compliance, bending, rest_angle, bend_compliance,
+              lambda_stretch, lambda_bend):
+    """One XPBD time step (paper §6.5 flow, Macklin et al. 2016 projection); all arrays updated in place.
+
+    Arguments as :func:`pbd_step`, except:
+        stretch_compliance: ``(e,) float64`` α per stretch constraint [m/N] (0 = inextensible).
+        bend_compliance: ``(b,) float64`` α per hinge [1/(N·m)] (0 = rigid hinge).
+        lambda_stretch, lambda_bend: ``(e,)``, ``(b,) float64`` multiplier workspaces (zeroed here each step).
+    """
+    _predict(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping)
+    inv_dt2 = 1.0 / (dt * dt)
+    lambda_stretch[:] = 0.0
+    lambda_bend[:] = 0.0
+    for _ in range(iterations):
+        for c in range(edges.shape[0]):
+            lambda_stretch[c] += _project_stretch(predicted, inv_mass, edges[c, 0], edges[c, 1], rest_length[c],
+                                                  1.0, stretch_compliance[c] * inv_dt2, lambda_stretch[c])
+        for c in range(bending.shape[0]):
+            lambda_bend[c] += _project_bend(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2],
+                                            bending[c, 3], rest_angle[c], 1.0, bend_compliance[c] * inv_dt2,
+                                            lambda_bend[c])
+    _finish(positions, velocities, predicted, dt)
+
+
+@njit(cache=True)
+def dihedral_angles(positions, bending):
+    """``(b,) float64`` θ of eq 10 [rad] per hinge, by the kernels' own arithmetic (so rest is bitwise rest).
+
+    Degenerate hinges give 0.
+    """
+    out = np.zeros(bending.shape[0])
+    for c in range(bending.shape[0]):
+        i1 = bending[c, 0]
+        ox = positions[i1, 0]
+        oy = positions[i1, 1]
+        oz = positions[i1, 2]
+        ax = positions[bending[c, 1], 0] - ox
+        ay = positions[bending[c, 1], 1] - oy
+        az = positions[bending[c, 1], 2] - oz
+        bx = positions[bending[c, 2], 0] - ox
+        by = positions[bending[c, 2], 1] - oy
+        bz = positions[bending[c, 2], 2] - oz
+        cx = positions[bending[c, 3], 0] - ox
+        cy = positions[bending[c, 3], 1] - oy
+        cz = positions[bending[c, 3], 2] - oz
+        c1x = ay * bz - az * by
+        c1y = az * bx - ax * bz
+        c1z = ax * by - ay * bx
+        c2x = ay * cz - az * cy
+        c2y = az * cx - ax * cz
+        c2z = ax * cy - ay * cx
+        l1 = math.sqrt(c1x * c1x + c1y * c1y + c1z * c1z)
+        l2 = math.sqrt(c2x * c2x + c2y * c2y + c2z * c2z)
+        if l1 <= TINY_LENGTH or l2 <= TINY_LENGTH:
+            continue
+        n1x = c1x / l1
+        n1y = c1y / l1
+        n1z = c1z / l1
+        n2x = c2x / l2
+        n2y = c2y / l2
+        n2z = c2z / l2
+        d = n1x * n2x + n1y * n2y + n1z * n2z
+        crx = n1y * n2z - n1z * n2y
+        cry = n1z * n2x - n1x * n2z
+        crz = n1x * n2y - n1y * n2x
+        out[c] = math.atan2(math.sqrt(crx * crx + cry * cry + crz * crz), d)
+    return out
+
+
+@njit(cache=True)
+def edge_lengths(positions, edges):
+    """``(e,) float64`` |p_i − p_j| [m] per edge, by the kernels' own arithmetic (so rest is bitwise rest)."""
+    out = np.empty(edges.shape[0])
+    for c in range(edges.shape[0]):
+        i = edges[c, 0]
+        j = edges[c, 1]
+        d0 = positions[i, 0] - positions[j, 0]
+        d1 = positions[i, 1] - positions[j, 1]
+        d2 = positions[i, 2] - positions[j, 2]
+        out[c] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return out

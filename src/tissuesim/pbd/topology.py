@@ -1,0 +1,125 @@
+"""Static constraint data of a fine surface M_S: stretch edges (eq 8) and bending hinges (eq 10), with rest values.
+
+Gauss–Seidel order (the order the kernels sweep, which the result of a finite number of sweeps depends on):
+stretch constraints follow :attr:`SurfaceMesh.edges` — edges sorted ``(low, high)`` in lexicographic order — and
+hinges follow the same order (one per interior edge). Sweeping by increasing lowest vertex index walks the position
+array front to back, which is cache friendly for any mesh whose vertex order has some locality (the built-in models
+and TetGen/trimesh outputs do); no colouring is needed because the sweep is sequential.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import MeshError, first_indices
+from ..mesh.surface import SurfaceMesh
+from .kernels import dihedral_angles, edge_lengths
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceConstraints:
+    """The stretch and bending constraints of one triangle surface, with everything constant precomputed.
+
+    Attributes:
+        vertex_count: n, the number of surface nodes the indices refer to.
+        edges: ``(e, 2) int32`` every surface edge ``(low, high)``, one stretch constraint each (eq 8).
+        rest_length: ``(e,) float64`` l of eq 8 [m], the edge length in the rest surface.
+        edge_area: ``(e,) float64`` total area of the (one or two) triangles adjacent to each edge [m²]; used by the
+            membrane stiffness of :mod:`tissuesim.pbd.compliance`.
+        bending: ``(b, 4) int32`` one hinge per interior edge (exactly two adjacent triangles): P1, P2 the shared
+            edge in the first triangle's winding, P3 the first triangle's opposite vertex, P4 the second's (eq 10–12;
+            Müller et al. 2007 appendix).
+        rest_angle: ``(b,) float64`` φ of eq 10 [rad], the hinge's dihedral angle in the rest surface, measured as
+            the kernels measure it (π for a flat hinge, see :mod:`tissuesim.pbd.constraints`).
+        hinge_edge: ``(b,) int32`` index into ``edges`` of each hinge's shared edge.
+        hinge_area: ``(b,) float64`` A1 + A2, the rest areas of the hinge's two triangles [m²].
+    """
+
+    vertex_count: int
+    edges: np.ndarray
+    rest_length: np.ndarray
+    edge_area: np.ndarray
+    bending: np.ndarray
+    rest_angle: np.ndarray
+    hinge_edge: np.ndarray
+    hinge_area: np.ndarray
+
+    def __post_init__(self):
+        for name in ("edges", "rest_length", "edge_area", "bending", "rest_angle", "hinge_edge", "hinge_area"):
+            value = getattr(self, name)
+            value = np.ascontiguousarray(value, dtype=np.int32 if name in ("edges", "bending", "hinge_edge")
+                                         else np.float64)
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
+        e, b = len(self.edges), len(self.bending)
+        if self.edges.shape != (e, 2) or self.rest_length.shape != (e,) or self.edge_area.shape != (e,):
+            raise MeshError(f"stretch arrays disagree: edges {self.edges.shape}, rest_length "
+                            f"{self.rest_length.shape}, edge_area {self.edge_area.shape}; expected (e, 2), (e,), (e,)")
+        if (self.bending.shape != (b, 4) or self.rest_angle.shape != (b,) or self.hinge_edge.shape != (b,)
+                or self.hinge_area.shape != (b,)):
+            raise MeshError(f"bending arrays disagree: bending {self.bending.shape}, rest_angle "
+                            f"{self.rest_angle.shape}, hinge_edge {self.hinge_edge.shape}, hinge_area "
+                            f"{self.hinge_area.shape}; expected (b, 4), (b,), (b,), (b,)")
+        for name, idx in (("edges", self.edges), ("bending", self.bending)):
+            bad = np.flatnonzero(np.any((idx < 0) | (idx >= self.vertex_count), axis=1))
+            if bad.size:
+                raise MeshError(f"{bad.size} {name} rows reference nodes outside 0..{self.vertex_count - 1} "
+                                f"(first rows: {first_indices(bad)})")
+
+    @property
+    def stretch_count(self) -> int:
+        return len(self.edges)
+
+    @property
+    def bending_count(self) -> int:
+        return len(self.bending)
+
+    @classmethod
+    def from_surface(cls, surface: SurfaceMesh) -> "SurfaceConstraints":
+        """Build the constraints of ``surface`` at its current (rest) positions.
+
+        Boundary edges (one triangle, e.g. along an incision) get a stretch constraint and no hinge. Raises
+        :class:`MeshError` for an edge shared by more than two triangles (non-manifold: a hinge is undefined) and
+        for zero-length edges (eq 9 divides by the length).
+        """
+        tris = np.asarray(surface.triangles, dtype=np.int64)
+        edges = np.asarray(surface.edges, dtype=np.int64)
+        n = surface.vertex_count
+        # Directed half-edges (a -> b) with their triangle and opposite vertex, in triangle order.
+        a = tris[:, [0, 1, 2]].ravel()
+        b = tris[:, [1, 2, 0]].ravel()
+        opp = tris[:, [2, 0, 1]].ravel()
+        tri_of = np.repeat(np.arange(len(tris)), 3)
+        lo, hi = np.minimum(a, b), np.maximum(a, b)
+        edge_index = np.searchsorted(edges[:, 0] * n + edges[:, 1], lo * n + hi)
+        counts = np.bincount(edge_index, minlength=len(edges))
+        bad = np.flatnonzero(counts > 2)
+        if bad.size:
+            raise MeshError(f"{bad.size} edges are shared by more than two triangles (non-manifold; first edges: "
+                            f"{first_indices(bad)}, e.g. nodes {tuple(int(v) for v in edges[bad[0]])}); "
+                            "repair the surface (tissuesim.read_surface(..., repair=True))")
+        areas = surface.triangle_areas
+        edge_area = np.bincount(edge_index, weights=areas[tri_of], minlength=len(edges))
+
+        # Hinges: group half-edges by edge (stable, so the first triangle in mesh order comes first).
+        order = np.argsort(edge_index, kind="stable")
+        interior = np.flatnonzero(counts == 2)
+        start = np.zeros(len(edges) + 1, dtype=np.int64)
+        np.cumsum(counts, out=start[1:])
+        h1 = order[start[interior]]
+        h2 = order[start[interior] + 1]
+        bending = np.stack([a[h1], b[h1], opp[h1], opp[h2]], axis=1).astype(np.int32)
+        hinge_area = areas[tri_of[h1]] + areas[tri_of[h2]]
+
+        vertices = np.ascontiguousarray(surface.vertices)
+        edges32 = edges.astype(np.int32)
+        rest_length = edge_lengths(vertices, edges32)
+        short = np.flatnonzero(rest_length <= 0.0)
+        if short.size:
+            raise MeshError(f"{short.size} edges have zero length (first edges: {first_indices(short)}); merge "
+                            "duplicate vertices first (tissuesim.read_surface(..., repair=True))")
+        rest_angle = dihedral_angles(vertices, bending)
+        return cls(vertex_count=n, edges=edges32, rest_length=rest_length, edge_area=edge_area, bending=bending,
+                   rest_angle=rest_angle, hinge_edge=interior.astype(np.int32), hinge_area=hinge_area)
