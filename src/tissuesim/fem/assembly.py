@@ -1,6 +1,7 @@
 """Element stiffness K^e = V Bᵀ D B of linear tets (eq 1–4), global assembly of K (eq 5), and the lumped mass.
 
-Everything is vectorised over elements (batched NumPy matmul); there is no Python loop over tets. Degrees of
+Element matrices and the scatter-add are Numba kernels over all elements (no Python loop over tets);
+:func:`shape_gradients` and :func:`strain_matrices` are the same maths in vectorised NumPy, for tests and users. Degrees of
 freedom are node-major: dof ``3 i + c`` is component ``c`` (x, y, z) of node ``i``.
 """
 
@@ -8,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from ..errors import MaterialError
 from ..mesh.tetmesh import TetMesh
@@ -53,19 +55,13 @@ def strain_matrices(gradients: np.ndarray) -> np.ndarray:
 
 
 def element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray:
-    """``(m, 12, 12) float64`` element stiffness matrices K^e = V Bᵀ D B [N/m] (eq 4; B and D constant in a tet,
-    so the integral is the volume V times the integrand). Exactly symmetric (symmetrised against round-off)."""
+    """``(m, 12, 12) float64`` element stiffness matrices K^e = V Bᵀ D B [N/m] (eq 4; B and D are constant in a
+    linear tet, so the integral is the volume V times the integrand), exactly symmetric."""
     if not isinstance(material, Material):
         raise MaterialError(f"material must be a tissuesim Material, got {type(material).__name__}")
-    b = strain_matrices(shape_gradients(mesh))
-    db = material.elasticity_matrix() @ b  # (m, 6, 12)
-    k = np.matmul(b.transpose(0, 2, 1), db)
-    k *= mesh.volumes[:, None, None]
-    # BᵀDB is symmetric in exact arithmetic; averaging with the transpose makes each K^e so bit for bit (the
-    # assembled K is then symmetric to round-off: duplicates of (i, j) and (j, i) may be summed in other orders).
-    k += k.transpose(0, 2, 1)
-    k *= 0.5
-    return k
+    ke = np.empty((mesh.element_count, 12, 12))
+    _element_stiffness_kernel(mesh.points, mesh.tets, material.elasticity_matrix(), ke)
+    return ke
 
 
 def element_dofs(tets: np.ndarray) -> np.ndarray:
@@ -74,22 +70,130 @@ def element_dofs(tets: np.ndarray) -> np.ndarray:
 
 
 def assemble_stiffness(mesh: TetMesh, material: Material) -> sp.csr_matrix:
-    """Global stiffness K [N/m] of eq (5): ``(3n, 3n)`` scipy CSR, float64, unconstrained (singular: the six rigid
-    modes are its null space), dof order node-major (x, y, z per node).
+    """Global stiffness K [N/m] of eq (5): ``(3n, 3n)`` scipy CSR, float64, sorted indices, unconstrained (singular:
+    the six rigid modes are its null space), dof order node-major (x, y, z per node).
 
-    Built as COO triplets (row, col, K^e entry) of all elements; the conversion to CSR sums duplicates, which is
-    the scatter-add of eq (5).
+    The sparsity pattern comes from the node graph (3×3 blocks per pair of nodes sharing a tet); a Numba kernel
+    then scatter-adds every K^e into it (eq 5). This is the COO-with-duplicate-summation assembly done without
+    materialising 144 m triplets, and it adds each element's (i, j) and (j, i) entries in the same order, so K is
+    exactly symmetric.
     """
     ke = element_stiffness(mesh, material)
-    dofs = element_dofs(mesh.tets)
-    m = len(dofs)
-    index_type = np.int32 if 3 * mesh.node_count < 2**31 else np.int64
-    rows = np.broadcast_to(dofs[:, :, None], (m, 12, 12)).astype(index_type).ravel()
-    cols = np.broadcast_to(dofs[:, None, :], (m, 12, 12)).astype(index_type).ravel()
-    size = 3 * mesh.node_count
-    k = sp.coo_matrix((ke.ravel(), (rows, cols)), shape=(size, size)).tocsr()
-    k.sort_indices()
+    n = mesh.node_count
+    tets = mesh.tets.astype(np.int64)
+    # Node-pair pattern: all 16 ordered pairs of each tet, deduplicated and sorted row-major.
+    keys = np.sort((tets[:, :, None] * n + tets[:, None, :]).ravel())
+    keys = keys[np.r_[True, keys[1:] != keys[:-1]]]  # sort + mask: ~8x faster than np.unique here
+    node_rows, node_cols = np.divmod(keys, n)
+    node_indptr = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(node_rows, minlength=n), out=node_indptr[1:])
+    index_type = np.int32 if 9 * keys.size < 2**31 else np.int64
+    indptr = np.empty(3 * n + 1, dtype=index_type)
+    indices = np.empty(9 * keys.size, dtype=index_type)
+    data = np.zeros(9 * keys.size)
+    _scatter_kernel(mesh.tets, ke, node_indptr, node_cols, indptr, indices, data)
+    k = sp.csr_matrix((data, indices, indptr), shape=(3 * n, 3 * n))
+    k.has_sorted_indices = True
     return k
+
+
+@njit(cache=True)
+def _element_stiffness_kernel(points, tets, d, out):
+    """out[e] = V Bᵀ D B for every tet e (eq 2, 4): gradients from the inverse Jacobian, B in Voigt order."""
+    b = np.zeros((6, 12))
+    db = np.empty((6, 12))
+    g = np.empty((4, 3))  # scratch buffers live outside the loop: no allocation per element
+    for e in range(tets.shape[0]):
+        p0 = points[tets[e, 0]]
+        # Jacobian columns p1−p0, p2−p0, p3−p0; its inverse's rows are ∇N_1..∇N_3.
+        a00 = points[tets[e, 1], 0] - p0[0]
+        a10 = points[tets[e, 1], 1] - p0[1]
+        a20 = points[tets[e, 1], 2] - p0[2]
+        a01 = points[tets[e, 2], 0] - p0[0]
+        a11 = points[tets[e, 2], 1] - p0[1]
+        a21 = points[tets[e, 2], 2] - p0[2]
+        a02 = points[tets[e, 3], 0] - p0[0]
+        a12 = points[tets[e, 3], 1] - p0[1]
+        a22 = points[tets[e, 3], 2] - p0[2]
+        c00 = a11 * a22 - a12 * a21
+        c01 = a02 * a21 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c10 = a12 * a20 - a10 * a22
+        c11 = a00 * a22 - a02 * a20
+        c12 = a02 * a10 - a00 * a12
+        c20 = a10 * a21 - a11 * a20
+        c21 = a01 * a20 - a00 * a21
+        c22 = a00 * a11 - a01 * a10
+        det = a00 * c00 + a01 * c10 + a02 * c20
+        volume = det / 6.0
+        inv = 1.0 / det
+        g[1, 0], g[1, 1], g[1, 2] = c00 * inv, c01 * inv, c02 * inv
+        g[2, 0], g[2, 1], g[2, 2] = c10 * inv, c11 * inv, c12 * inv
+        g[3, 0], g[3, 1], g[3, 2] = c20 * inv, c21 * inv, c22 * inv
+        for c in range(3):
+            g[0, c] = -(g[1, c] + g[2, c] + g[3, c])
+        for a in range(4):  # B of eq (2): rows xx, yy, zz, xy, yz, zx
+            gx, gy, gz = g[a, 0], g[a, 1], g[a, 2]
+            col = 3 * a
+            b[0, col] = gx
+            b[1, col + 1] = gy
+            b[2, col + 2] = gz
+            b[3, col] = gy
+            b[3, col + 1] = gx
+            b[4, col + 1] = gz
+            b[4, col + 2] = gy
+            b[5, col] = gz
+            b[5, col + 2] = gx
+        for r in range(6):
+            for col in range(12):
+                acc = 0.0
+                for s in range(6):
+                    acc += d[r, s] * b[s, col]
+                db[r, col] = acc
+        for i in range(12):
+            for j in range(i, 12):
+                acc = 0.0
+                for r in range(6):
+                    acc += b[r, i] * db[r, j]
+                out[e, i, j] = volume * acc
+                out[e, j, i] = volume * acc  # the lower triangle mirrors the upper: exactly symmetric
+
+
+@njit(cache=True)
+def _scatter_kernel(tets, ke, node_indptr, node_cols, indptr, indices, data):
+    """Build the dof-level CSR from the node pattern and scatter-add every K^e (eq 5).
+
+    Node i with neighbours node_cols[s:s+deg] owns dof rows 3i..3i+2, each holding 3 deg columns
+    (3 j, 3 j + 1, 3 j + 2 per neighbour j, sorted), starting at 9 s + 3 c deg."""
+    n = node_indptr.shape[0] - 1
+    for i in range(n):
+        start, deg = node_indptr[i], node_indptr[i + 1] - node_indptr[i]
+        for c in range(3):
+            row_start = 9 * start + 3 * c * deg
+            indptr[3 * i + c] = row_start
+            for q in range(deg):
+                j = node_cols[start + q]
+                for dd in range(3):
+                    indices[row_start + 3 * q + dd] = 3 * j + dd
+    indptr[3 * n] = 9 * node_indptr[n]
+    for e in range(tets.shape[0]):
+        for a in range(4):
+            i = tets[e, a]
+            start, deg = node_indptr[i], node_indptr[i + 1] - node_indptr[i]
+            for bb in range(4):
+                j = tets[e, bb]
+                lo, hi = start, start + deg  # binary search for j among i's neighbours
+                while lo < hi:
+                    mid = (lo + hi) // 2
+                    if node_cols[mid] < j:
+                        lo = mid + 1
+                    else:
+                        hi = mid
+                q = lo - start
+                for c in range(3):
+                    base = 9 * start + 3 * c * deg + 3 * q
+                    for dd in range(3):
+                        data[base + dd] += ke[e, 3 * a + c, 3 * bb + dd]
 
 
 def lumped_mass(mesh: TetMesh, density: float = 1000.0) -> np.ndarray:
