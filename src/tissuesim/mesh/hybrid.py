@@ -1,13 +1,47 @@
-"""The hybrid mesh of §5: fine surface M_S, coarse surface M'_S, coarse volume M_V, and the maps between them."""
+"""The hybrid mesh of §5: fine surface M_S, coarse surface M'_S, coarse volume M_V, and the maps between them.
+
+Build (:meth:`HybridMesh.build`): validate M_S, simplify it to M'_S (:mod:`.simplify`), tetrahedralize M'_S into
+M_V and M_S into the fine reference volume (:mod:`.tetrahedralize`), then map every M_S vertex to
+
+* its closest point on M'_S (triangle + barycentric weights, inside the triangle), used to spread a load on that
+  vertex over three control nodes (§6.1); a control node maps to itself with weight 1;
+* its barycentric coordinates in the M_V tet that contains it, or, for a vertex outside M_V, in the tet owning the
+  M'_S face of its closest point (the nearest tet); these coordinates are not clamped, so they reproduce the vertex.
+
+Both searches use a k-d tree on element centroids, so the cost is about O(n log m), not O(n m).
+
+Bundle (:meth:`HybridMesh.save` / :meth:`HybridMesh.load`): one ``.npz`` file of plain arrays (no pickle) plus a JSON
+header carrying the bundle format version and the tissuesim version that wrote it. Loading a bundle of another
+format version or an unreadable one raises :class:`BundleError`; saving writes a temporary file beside the target
+and renames it, so a bundle is never half-written. Arrays survive bit for bit; M'_S is stored as triangles only (its
+vertices are ``surface.vertices[control]``).
+
+Table 1 (:func:`table1_row`): nodes, elements and size of M_S, M_V and the fine volume. *Size* is the byte count of
+the mesh as an ASCII file, in kB (1000 bytes), as the paper's sizes suggest: a surface as OBJ (``v x y z`` with
+``%.8g`` coordinates in metres, ``f a b c`` 1-based), a volume as TetGen ``.node`` + ``.ele`` files.
+"""
 
 from __future__ import annotations
 
+import json
+import os
+import tempfile
+import time
+import zipfile
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
+from numba import njit
 
+from ..errors import BundleError, MeshError
 from .surface import SurfaceMesh
-from .tetmesh import TetMesh
+from .tetmesh import TET_FACES, TetMesh
+
+BUNDLE_FORMAT = "tissuesim-hybrid"
+BUNDLE_VERSION = 1
+# Candidates per query in the k-d tree searches; exactness is restored by a second, radius-bounded pass.
+NEAREST_CANDIDATES = 16
 
 
 @dataclass(frozen=True, eq=False)
@@ -48,3 +82,455 @@ class HybridMesh:
     fine_volume: TetMesh | None = None
     fine_surface_nodes: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+
+    # -- construction ------------------------------------------------------------------------------------------
+
+    @classmethod
+    def build(cls, surface: SurfaceMesh, *, target_vertices: int | None = None, fine_volume: bool = True,
+              progress: bool = False) -> "HybridMesh":
+        """Build the hybrid mesh of §5 from a fine surface M_S.
+
+        Args:
+            surface: M_S, closed, manifold, outward-oriented, free of self-intersections (validated here).
+            target_vertices: vertex count of M'_S (= number of control nodes); default
+                :func:`tissuesim.mesh.simplify.default_target` (32 % of M_S's vertices).
+            fine_volume: also tetrahedralize M_S itself (the FEM reference of §8.3).
+            progress: show the steps with a tqdm bar on stderr.
+
+        Raises:
+            MeshError: the surface is invalid, or TetGen fails.
+        """
+        from .simplify import simplify
+        from .tetrahedralize import COARSE_SWITCHES, FINE_SWITCHES, tetrahedralize
+        from .validate import validate_surface
+
+        steps = ["validate M_S", "simplify M_S -> M'_S", "tetrahedralize M'_S -> M_V", "map M_S onto M'_S and M_V"]
+        if fine_volume:
+            steps.append("tetrahedralize M_S -> fine volume")
+        bar = _progress(len(steps), progress)
+        timings = {}
+
+        def step(k):
+            bar.set_description(steps[k])
+            return time.perf_counter()
+
+        t = step(0)
+        validate_surface(surface)
+        timings["validate_s"] = time.perf_counter() - t
+        bar.update()
+
+        t = step(1)
+        simplified = simplify(surface, target_vertices=target_vertices)
+        coarse, control = simplified.surface, simplified.kept
+        timings["simplify_s"] = time.perf_counter() - t
+        bar.update()
+
+        t = step(2)
+        volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
+        timings["coarse_tetgen_s"] = time.perf_counter() - t
+        bar.update()
+
+        t = step(3)
+        coarse_triangle, coarse_barycentric = closest_on_surface(coarse, surface.vertices)
+        # Control nodes map to themselves exactly (the search can land on another triangle at distance 0).
+        coarse_triangle[control], coarse_barycentric[control] = _own_corner(coarse, len(control))
+        embedding_tet, embedding_barycentric = embed_in_volume(volume, surface.vertices, coarse, coarse_triangle,
+                                                               coarse_barycentric)
+        timings["maps_s"] = time.perf_counter() - t
+        bar.update()
+
+        fine, fine_nodes = None, None
+        if fine_volume:
+            t = step(4)
+            fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
+            timings["fine_tetgen_s"] = time.perf_counter() - t
+            bar.update()
+        bar.close()
+        timings["total_s"] = sum(timings.values())
+        info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
+                "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings}
+        return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
+                   control_volume=control_volume.astype(np.int32), coarse_triangle=coarse_triangle,
+                   coarse_barycentric=coarse_barycentric, embedding_tet=embedding_tet,
+                   embedding_barycentric=embedding_barycentric, fine_volume=fine, fine_surface_nodes=fine_nodes,
+                   info=info)
+
+    # -- bundle ------------------------------------------------------------------------------------------------
+
+    def save(self, path) -> Path:
+        """Write the bundle to ``path`` (``.npz``) atomically; return the path."""
+        from .. import __version__
+
+        path = Path(path)
+        header = {"format": BUNDLE_FORMAT, "format_version": BUNDLE_VERSION, "tissuesim_version": __version__,
+                  "has_fine_volume": self.fine_volume is not None, "info": _jsonable(self.info)}
+        arrays = {
+            "surface_vertices": self.surface.vertices, "surface_triangles": self.surface.triangles,
+            "coarse_triangles": self.coarse_surface.triangles, "volume_points": self.volume.points,
+            "volume_tets": self.volume.tets, "control": self.control, "control_volume": self.control_volume,
+            "coarse_triangle": self.coarse_triangle, "coarse_barycentric": self.coarse_barycentric,
+            "embedding_tet": self.embedding_tet, "embedding_barycentric": self.embedding_barycentric,
+        }
+        if self.fine_volume is not None:
+            arrays.update(fine_points=self.fine_volume.points, fine_tets=self.fine_volume.tets,
+                          fine_surface_nodes=self.fine_surface_nodes)
+        arrays["header"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            with os.fdopen(handle, "wb") as stream:
+                np.savez(stream, **arrays)
+                stream.flush()
+                os.fsync(stream.fileno())
+            os.replace(temporary, path)
+        except BaseException:
+            Path(temporary).unlink(missing_ok=True)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path) -> "HybridMesh":
+        """Read a bundle written by :meth:`save`.
+
+        Raises:
+            FileNotFoundError: no such file.
+            BundleError: not a bundle, corrupt, or written in another bundle format version.
+        """
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"no hybrid-mesh bundle at {path}")
+        try:
+            with np.load(path, allow_pickle=False) as data:
+                arrays = {key: data[key] for key in data.files}
+        except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
+            raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); rebuild it with "
+                              "`tissuesim build ... --output`") from error
+        header = _read_header(path, arrays)
+        required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
+                    "control", "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet",
+                    "embedding_barycentric"]
+        if header.get("has_fine_volume"):
+            required += ["fine_points", "fine_tets", "fine_surface_nodes"]
+        missing = [key for key in required if key not in arrays]
+        if missing:
+            raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+        try:
+            surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
+            control = arrays["control"]
+            coarse = SurfaceMesh(surface.vertices[control], arrays["coarse_triangles"])
+            volume = TetMesh(arrays["volume_points"], arrays["volume_tets"])
+            fine = fine_nodes = None
+            if header.get("has_fine_volume"):
+                fine = TetMesh(arrays["fine_points"], arrays["fine_tets"])
+                fine_nodes = arrays["fine_surface_nodes"]
+        except (MeshError, IndexError) as error:
+            raise BundleError(f"{path} holds inconsistent meshes ({error}); rebuild it") from error
+        n = surface.vertex_count
+        shapes = {"coarse_triangle": (n,), "coarse_barycentric": (n, 3), "embedding_tet": (n,),
+                  "embedding_barycentric": (n, 4), "control_volume": control.shape}
+        wrong = [key for key, shape in shapes.items() if arrays[key].shape != shape]
+        if wrong:
+            raise BundleError(f"{path}: arrays {', '.join(wrong)} do not match the surface's {n} vertices; "
+                              "rebuild it")
+        return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
+                   control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
+                   coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
+                   embedding_barycentric=arrays["embedding_barycentric"], fine_volume=fine,
+                   fine_surface_nodes=fine_nodes, info=header.get("info", {}))
+
+    # -- reporting ---------------------------------------------------------------------------------------------
+
+    def table1_row(self) -> dict:
+        """Table 1's figures for this mesh: see :func:`table1_row`."""
+        return table1_row(self)
+
+
+# -------------------------------------------------------------------------------------------------------------
+# Table 1
+
+
+TABLE1_HEADER = ("| model | M_S #node | M_S #elem | M_S size (kB) | M_V #node | M_V #elem | M_V size (kB) "
+                 "| fine #node | fine #elem | fine size (kB) |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+
+
+def table1_row(hybrid: HybridMesh) -> dict:
+    """``{"M_S": {...}, "M_V": {...}, "fine": {...} or None}``, each ``{"nodes", "elements", "size_kb"}``.
+
+    Size is the byte count of the mesh as an ASCII file (OBJ for M_S; TetGen ``.node`` + ``.ele`` for volumes), in
+    kB of 1000 bytes.
+    """
+    s, v, f = hybrid.surface, hybrid.volume, hybrid.fine_volume
+    row = {"M_S": {"nodes": s.vertex_count, "elements": s.triangle_count, "size_kb": ascii_size(s) / 1000.0},
+           "M_V": {"nodes": v.node_count, "elements": v.element_count, "size_kb": ascii_size(v) / 1000.0},
+           "fine": None}
+    if f is not None:
+        row["fine"] = {"nodes": f.node_count, "elements": f.element_count, "size_kb": ascii_size(f) / 1000.0}
+    return row
+
+
+def table1_markdown(rows: dict) -> str:
+    """A Markdown table (header included) of ``{model name: table1_row(...)}``."""
+    lines = [TABLE1_HEADER]
+    for name, row in rows.items():
+        cells = [name]
+        for part in ("M_S", "M_V", "fine"):
+            entry = row[part]
+            cells += ["-", "-", "-"] if entry is None else [str(entry["nodes"]), str(entry["elements"]),
+                                                           f"{entry['size_kb']:.0f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def ascii_size(mesh: SurfaceMesh | TetMesh) -> int:
+    """Bytes of ``mesh`` written as ASCII: OBJ for a surface, TetGen .node + .ele for a volume (``%.8g`` metres)."""
+    if isinstance(mesh, SurfaceMesh):
+        points, cells, base = mesh.vertices, mesh.triangles, 1
+        text = [f"v {x:.8g} {y:.8g} {z:.8g}\n" for x, y, z in points.tolist()]
+        text += ["f " + " ".join(str(i + base) for i in cell) + "\n" for cell in cells.tolist()]
+        return sum(len(line) for line in text)
+    points, cells = mesh.points, mesh.tets
+    text = [f"{len(points)} 3 0 0\n"] + [f"{k} {x:.8g} {y:.8g} {z:.8g}\n" for k, (x, y, z) in
+                                         enumerate(points.tolist())]
+    text += [f"{len(cells)} 4 0\n"] + [f"{k} " + " ".join(map(str, cell)) + "\n" for k, cell in
+                                       enumerate(cells.tolist())]
+    return sum(len(line) for line in text)
+
+
+# -------------------------------------------------------------------------------------------------------------
+# Maps
+
+
+def closest_on_surface(surface: SurfaceMesh, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For each of ``points`` ``(n, 3)`` [m], the closest point on ``surface``.
+
+    Returns:
+        ``(triangle (n,) int32, barycentric (n, 3) float64)``: weights in [0, 1] summing to 1.
+
+    Exact: a first pass over the ``NEAREST_CANDIDATES`` nearest triangle centroids bounds the distance d; a second
+    pass checks every triangle whose centroid lies within d + (largest centroid-to-corner distance).
+    """
+    from scipy.spatial import cKDTree
+
+    p = surface.vertices[surface.triangles]
+    centroids = p.mean(axis=1)
+    reach = float(np.linalg.norm(p - centroids[:, None, :], axis=2).max())
+    tree = cKDTree(centroids)
+    k = min(NEAREST_CANDIDATES, surface.triangle_count)
+    _, near = tree.query(points, k=k)
+    near = np.asarray(near, dtype=np.int64).reshape(len(points), k)
+    starts = np.arange(0, len(points) * k + 1, k, dtype=np.int64)
+    tri, bary, dist = _closest_kernel(surface.vertices, surface.triangles, points, starts, near.ravel())
+    balls = tree.query_ball_point(points, dist + reach + 1e-12)
+    counts = np.array([len(b) for b in balls], dtype=np.int64)
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    flat = np.fromiter((t for b in balls for t in b), dtype=np.int64, count=int(starts[-1]))
+    tri, bary, _ = _closest_kernel(surface.vertices, surface.triangles, points, starts, flat)
+    return tri.astype(np.int32), bary
+
+
+def embed_in_volume(volume: TetMesh, points: np.ndarray, coarse: SurfaceMesh, coarse_triangle: np.ndarray,
+                    coarse_barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Barycentric embedding of ``points`` ``(n, 3)`` [m] in ``volume`` (whose boundary is ``coarse``).
+
+    A point inside the volume gets its containing tet (coordinates all >= -1e-9); a point outside gets the tet owning
+    the boundary face of its closest point (``coarse_triangle``, ``coarse_barycentric`` from
+    :func:`closest_on_surface`), the nearest tet. Coordinates are unclamped, so ``sum(w_k x_k)`` reproduces the point.
+
+    Returns:
+        ``(tet (n,) int32, barycentric (n, 4) float64)``.
+    """
+    from scipy.spatial import cKDTree
+
+    centroids = volume.points[volume.tets].mean(axis=1)
+    k = min(2 * NEAREST_CANDIDATES, volume.element_count)
+    _, near = cKDTree(centroids).query(points, k=k)
+    near = np.asarray(near, dtype=np.int64).reshape(len(points), k)
+    tet, bary, found = _containing_kernel(volume.points, volume.tets, points, near)
+    # A point on the outer side of the face of its closest point is outside M_V. The others not resolved among the
+    # nearest centroids (rare: a huge tet far away) are checked against every tet.
+    q = np.einsum("ij,ijk->ik", coarse_barycentric, coarse.vertices[coarse.triangles[coarse_triangle]])
+    outer = np.einsum("ij,ij->i", points - q, coarse.triangle_normals[coarse_triangle]) > 0.0
+    for i in np.flatnonzero(~found & ~outer):
+        w = _barycentric_all(volume.points, volume.tets, points[i])
+        best = int(np.argmax(w.min(axis=1)))
+        if w[best].min() >= -1e-9:
+            tet[i], bary[i], found[i] = best, w[best], True
+    # Outside points keep the candidate tet with the largest minimum coordinate (the least extrapolation); the
+    # owner of the closest boundary face is the fallback when that is worse (it can be a flat tet near the face).
+    outside = np.flatnonzero(~found)
+    if outside.size:
+        owner = _boundary_face_owner(volume, coarse.triangles)[coarse_triangle[outside]]
+        owner_bary = _barycentric_all_rows(volume.points, volume.tets[owner], points[outside])
+        better = owner_bary.min(axis=1) > bary[outside].min(axis=1)
+        tet[outside[better]] = owner[better]
+        bary[outside[better]] = owner_bary[better]
+    return tet.astype(np.int32), bary
+
+
+def _own_corner(coarse: SurfaceMesh, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """For each coarse vertex 0..count-1, one triangle containing it and weight 1 on that corner."""
+    flat = coarse.triangles.ravel()
+    first = np.full(count, -1, dtype=np.int64)
+    positions = np.arange(len(flat))[::-1]
+    first[flat[::-1]] = positions          # last write wins: the first occurrence
+    triangle = (first // 3).astype(np.int32)
+    bary = np.zeros((count, 3))
+    bary[np.arange(count), first % 3] = 1.0
+    return triangle, bary
+
+
+def _boundary_face_owner(volume: TetMesh, triangles: np.ndarray) -> np.ndarray:
+    """``(t,) int64`` the tet owning each boundary triangle (vertex indices in M_V numbering)."""
+    faces = np.sort(volume.tets[:, TET_FACES].reshape(-1, 3), axis=1).astype(np.int64)
+    n = int(volume.node_count)
+    keys = (faces[:, 0] * n + faces[:, 1]) * n + faces[:, 2]
+    order = np.argsort(keys, kind="stable")
+    wanted = np.sort(triangles, axis=1).astype(np.int64)
+    wanted_keys = (wanted[:, 0] * n + wanted[:, 1]) * n + wanted[:, 2]
+    where = np.searchsorted(keys[order], wanted_keys)
+    where = np.minimum(where, len(keys) - 1)
+    hit = order[where]
+    if not np.array_equal(keys[hit], wanted_keys):
+        raise MeshError("some coarse surface triangles are not faces of the coarse volume; rebuild the hybrid mesh")
+    return hit // 4
+
+
+def _barycentric_all(points: np.ndarray, tets: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``(m, 4)`` barycentric coordinates of one point ``x`` in every tet."""
+    return _barycentric_all_rows(points, tets, np.broadcast_to(x, (len(tets), 3)))
+
+
+def _barycentric_all_rows(points: np.ndarray, tets: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``(r, 4)`` barycentric coordinates of ``x[r]`` in ``tets[r]`` (unclamped)."""
+    p = points[tets]
+    a = np.transpose(p[:, 1:] - p[:, :1], (0, 2, 1))          # columns p1-p0, p2-p0, p3-p0
+    w = np.linalg.solve(a, (x - p[:, 0])[..., None])[..., 0]
+    return np.concatenate([1.0 - w.sum(axis=1, keepdims=True), w], axis=1)
+
+
+def _read_header(path: Path, arrays: dict) -> dict:
+    if "header" not in arrays:
+        raise BundleError(f"{path} has no bundle header; it is not a tissuesim hybrid-mesh bundle")
+    try:
+        header = json.loads(arrays["header"].tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
+    if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:
+        raise BundleError(f"{path} is not a tissuesim hybrid-mesh bundle")
+    if header.get("format_version") != BUNDLE_VERSION:
+        raise BundleError(
+            f"{path} is bundle format version {header.get('format_version')} (written by tissuesim "
+            f"{header.get('tissuesim_version', '?')}); this tissuesim reads version {BUNDLE_VERSION}: rebuild it "
+            "with `tissuesim build ... --output`")
+    return header
+
+
+def _jsonable(value):
+    """``info`` with numpy scalars turned into plain numbers, for the JSON header."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def _progress(total: int, enabled: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, disable=not enabled, unit="step", leave=False)
+
+
+@njit(cache=True)
+def _closest_point_triangle(px, py, pz, P, a, b, c):
+    """Closest point of triangle (a, b, c) to p (Ericson, Real-Time Collision Detection §5.1.5): weights, dist²."""
+    ax, ay, az = P[a, 0], P[a, 1], P[a, 2]
+    abx, aby, abz = P[b, 0] - ax, P[b, 1] - ay, P[b, 2] - az
+    acx, acy, acz = P[c, 0] - ax, P[c, 1] - ay, P[c, 2] - az
+    apx, apy, apz = px - ax, py - ay, pz - az
+    d1 = abx * apx + aby * apy + abz * apz
+    d2 = acx * apx + acy * apy + acz * apz
+    if d1 <= 0.0 and d2 <= 0.0:
+        u, v, w = 1.0, 0.0, 0.0
+    else:
+        bpx, bpy, bpz = px - P[b, 0], py - P[b, 1], pz - P[b, 2]
+        d3 = abx * bpx + aby * bpy + abz * bpz
+        d4 = acx * bpx + acy * bpy + acz * bpz
+        cpx, cpy, cpz = px - P[c, 0], py - P[c, 1], pz - P[c, 2]
+        d5 = abx * cpx + aby * cpy + abz * cpz
+        d6 = acx * cpx + acy * cpy + acz * cpz
+        vc = d1 * d4 - d3 * d2
+        vb = d5 * d2 - d1 * d6
+        va = d3 * d6 - d5 * d4
+        if d3 >= 0.0 and d4 <= d3:
+            u, v, w = 0.0, 1.0, 0.0
+        elif d6 >= 0.0 and d5 <= d6:
+            u, v, w = 0.0, 0.0, 1.0
+        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+            t = d1 / (d1 - d3)
+            u, v, w = 1.0 - t, t, 0.0
+        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+            t = d2 / (d2 - d6)
+            u, v, w = 1.0 - t, 0.0, t
+        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+            u, v, w = 0.0, 1.0 - t, t
+        else:
+            denom = 1.0 / (va + vb + vc)
+            v = vb * denom
+            w = vc * denom
+            u = 1.0 - v - w
+    qx = u * ax + v * P[b, 0] + w * P[c, 0]
+    qy = u * ay + v * P[b, 1] + w * P[c, 1]
+    qz = u * az + v * P[b, 2] + w * P[c, 2]
+    return u, v, w, (qx - px) ** 2 + (qy - py) ** 2 + (qz - pz) ** 2
+
+
+@njit(cache=True)
+def _closest_kernel(P, T, X, starts, candidates):
+    n = X.shape[0]
+    tri = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 3))
+    dist = np.full(n, np.inf)
+    for i in range(n):
+        best = np.inf
+        for q in range(starts[i], starts[i + 1]):
+            t = candidates[q]
+            u, v, w, d2 = _closest_point_triangle(X[i, 0], X[i, 1], X[i, 2], P, T[t, 0], T[t, 1], T[t, 2])
+            if d2 < best or (d2 == best and t < tri[i]):
+                best = d2
+                tri[i] = t
+                bary[i, 0], bary[i, 1], bary[i, 2] = u, v, w
+        dist[i] = np.sqrt(best)
+    return tri, bary, dist
+
+
+@njit(cache=True)
+def _containing_kernel(P, tets, X, near):
+    """Among each point's candidate tets, the one containing it (largest minimum coordinate >= -1e-9)."""
+    n, k = near.shape
+    tet = np.full(n, -1, dtype=np.int64)
+    bary = np.zeros((n, 4))
+    found = np.zeros(n, dtype=np.bool_)
+    w = np.zeros(4)
+    for i in range(n):
+        best = -np.inf
+        for q in range(k):
+            t = near[i, q]
+            a, b, c, d = tets[t, 0], tets[t, 1], tets[t, 2], tets[t, 3]
+            m = np.empty((3, 3))
+            for r in range(3):
+                m[r, 0] = P[b, r] - P[a, r]
+                m[r, 1] = P[c, r] - P[a, r]
+                m[r, 2] = P[d, r] - P[a, r]
+            rhs = np.array([X[i, 0] - P[a, 0], X[i, 1] - P[a, 1], X[i, 2] - P[a, 2]])
+            s = np.linalg.solve(m, rhs)
+            w[0], w[1], w[2], w[3] = 1.0 - s[0] - s[1] - s[2], s[0], s[1], s[2]
+            low = min(w[0], w[1], w[2], w[3])
+            if low > best:
+                best = low
+                tet[i] = t
+                bary[i, :] = w
+        found[i] = best >= -1e-9
+    return tet, bary, found

@@ -61,7 +61,7 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
     except (RuntimeError, ValueError) as error:
         raise MeshError(
             f"TetGen could not tetrahedralize the surface ({surface.vertex_count} vertices, "
-            f"{surface.triangle_count} triangles) with switches {switches!r}: {str(error).rstrip(".")}; check it with "
+            f"{surface.triangle_count} triangles) with switches {switches!r}: {str(error).rstrip('.')}; check it with "
             "tissuesim.mesh.validate.validate_surface (self-intersections are the usual cause) or read it with "
             "repair=True") from error
     nodes = np.asarray(nodes, dtype=np.float64)
