@@ -182,6 +182,9 @@ class HybridMesh:
                 np.savez(stream, **arrays)
                 stream.flush()
                 os.fsync(stream.fileno())
+            umask = os.umask(0)
+            os.umask(umask)
+            os.chmod(temporary, 0o666 & ~umask)     # mkstemp makes it private; a bundle is an ordinary file
             os.replace(temporary, path)
         except BaseException:
             Path(temporary).unlink(missing_ok=True)
