@@ -1,0 +1,112 @@
+"""The pin-head of §8.2: grab a surface node, drag to load it with f = k (x − x0) (eq 24), release.
+
+Headless: it needs only a solver (any method) and cursor positions, so a viewer, a haptic device or a script can
+drive it the same way.
+
+    pin = PinHead(solver, stiffness=20.0)     # N/m
+    node = pin.grab(cursor)                   # snaps to the nearest M_S node (current positions)
+    pin.drag(cursor + [0, 0, 0.01])           # 0.2 N upward on that node
+    solver.step()
+    pin.release()
+
+Choices where the paper is silent: x0 is the cursor position at the moment of the grab (as §8.2 says), not the
+node's position, so grabbing never applies a force by itself; the snap radius defaults to
+:data:`SNAP_RADIUS_EDGES` mean M_S edge lengths, and a point farther than that from every node is refused.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SolverError
+
+#: Default snap radius in mean rest edge lengths of M_S.
+SNAP_RADIUS_EDGES = 3.0
+
+
+class PinHead:
+    """Turns cursor motion into a nodal load on a solver (eq 24).
+
+    Args:
+        solver: any :class:`~tissuesim.solvers.base.Solver`.
+        stiffness: k of eq 24 [N/m], positive.
+        snap_radius: largest distance [m] from the grab point to the node it snaps to; default
+            ``SNAP_RADIUS_EDGES`` × the mean rest edge length of M_S.
+
+    Attributes:
+        node: the grabbed M_S vertex index, or None.
+        anchor: ``(3,) float64`` x0 of eq 24 [m] (cursor at grab time), or None.
+    """
+
+    def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None):
+        for needed in ("positions", "set_load", "clear_load"):
+            if not hasattr(solver, needed):
+                raise SolverError(f"PinHead needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
+        self.solver = solver
+        self.stiffness = _positive("pin-head stiffness", stiffness, "N/m")
+        if snap_radius is None:
+            surface = solver.hybrid.surface
+            edges = surface.edges
+            lengths = np.linalg.norm(surface.vertices[edges[:, 0]] - surface.vertices[edges[:, 1]], axis=1)
+            snap_radius = SNAP_RADIUS_EDGES * float(lengths.mean())
+        self.snap_radius = _positive("snap radius", snap_radius, "m")
+        self.node: int | None = None
+        self.anchor: np.ndarray | None = None
+
+    @property
+    def grabbed(self) -> bool:
+        return self.node is not None
+
+    def grab(self, point) -> int:
+        """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions; returns its index."""
+        point = _point(point)
+        distance = np.linalg.norm(self.solver.positions - point, axis=1)
+        node = int(np.argmin(distance))
+        if distance[node] > self.snap_radius:
+            raise SolverError(
+                f"nothing to grab: the nearest surface node ({node}) is {distance[node]:.4g} m from the point, "
+                f"farther than the snap radius {self.snap_radius:.4g} m; move the point onto the surface or pass "
+                "a larger snap_radius"
+            )
+        if self.node is not None:
+            self.solver.clear_load()
+        self.node, self.anchor = node, point
+        return node
+
+    def force(self, point) -> np.ndarray:
+        """``(3,) float64`` eq 24's f = k (x − x0) [N] for cursor ``point`` x [m]."""
+        if self.node is None:
+            raise SolverError("the pin-head holds no node; call grab(point) first")
+        return self.stiffness * (_point(point) - self.anchor)
+
+    def drag(self, point) -> np.ndarray:
+        """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
+        force = self.force(point)
+        self.solver.set_load(self.node, force)
+        return force
+
+    def release(self) -> None:
+        """Withdraw the force; the pin-head follows the cursor again (no node held)."""
+        if self.node is not None:
+            self.solver.clear_load()
+        self.node, self.anchor = None, None
+
+
+def _point(point) -> np.ndarray:
+    try:
+        point = np.asarray(point, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SolverError(f"a point must be 3 coordinates [m], got {point!r}") from None
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise SolverError(f"a point must be 3 finite coordinates [m], got {point!r}")
+    return point
+
+
+def _positive(name: str, value, unit: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise SolverError(f"{name} must be a number [{unit}], got {value!r}") from None
+    if not np.isfinite(value) or value <= 0.0:
+        raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
+    return value

@@ -1,0 +1,442 @@
+"""The solver protocol shared by every method, its mutable state, and the name → class registry.
+
+A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
+owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load on one M_S node (the
+pin-head of §8.2 loads one node at a time). Every method exposes the same calls, so the experiments compare like
+with like:
+
+* ``step(dt)`` advances one time step [s];
+* ``set_load(node, force)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node;
+* ``reset()`` returns to rest, at zero velocity and without load;
+* ``solve_static(node, force)`` steps with damping until the surface stops moving and returns the M_S positions.
+
+Common options (keyword-only, the same for every method):
+
+* ``youngs_modulus`` [Pa] = 5500 and ``poisson_ratio`` = 0.3: the paper's material (§8.2);
+* ``fixed``: ``(k,)`` M_S vertex indices held at rest. Default: the model's bottom, the nodes with
+  z ≤ :func:`~tissuesim.mesh.regions.bottom_height` of the M_S vertices. The FEM-based methods fix the volume
+  nodes below the same height (default) or the volume nodes that coincide with the given M_S vertices;
+* ``density`` [kg/m³] = 1000 (soft tissue is close to water); it sets node masses where a method has any;
+* ``dt`` [s] = 0.01: the step that :meth:`Solver.solve_static` uses when none is given (100 Hz, a haptics-free
+  interactive rate);
+* ``damping``: fraction of the velocity removed per step, in [0, 1).
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from importlib import import_module
+from typing import ClassVar
+
+import numpy as np
+from numba import njit
+
+from ..errors import BoundaryConditionError, SolverError, first_indices
+from ..mesh.regions import bottom_height, nodes_below
+
+DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
+DEFAULT_POISSON_RATIO = 0.3  # §8.2
+DEFAULT_DENSITY = 1000.0  # kg/m³
+DEFAULT_DT = 0.01  # s
+DEFAULT_TOLERANCE = 1e-7  # m of motion per step at which a quasi-static solve counts as settled
+DEFAULT_MAX_STEPS = 20000
+
+
+@dataclass
+class State:
+    """The mutable part of a solver.
+
+    Attributes:
+        positions: ``(n, 3) float64`` current M_S vertex positions [m].
+        velocities: ``(n, 3) float64`` current M_S vertex velocities [m/s].
+    """
+
+    positions: np.ndarray
+    velocities: np.ndarray
+
+    @classmethod
+    def at_rest(cls, rest_positions: np.ndarray) -> "State":
+        """A state at ``rest_positions`` ``(n, 3)`` [m] with zero velocity (fresh, writable arrays)."""
+        positions = np.array(rest_positions, dtype=np.float64, order="C", copy=True)
+        return cls(positions, np.zeros_like(positions))
+
+
+@dataclass(frozen=True)
+class SolveReport:
+    """What the last :meth:`Solver.solve_static` did.
+
+    Attributes:
+        steps: time steps taken.
+        converged: whether the largest per-step motion fell below ``tolerance``.
+        max_motion: largest node motion [m] in the last step.
+        tolerance: the tolerance asked for [m].
+        elapsed: wall time of the solve [s].
+    """
+
+    steps: int
+    converged: bool
+    max_motion: float
+    tolerance: float
+    elapsed: float
+
+
+@njit(cache=True)
+def max_motion_and_copy(previous: np.ndarray, current: np.ndarray) -> float:
+    """Largest |current − previous| component [m] over ``(n, 3)`` arrays; then copy current into previous."""
+    largest = 0.0
+    for i in range(previous.shape[0]):
+        for k in range(3):
+            c = current[i, k]
+            d = abs(c - previous[i, k])
+            if d > largest:
+                largest = d
+            previous[i, k] = c
+    return largest
+
+
+class Solver(ABC):
+    """Base class of every method: state, load, stepping and the quasi-static loop.
+
+    Subclasses implement :meth:`_step` (one time step on ``self.state`` under ``self.forces``) and may override
+    :meth:`_on_load_changed` (e.g. to redo the FEM part) and :meth:`_on_reset`.
+
+    Attributes:
+        hybrid: the static hybrid mesh.
+        rest_positions: ``(n, 3) float64`` M_S rest positions [m] (read-only).
+        fixed: ``(k,) int32`` sorted M_S vertex indices held at rest.
+        forces: ``(n, 3) float64`` external nodal forces [N] on M_S (zero but for the loaded node); read-only to
+            users, change it through :meth:`set_load` / :meth:`clear_load`.
+        state: the :class:`State`.
+        last_solve: :class:`SolveReport` of the last :meth:`solve_static`, or None.
+    """
+
+    name: ClassVar[str] = "?"
+    #: True for methods whose step is an exact static solve (one step reaches equilibrium).
+    static: ClassVar[bool] = False
+
+    def __init__(
+        self,
+        hybrid_mesh,
+        *,
+        youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+        poisson_ratio: float = DEFAULT_POISSON_RATIO,
+        fixed=None,
+        density: float = DEFAULT_DENSITY,
+        dt: float = DEFAULT_DT,
+        damping: float = 0.0,
+    ):
+        from ..fem.material import Material  # validates E and ν with MaterialError
+
+        if not hasattr(hybrid_mesh, "surface") or not hasattr(hybrid_mesh, "volume"):
+            raise SolverError(
+                f"a solver needs a HybridMesh, got {type(hybrid_mesh).__name__}; build one with "
+                "tissuesim.HybridMesh.build(surface)"
+            )
+        self.hybrid = hybrid_mesh
+        self.material = Material(youngs_modulus=float(youngs_modulus), poisson_ratio=float(poisson_ratio))
+        self.youngs_modulus = float(youngs_modulus)
+        self.poisson_ratio = float(poisson_ratio)
+        self.density = _positive("density", density, "kg/m³")
+        self.dt = _positive("dt", dt, "s")
+        self.damping = _fraction("damping", damping)
+        self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
+        n = len(self.rest_positions)
+        self.fixed_from_height = fixed is None
+        if fixed is None:
+            self.fixed_height = bottom_height(self.rest_positions)
+            self.fixed = nodes_below(self.rest_positions, self.fixed_height)
+        else:
+            self.fixed_height = None
+            self.fixed = _node_set("fixed", fixed, n)
+        self.forces = np.zeros((n, 3))
+        self._load_node = -1
+        self.state = State.at_rest(self.rest_positions)
+        self._previous = np.array(self.rest_positions)  # workspace of the quasi-static loop
+        self.last_solve: SolveReport | None = None
+
+    # ----------------------------------------------------------------------------------------------- state access
+    @property
+    def node_count(self) -> int:
+        """Number of M_S vertices n."""
+        return len(self.rest_positions)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """``(n, 3) float64`` current M_S positions [m] (the live array: copy it to keep a snapshot)."""
+        return self.state.positions
+
+    @property
+    def velocities(self) -> np.ndarray:
+        """``(n, 3) float64`` current M_S velocities [m/s] (the live array)."""
+        return self.state.velocities
+
+    @property
+    def displacements(self) -> np.ndarray:
+        """``(n, 3) float64`` current positions minus rest positions [m] (a new array)."""
+        return self.state.positions - self.rest_positions
+
+    @property
+    def load(self) -> tuple[int, np.ndarray] | None:
+        """``(node, force (3,) N)`` of the current load, or None."""
+        if self._load_node < 0:
+            return None
+        return self._load_node, self.forces[self._load_node].copy()
+
+    # ------------------------------------------------------------------------------------------------------ loads
+    def set_load(self, node: int, force) -> None:
+        """Apply ``force`` ``(3,)`` [N] on M_S vertex ``node``, replacing any previous load."""
+        node = self._check_node(node)
+        force = _check_force(force)
+        if self._load_node >= 0:
+            self.forces[self._load_node] = 0.0
+        self.forces[node] = force
+        self._load_node = node
+        self._on_load_changed()
+
+    def clear_load(self) -> None:
+        """Withdraw the external load."""
+        if self._load_node >= 0:
+            self.forces[self._load_node] = 0.0
+            self._load_node = -1
+            self._on_load_changed()
+
+    # -------------------------------------------------------------------------------------------------- stepping
+    def step(self, dt: float | None = None) -> None:
+        """Advance one time step of ``dt`` [s] (default: the ``dt`` option)."""
+        self._step(self._check_dt(dt))
+
+    def reset(self) -> None:
+        """Back to rest: rest positions, zero velocities, no load."""
+        if self._load_node >= 0:
+            self.forces[self._load_node] = 0.0
+            self._load_node = -1
+        self.state.positions[:] = self.rest_positions
+        self.state.velocities[:] = 0.0
+        self._on_load_changed()
+        self._on_reset()
+
+    def solve_static(
+        self,
+        node: int,
+        force,
+        *,
+        tolerance: float = DEFAULT_TOLERANCE,
+        max_steps: int = DEFAULT_MAX_STEPS,
+        dt: float | None = None,
+        reset: bool = True,
+    ) -> np.ndarray:
+        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` on ``node``.
+
+        Steps (with the solver's damping) until no node moves more than ``tolerance`` [m] in one step; the load
+        stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
+        The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
+        """
+        tolerance = _positive("tolerance", tolerance, "m")
+        if int(max_steps) < 1:
+            raise SolverError(f"max_steps must be at least 1, got {max_steps}")
+        dt = self._check_dt(dt)
+        node = self._check_node(node)
+        force = _check_force(force)
+        if reset:
+            self.reset()
+        self.set_load(node, force)
+        start = time.perf_counter()
+        previous = self._previous
+        previous[:] = self.state.positions
+        steps, motion = 0, np.inf
+        while steps < int(max_steps):
+            self._step(dt)
+            steps += 1
+            motion = max_motion_and_copy(previous, self.state.positions)
+            if motion < tolerance or (self.static and steps >= 1):
+                break
+        converged = bool(motion < tolerance or self.static)
+        self.last_solve = SolveReport(steps, converged, float(motion), tolerance, time.perf_counter() - start)
+        if not np.all(np.isfinite(self.state.positions)):
+            raise SolverError(
+                f"{self.name} solver diverged under {np.linalg.norm(force):g} N on node {node} (non-finite "
+                "positions); lower dt or raise damping"
+            )
+        if not converged:
+            raise SolverError(
+                f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
+                f"{motion:.3g} m > tolerance {tolerance:g} m); raise max_steps or damping, or loosen tolerance"
+            )
+        return self.state.positions.copy()
+
+    # --------------------------------------------------------------------------------------- subclass interface
+    @abstractmethod
+    def _step(self, dt: float) -> None:
+        """One time step of ``dt`` [s] (already validated) on ``self.state`` under ``self.forces``."""
+
+    def _on_load_changed(self) -> None:
+        """Called after the load changed (set, cleared, reset)."""
+
+    def _on_reset(self) -> None:
+        """Called after :meth:`reset` restored rest positions and zero velocities."""
+
+    # ---------------------------------------------------------------------------------------------- validation
+    def _check_node(self, node) -> int:
+        try:
+            index = int(node)
+        except (TypeError, ValueError):
+            raise SolverError(f"load node must be an integer vertex index, got {node!r}") from None
+        if index != node or not 0 <= index < self.node_count:
+            raise SolverError(
+                f"load node {node!r} is outside the surface's vertices 0..{self.node_count - 1}; pick an M_S "
+                "vertex index (PinHead.grab snaps a point to one)"
+            )
+        return index
+
+    def _check_dt(self, dt) -> float:
+        if dt is None:
+            return self.dt
+        return _positive("time step dt", dt, "s")
+
+    def fixed_volume_nodes(self, volume_points: np.ndarray, surface_to_volume: np.ndarray | None) -> np.ndarray:
+        """``(k,) int32`` fixed nodes of a volume mesh with nodes ``volume_points`` ``(N, 3)`` [m].
+
+        With the default bottom: every volume node at or below the same height as the M_S bottom. With explicit
+        M_S ``fixed`` vertices: the volume nodes that coincide with them, ``surface_to_volume`` mapping M_S
+        vertex → volume node (−1 where none).
+        """
+        if self.fixed_from_height:
+            return nodes_below(volume_points, self.fixed_height)
+        mapped = surface_to_volume[self.fixed]
+        mapped = np.unique(mapped[mapped >= 0]).astype(np.int32)
+        if mapped.size == 0:
+            raise BoundaryConditionError(
+                f"none of the {self.fixed.size} fixed M_S vertices (first: {first_indices(self.fixed)}) is a node "
+                f"of the {self.name} solver's volume mesh, so the volume would float freely; include control "
+                "nodes (hybrid_mesh.control) in `fixed`, or leave `fixed` at its default (the bottom)"
+            )
+        return mapped
+
+
+# --------------------------------------------------------------------------------------------------- helpers
+def _positive(name: str, value, unit: str) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise SolverError(f"{name} must be a number [{unit}], got {value!r}") from None
+    if not np.isfinite(value) or value <= 0.0:
+        raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
+    return value
+
+
+def _fraction(name: str, value) -> float:
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise SolverError(f"{name} must be a number in [0, 1), got {value!r}") from None
+    if not (0.0 <= value < 1.0):
+        raise SolverError(f"{name} must lie in [0, 1) (fraction of velocity removed per step), got {value!r}")
+    return value
+
+
+def _check_force(force) -> np.ndarray:
+    try:
+        force = np.asarray(force, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SolverError(f"force must be 3 numbers [N], got {force!r}") from None
+    if force.shape != (3,):
+        raise SolverError(f"force must have shape (3,) [N], got shape {force.shape}")
+    if not np.all(np.isfinite(force)):
+        raise SolverError(f"force must be finite [N], got {force.tolist()}")
+    return force
+
+
+def _node_set(name: str, nodes, count: int) -> np.ndarray:
+    nodes = np.asarray(nodes)
+    if nodes.dtype == bool:
+        if nodes.shape != (count,):
+            raise BoundaryConditionError(f"boolean {name} mask must have shape ({count},), got {nodes.shape}")
+        nodes = np.flatnonzero(nodes)
+    if nodes.size and not np.issubdtype(nodes.dtype, np.integer):
+        raise BoundaryConditionError(f"{name} must be integer M_S vertex indices, got dtype {nodes.dtype}")
+    nodes = nodes.astype(np.int64).ravel()
+    if nodes.size == 0:
+        raise BoundaryConditionError(
+            f"{name} is empty: the body would move freely; pass M_S vertex indices or leave it at its default "
+            "(the model's bottom)"
+        )
+    bad = np.flatnonzero((nodes < 0) | (nodes >= count))
+    if bad.size:
+        raise BoundaryConditionError(
+            f"{bad.size} {name} indices lie outside 0..{count - 1} (first positions in the list: "
+            f"{first_indices(bad)})"
+        )
+    return np.unique(nodes).astype(np.int32)
+
+
+# -------------------------------------------------------------------------------------------------- registry
+# name -> (module, class): imported on first use, so one method's missing dependency does not break the others.
+_BUILTIN = {
+    "hybrid": ("tissuesim.solvers.hybrid", "HybridSolver"),
+    "pbd": ("tissuesim.solvers.pbd", "PBDSolver"),
+    "mass-spring": ("tissuesim.solvers.mass_spring", "MassSpringSolver"),
+    "embedded": ("tissuesim.solvers.embedded", "EmbeddedSolver"),
+    "fem": ("tissuesim.solvers.fine_fem", "FineFEMSolver"),
+}
+_REGISTRY: dict[str, type] = {}
+
+
+def register(name: str):
+    """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
+
+    def decorate(cls):
+        if not (isinstance(cls, type) and issubclass(cls, Solver)):
+            raise SolverError(f"only Solver subclasses can be registered, got {cls!r}")
+        cls.name = name
+        _REGISTRY[name] = cls
+        return cls
+
+    return decorate
+
+
+def available_solvers() -> tuple[str, ...]:
+    """Names accepted by :func:`make_solver`."""
+    return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
+
+
+def solver_class(name: str) -> type:
+    """The :class:`Solver` subclass registered as ``name``."""
+    if name not in _REGISTRY:
+        if name not in _BUILTIN:
+            raise SolverError(f"unknown solver {name!r}; choose one of {', '.join(available_solvers())}")
+        module, cls = _BUILTIN[name]
+        _REGISTRY[name] = getattr(import_module(module), cls)
+    return _REGISTRY[name]
+
+
+def solver_options(name: str) -> dict[str, object]:
+    """Keyword options of solver ``name`` and their defaults (None: calibrated or derived)."""
+    cls = solver_class(name)
+    options = {}
+    for klass in reversed(cls.__mro__):
+        if klass is object or "__init__" not in vars(klass):
+            continue
+        for p in inspect.signature(klass.__init__).parameters.values():
+            if p.kind is p.KEYWORD_ONLY:
+                options[p.name] = p.default
+    return options
+
+
+def make_solver(name: str, hybrid_mesh, **options) -> Solver:
+    """A solver of method ``name`` (hybrid, pbd, mass-spring, embedded, fem) over ``hybrid_mesh``.
+
+    ``options`` are the keyword options of that method (see each class); an unknown option is a SolverError
+    that lists the accepted ones.
+    """
+    cls = solver_class(name)
+    accepted = solver_options(name)
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        raise SolverError(
+            f"unknown option(s) {', '.join(map(repr, unknown))} for solver {name!r}; accepted: "
+            f"{', '.join(sorted(accepted))}"
+        )
+    return cls(hybrid_mesh, **options)

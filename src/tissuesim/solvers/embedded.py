@@ -1,0 +1,84 @@
+"""Embedded-surface baseline: M_S rides on M_V's linear FEM through its barycentric embedding (SOFA's practice).
+
+Every M_S vertex lies in (or next to) one M_V tet with barycentric weights b (``hybrid.embedding_tet``,
+``hybrid.embedding_barycentric``): its displacement is u_s = Σ_j b_j u_V[tet_j] (SOFA's BarycentricMapping). A load
+f on M_S node i goes to the four nodes of its tet as b_j f (the transpose of that mapping, so the work f·u_s equals
+the work done on M_V: the mapping's virtual-work-consistent force transfer).
+
+The method is static: each ``step`` is one FEM fast-path solve (cached K⁻¹ columns of the ≤ 4 loaded nodes) for the
+M_V nodes that carry the surface, then the mapping. ``fixed`` defaults to the M_V nodes below the bottom height.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .base import Solver, register
+
+
+@njit(cache=True)
+def map_embedded(rest, tets, tet_of, weights, node_slot, u_nodes, positions):
+    """positions[i] = rest[i] + Σ_j weights[i, j] u_nodes[node_slot[tets[tet_of[i], j]]] in place (eq: mapping)."""
+    for i in range(rest.shape[0]):
+        t = tet_of[i]
+        for k in range(3):
+            positions[i, k] = rest[i, k]
+        for j in range(4):
+            slot = node_slot[tets[t, j]]
+            w = weights[i, j]
+            for k in range(3):
+                positions[i, k] += w * u_nodes[slot, k]
+
+
+@register("embedded")
+class EmbeddedSolver(Solver):
+    """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring)."""
+
+    static = True
+
+    def __init__(self, hybrid_mesh, **common):
+        super().__init__(hybrid_mesh, **common)
+        from ..fem.linear import LinearFEM
+
+        volume = hybrid_mesh.volume
+        surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
+        surface_to_volume[hybrid_mesh.control] = hybrid_mesh.control_volume
+        self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                             fixed=self.fixed_volume)
+        self.tet_of = np.ascontiguousarray(hybrid_mesh.embedding_tet, dtype=np.int64)
+        self.weights = np.ascontiguousarray(hybrid_mesh.embedding_barycentric, dtype=np.float64)
+        tets = volume.tets
+        # Only the M_V nodes of tets that hold a surface vertex matter: solve for those alone.
+        self.carrier_nodes = np.unique(tets[self.tet_of]).astype(np.int64)
+        self.node_slot = np.full(volume.node_count, -1, dtype=np.int64)
+        self.node_slot[self.carrier_nodes] = np.arange(self.carrier_nodes.size)
+        self._u = np.zeros((self.carrier_nodes.size, 3))
+        self._tets = tets.astype(np.int64)
+        self._load_nodes = np.zeros(4, dtype=np.int64)
+        self._load_forces = np.zeros((4, 3))
+        self._dirty = False
+
+    def _on_load_changed(self) -> None:
+        self._dirty = True
+
+    def _solve(self) -> None:
+        node = self._load_node
+        if node < 0:
+            self._u[:] = 0.0
+        else:
+            self._load_nodes[:] = self._tets[self.tet_of[node]]
+            self._load_forces[:] = self.weights[node][:, None] * self.forces[node][None, :]
+            self.fem.point_load_response(self._load_nodes, self._load_forces, output_nodes=self.carrier_nodes,
+                                         out=self._u)
+
+    def _step(self, dt: float) -> None:
+        state = self.state
+        self._solve()
+        # v = (p_new − p)/dt keeps the state meaningful for callers that look at velocities.
+        state.velocities[:] = state.positions
+        map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self._u,
+                     state.positions)
+        np.subtract(state.positions, state.velocities, out=state.velocities)
+        state.velocities /= dt

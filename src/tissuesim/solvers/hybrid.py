@@ -1,0 +1,125 @@
+"""The paper's hybrid method (§6): linear FEM on the coarse volume M_V drives PBD on the fine surface M_S.
+
+Per time step (§6.5):
+
+1. (set-up) K of M_V is assembled and factorised once (:class:`~tissuesim.fem.linear.LinearFEM`), with the M_V
+   nodes of the bottom fixed;
+2. the load f on M_S node i is split over the three control nodes of the coarse triangle under i by its
+   barycentric weights (§6.1, ``hybrid.coarse_triangle`` / ``coarse_barycentric``: linear interpolation as the
+   triangle's shape functions); M_V's displacement at the control nodes comes from LinearFEM's fast path (cached
+   columns of K⁻¹, §6.2), redone only when the load changes (an interactive drag changes it every frame);
+3. eq 15 (v += f dt w on node i) and eq 16 (prediction) for M_S;
+4. control nodes are set to rest + u (eq 17, first case; ``p'_i``), fixed M_S nodes to rest; every other node is
+   projected by stretch (eq 9) and bending (eq 11) constraints, Gauss–Seidel (eq 17, second case);
+5. eq 18 updates velocities and positions.
+
+Steps 3–5 are one Numba call (:mod:`tissuesim.pbd.kernels`), PBD or XPBD form (see
+:class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`).
+
+Option ``warm_start`` (beyond the paper): when the load changes, the free M_S nodes are moved by the change of
+the embedded FEM displacement (their barycentric embedding in M_V, as the ``embedded`` method), so PBD only relaxes
+the local detail instead of propagating the whole motion from the control nodes edge by edge. It changes the path,
+not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after a few steps).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .base import register
+from .embedded import map_embedded
+from .pbd import SurfaceLayerSolver
+
+DEFAULT_WARM_START = True
+
+
+@register("hybrid")
+class HybridSolver(SurfaceLayerSolver):
+    """FEM on M_V + PBD/XPBD on M_S (paper §6; see the module docstring).
+
+    Options (besides those of :class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`):
+        warm_start: move free nodes with the embedded FEM displacement when the load changes.
+
+    Attributes:
+        fem: the :class:`~tissuesim.fem.linear.LinearFEM` of M_V.
+        fixed_volume: ``(k,) int32`` fixed M_V nodes.
+        control_displacement: ``(c,) (c, 3) float64`` M_V displacement of the control nodes [m], in the order of
+            ``hybrid.control``.
+    """
+
+    def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, **options):
+        super().__init__(hybrid_mesh, **options)
+        from ..fem.linear import LinearFEM
+
+        h = hybrid_mesh
+        self.warm_start = bool(warm_start)
+        volume = h.volume
+        control = np.asarray(h.control, dtype=np.int64)
+        control_volume = np.asarray(h.control_volume, dtype=np.int64)
+        surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
+        surface_to_volume[control] = control_volume
+        self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                             fixed=self.fixed_volume)
+        # Prescribed M_S nodes: control nodes (FEM positions) first, then fixed non-control nodes (rest).
+        is_control = np.zeros(self.node_count, dtype=bool)
+        is_control[control] = True
+        pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
+        self._set_prescribed(np.concatenate([control, pinned]))
+        self.control = control
+        self.control_count = control.size
+        # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle.
+        coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
+        self.load_volume_nodes = control_volume[coarse_nodes[np.asarray(h.coarse_triangle, dtype=np.int64)]]
+        self.load_weights = np.asarray(h.coarse_barycentric, dtype=np.float64)
+        # M_V nodes whose displacement a step needs: control nodes first, then (warm start) the embedding tets.
+        tets = volume.tets.astype(np.int64)
+        self._tet_of = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
+        self._tets = tets
+        self._weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
+        extra = np.setdiff1d(np.unique(tets[self._tet_of]), control_volume) if self.warm_start else np.zeros(0, int)
+        self.output_nodes = np.concatenate([control_volume, extra]).astype(np.int64)
+        self._slot = np.full(volume.node_count, -1, dtype=np.int64)
+        self._slot[self.output_nodes] = np.arange(self.output_nodes.size)
+        self._u = np.zeros((self.output_nodes.size, 3))
+        self.control_displacement = self._u[: self.control_count]  # a view: updated with _u
+        self._load_nodes = np.zeros(3, dtype=np.int64)
+        self._load_forces = np.zeros((3, 3))
+        self._embedded = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
+        self._embedded_new = np.array(self.rest_positions)
+        self._delta = np.zeros_like(self._embedded)
+        self._dirty = False
+
+    # The FEM part is redone only when the load changes: with a constant load it is constant (linear statics).
+    def _on_load_changed(self) -> None:
+        self._dirty = True
+
+    def _on_reset(self) -> None:
+        self._embedded[:] = self.rest_positions
+        self._update_fem()
+
+    def _update_fem(self) -> None:
+        node = self._load_node
+        if node < 0:
+            self._u[:] = 0.0
+        else:
+            self._load_nodes[:] = self.load_volume_nodes[node]
+            np.multiply(self.load_weights[node][:, None], self.forces[node][None, :], out=self._load_forces)
+            self.fem.point_load_response(self._load_nodes, self._load_forces, output_nodes=self.output_nodes,
+                                         out=self._u)
+        c = self.control_count
+        np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
+        if self.warm_start:
+            map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
+                         self._embedded_new)
+            # Move every node by the change of the embedded field (exactly zero when it did not change); the
+            # kernel then overrides the prescribed nodes.
+            np.subtract(self._embedded_new, self._embedded, out=self._delta)
+            self.state.positions += self._delta
+            self._embedded[:] = self._embedded_new
+        self._dirty = False
+
+    def _step(self, dt: float) -> None:
+        if self._dirty:
+            self._update_fem()
+        super()._step(dt)

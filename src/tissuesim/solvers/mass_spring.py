@@ -1,0 +1,181 @@
+"""Mass-spring model (MSM) on the fine surface M_S: the paper's third comparison method (§8.3, ref 17).
+
+Springs:
+
+* **stretch**: one spring per M_S edge (i, j);
+* **bending**: one spring per interior edge across its two opposite vertices (P3, P4 of the hinge of eq 10–12),
+  which resists folding of the two triangles about the edge.
+
+Stiffness from the material (van Gelder 1998, "Approximate simulation of elastic membranes by triangulated spring
+meshes", the formula Lloyd et al. 2007 also start from): a linear-elastic membrane of Young's modulus E and
+thickness h triangulated into springs is best matched by
+
+    k_ij = E h Σ_{T ∋ ij} A_T / |ij|²           [N/m]
+
+summing over the (one or two) triangles T adjacent to the spring. We give the bending spring across P3 P4 the same
+formula over the hinge's two triangles (the spring is the diagonal of the quad they form), so both kinds scale with
+E h and the method has one free scalar: the thickness-like h [m], calibrated against the fine FEM (see
+:mod:`tissuesim.solvers.calibrated`). Spring forces are f = k (|d| − l0) d/|d| (Hooke along the spring).
+
+Masses: the body's mass (density × enclosed volume) spread over the surface nodes in proportion to their lumped
+area (1/3 of each adjacent triangle's area): the surface stands for the whole body, as in the paper's MSM.
+
+Integration: semi-implicit (symplectic) Euler, stable for a substep h_s ≤ 2/ω_max. ω_max² is bounded at set-up by
+Gershgorin's theorem on M^{-1/2} K M^{-1/2} (block norms: a spring of stiffness k between i, j adds k w_i to row i's
+diagonal block and k √(w_i w_j) off it; a stretched spring's tangent never exceeds k), and each step runs
+``ceil(dt / (SAFETY · 2/ω_max))`` substeps inside one Numba call. Damping removes the same fraction of velocity per
+step as in the other methods, spread evenly over the substeps.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ..errors import SolverError
+from .base import Solver, _positive, register
+
+#: Fraction of the explicit stability limit 2/ω_max used as substep.
+SAFETY = 0.5
+#: Default per-step velocity damping: settles the quasi-static solve in few steps (measured, docs/solvers.md).
+DEFAULT_DAMPING = 0.3
+
+
+@njit(cache=True)
+def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, rest, stiffness, dt, substeps,
+                     keep):
+    """One time step ``dt`` [s] of ``substeps`` symplectic-Euler substeps, in place, allocating nothing.
+
+    Args:
+        positions, velocities: ``(n, 3) float64`` [m], [m/s], updated in place.
+        accel: ``(n, 3) float64`` workspace.
+        inv_mass: ``(n,) float64`` [1/kg]; 0 pins a node (it keeps its position and velocity).
+        forces: ``(n, 3) float64`` external forces [N].
+        springs: ``(s, 2) int32`` node pairs; rest: ``(s,)`` rest lengths [m]; stiffness: ``(s,)`` [N/m].
+        keep: velocity factor per substep, (1 − damping)^(1/substeps).
+    """
+    n = positions.shape[0]
+    h = dt / substeps
+    for _ in range(substeps):
+        for i in range(n):
+            accel[i, 0] = forces[i, 0]
+            accel[i, 1] = forces[i, 1]
+            accel[i, 2] = forces[i, 2]
+        for s in range(springs.shape[0]):
+            i = springs[s, 0]
+            j = springs[s, 1]
+            d0 = positions[j, 0] - positions[i, 0]
+            d1 = positions[j, 1] - positions[i, 1]
+            d2 = positions[j, 2] - positions[i, 2]
+            length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+            if length <= 1e-300:
+                continue
+            c = stiffness[s] * (length - rest[s]) / length
+            accel[i, 0] += c * d0
+            accel[i, 1] += c * d1
+            accel[i, 2] += c * d2
+            accel[j, 0] -= c * d0
+            accel[j, 1] -= c * d1
+            accel[j, 2] -= c * d2
+        for i in range(n):
+            w = inv_mass[i]
+            if w == 0.0:
+                continue
+            for k in range(3):
+                v = (velocities[i, k] + h * w * accel[i, k]) * keep
+                velocities[i, k] = v
+                positions[i, k] += h * v
+
+
+def spring_network(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Springs of M_S and the area each spans: ``(s, 2) int32`` nodes, ``(s,)`` rest lengths [m], ``(s,)`` Σ A_T [m²].
+
+    Stretch springs first (every edge, with the area of its adjacent triangles), then one bending spring per edge
+    shared by two triangles, between the two opposite vertices (with the area of those two triangles).
+    """
+    tri = surface.triangles.astype(np.int64)
+    areas = surface.triangle_areas
+    n = surface.vertex_count
+    # Directed edge (a, b) of triangle t, with c the opposite vertex; undirected key low*n + high.
+    a = tri[:, [0, 1, 2]].ravel()
+    b = tri[:, [1, 2, 0]].ravel()
+    c = tri[:, [2, 0, 1]].ravel()
+    t = np.repeat(np.arange(len(tri)), 3)
+    key = np.minimum(a, b) * n + np.maximum(a, b)
+    order = np.argsort(key, kind="stable")
+    key, c, t = key[order], c[order], t[order]
+    unique, first, counts = np.unique(key, return_index=True, return_counts=True)
+    edge_area = np.add.reduceat(areas[t], first)
+    edges = np.stack([unique // n, unique % n], axis=1)
+    hinge = counts == 2
+    opposite = np.stack([c[first[hinge]], c[first[hinge] + 1]], axis=1)
+    hinge_area = edge_area[hinge]
+    springs = np.concatenate([edges, opposite]).astype(np.int32)
+    span = np.concatenate([edge_area, hinge_area])
+    v = surface.vertices
+    rest = np.linalg.norm(v[springs[:, 0]] - v[springs[:, 1]], axis=1)
+    if np.any(rest <= 0.0):
+        raise SolverError("the surface has coincident vertices joined by a spring; merge duplicate vertices first")
+    return springs, rest, span
+
+
+def surface_lumped_mass(surface, density: float) -> np.ndarray:
+    """``(n,) float64`` node masses [kg]: density × enclosed volume, spread by each node's lumped area."""
+    lumped = np.zeros(surface.vertex_count)
+    np.add.at(lumped, surface.triangles.ravel(), np.repeat(surface.triangle_areas / 3.0, 3))
+    total = density * abs(surface.signed_volume)
+    if total <= 0.0 or np.any(lumped <= 0.0):
+        raise SolverError(
+            "cannot lump masses on this surface: it encloses no volume or has vertices in no triangle; "
+            "validate it with tissuesim.mesh.validate.validate_surface"
+        )
+    return total * lumped / lumped.sum()
+
+
+@register("mass-spring")
+class MassSpringSolver(Solver):
+    """Mass-spring model on M_S (see the module docstring).
+
+    Options (besides the common ones of :class:`~tissuesim.solvers.base.Solver`):
+        thickness: h [m] of the spring-stiffness formula k = E h Σ A_T / l²; default the calibrated value
+            :data:`tissuesim.solvers.calibrated.MASS_SPRING_THICKNESS`.
+        damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
+    """
+
+    def __init__(self, hybrid_mesh, *, thickness: float | None = None, damping: float = DEFAULT_DAMPING, **common):
+        super().__init__(hybrid_mesh, damping=damping, **common)
+        if thickness is None:
+            from .calibrated import MASS_SPRING_THICKNESS as thickness
+        self.thickness = _positive("thickness", thickness, "m")
+        surface = hybrid_mesh.surface
+        self.springs, self.rest_lengths, span = spring_network(surface)
+        self.stiffness = self.youngs_modulus * self.thickness * span / self.rest_lengths**2
+        self.mass = surface_lumped_mass(surface, self.density)
+        self.inv_mass = 1.0 / self.mass
+        self.inv_mass[self.fixed] = 0.0
+        self.omega_max = _omega_bound(self.springs, self.stiffness, self.inv_mass)
+        self._accel = np.zeros_like(self.state.positions)
+
+    def substeps(self, dt: float) -> int:
+        """Substeps per step of ``dt`` [s] that keep symplectic Euler stable."""
+        if self.omega_max == 0.0:
+            return 1
+        return max(1, math.ceil(dt / (SAFETY * 2.0 / self.omega_max)))
+
+    def _step(self, dt: float) -> None:
+        substeps = self.substeps(dt)
+        keep = (1.0 - self.damping) ** (1.0 / substeps)
+        mass_spring_step(self.state.positions, self.state.velocities, self._accel, self.inv_mass, self.forces,
+                         self.springs, self.rest_lengths, self.stiffness, dt, substeps, keep)
+
+
+def _omega_bound(springs, stiffness, inv_mass) -> float:
+    """Upper bound [rad/s] of the highest natural frequency (Gershgorin on M^{-1/2} K M^{-1/2}, block norms)."""
+    wi, wj = inv_mass[springs[:, 0]], inv_mass[springs[:, 1]]
+    cross = np.sqrt(wi * wj)
+    row = np.zeros(len(inv_mass))
+    np.add.at(row, springs[:, 0], stiffness * (wi + cross))
+    np.add.at(row, springs[:, 1], stiffness * (wj + cross))
+    return float(np.sqrt(row.max()))

@@ -1,0 +1,121 @@
+"""Position-based surface methods: the shared surface layer, and the ``pbd`` method (the paper's PBD baseline).
+
+The surface layer is M_S with a stretch constraint per edge (eq 8–9) and a bending constraint per interior edge
+(eq 10–12), stepped by one Numba call per time step (:mod:`tissuesim.pbd.kernels`: eq 15, 16, prescribed nodes
+as eq 17's first case, Gauss–Seidel projection, eq 18). Two forms (option ``form``):
+
+* ``"xpbd"`` (default): XPBD compliance from the material, the layer being a membrane + shell of thickness h
+  (:mod:`tissuesim.pbd.compliance`); the one free scalar is ``thickness`` h [m]. Its equilibrium is that of a
+  physical elastic layer and does not depend on dt (in the converged limit of the iterations);
+* ``"pbd"``: the paper's stiffness coefficients; the one free scalar is ``stiffness`` k in (0, 1], used for both
+  stretch and bending (Müller's per-iteration correction makes it independent of the iteration count, not of dt).
+
+Masses: the body's mass (density × enclosed volume) spread over the surface nodes by lumped area
+(:func:`~tissuesim.solvers.mass_spring.surface_lumped_mass`), the same for every surface method and independent of
+the calibrated scalar. The load enters by eq 15 (v += f dt w) on the loaded node.
+
+``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SolverError
+from .base import Solver, _positive, register
+from .mass_spring import surface_lumped_mass
+
+FORMS = ("xpbd", "pbd")
+DEFAULT_FORM = "xpbd"
+DEFAULT_ITERATIONS = 10
+#: Default per-step velocity damping (measured to settle quasi-static solves quickly, docs/solvers.md).
+DEFAULT_DAMPING = 0.2
+
+
+class SurfaceLayerSolver(Solver):
+    """A :class:`Solver` whose M_S is projected by the PBD/XPBD kernels; subclasses choose the prescribed nodes.
+
+    Options (besides the common ones):
+        form: ``"xpbd"`` or ``"pbd"``.
+        iterations: Gauss–Seidel sweeps per step (≥ 1).
+        thickness: XPBD layer thickness h [m]; default: the calibrated value of this method.
+        stiffness: PBD stiffness coefficient k in (0, 1]; default: the calibrated value of this method.
+
+    Attributes:
+        prescribed: ``(k,) int64`` M_S nodes set to ``targets`` each step (inverse mass 0).
+        targets: ``(k, 3) float64`` their positions [m].
+    """
+
+    def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
+                 thickness: float | None = None, stiffness: float | None = None,
+                 damping: float = DEFAULT_DAMPING, **common):
+        super().__init__(hybrid_mesh, damping=damping, **common)
+        from ..pbd.compliance import shell_compliance
+        from ..pbd.topology import SurfaceConstraints
+
+        if form not in FORMS:
+            raise SolverError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
+        if int(iterations) != iterations or int(iterations) < 1:
+            raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
+        self.form = form
+        self.iterations = int(iterations)
+        self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
+        calibrated = self._calibrated()
+        if form == "xpbd":
+            if stiffness is not None:
+                raise SolverError("stiffness is the pbd form's parameter; the xpbd form takes thickness [m]")
+            self.thickness = _positive("thickness", calibrated if thickness is None else thickness, "m")
+            self.stiffness = None
+            self.stretch_compliance, self.bend_compliance = shell_compliance(
+                self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                thickness=self.thickness)
+        else:
+            if thickness is not None:
+                raise SolverError("thickness is the xpbd form's parameter; the pbd form takes stiffness in (0, 1]")
+            value = calibrated if stiffness is None else stiffness
+            if not (np.isfinite(value) and 0.0 < value <= 1.0):
+                raise SolverError(f"stiffness must lie in (0, 1], got {value!r}")
+            self.stiffness = float(value)
+            self.thickness = None
+        self.mass = surface_lumped_mass(hybrid_mesh.surface, self.density)
+        self.inv_mass = 1.0 / self.mass
+        self.prescribed = np.zeros(0, dtype=np.int64)
+        self.targets = np.zeros((0, 3))
+        self._predicted = np.zeros_like(self.state.positions)
+        self._lambda_stretch = np.zeros(self.constraints.stretch_count)
+        self._lambda_bend = np.zeros(self.constraints.bending_count)
+
+    def _calibrated(self) -> float:
+        from . import calibrated
+
+        return calibrated.value(self.name, self.form)
+
+    def _set_prescribed(self, nodes: np.ndarray) -> None:
+        """Prescribe ``nodes`` (M_S indices), at rest until the subclass moves ``targets``."""
+        self.prescribed = np.ascontiguousarray(nodes, dtype=np.int64)
+        self.targets = np.array(self.rest_positions[self.prescribed])
+        self.inv_mass = 1.0 / self.mass
+        self.inv_mass[self.prescribed] = 0.0
+
+    def _step(self, dt: float) -> None:
+        from ..pbd.kernels import pbd_step, xpbd_step
+
+        c, s = self.constraints, self.state
+        if self.form == "xpbd":
+            xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
+                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
+                      self.stretch_compliance, c.bending, c.rest_angle, self.bend_compliance,
+                      self._lambda_stretch, self._lambda_bend)
+        else:
+            pbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
+                     self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length, self.stiffness,
+                     c.bending, c.rest_angle, self.stiffness)
+
+
+@register("pbd")
+class PBDSolver(SurfaceLayerSolver):
+    """PBD on M_S alone: fixed nodes pinned at rest, every other node projected (see the module docstring)."""
+
+    def __init__(self, hybrid_mesh, **options):
+        super().__init__(hybrid_mesh, **options)
+        self._set_prescribed(self.fixed)
