@@ -483,7 +483,9 @@ def _closest_point_triangle(px, py, pz, P, a, b, c):
             denom = 1.0 / (va + vb + vc)
             v = vb * denom
             w = vc * denom
-            u = 1.0 - v - w
+            u = max(0.0, 1.0 - v - w)       # round-off must not make a weight negative
+            total = u + v + w
+            u, v, w = u / total, v / total, w / total
     qx = u * ax + v * P[b, 0] + w * P[c, 0]
     qy = u * ay + v * P[b, 1] + w * P[c, 1]
     qz = u * az + v * P[b, 2] + w * P[c, 2]
