@@ -119,6 +119,13 @@ def _verdict(data: dict) -> list[str]:
     if speedup:
         lines.append(f"Per step, the fine FEM costs {min(speedup):.2g}–{max(speedup):.2g}× the hybrid's time "
                      "(paper: 2.1–6.3×).")
+    unsettled = [r for r in data["records"] if r.get("converged") is False]
+    if unsettled:
+        cap = data["metadata"]["options"].get("max_steps")
+        lines.append(f"{len(unsettled)} quasi-static solves did not settle within {cap} steps and are measured at "
+                     "their last positions: " + ", ".join(f"{LABELS.get(r['method'], r['method'])} on {r['model']} "
+                                                          f"{r['load']} {r['force_N']:g} N" for r in unsettled)
+                     + ".")
     rel = [r["relative_rmse"] for r in data["records"] if r["method"] == "hybrid" and r["relative_rmse"] is not None]
     if rel:
         lines.append(f"The hybrid's RMSE is {100 * min(rel):.3g}–{100 * max(rel):.3g} % of the reference's RMS "

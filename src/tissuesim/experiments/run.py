@@ -40,6 +40,7 @@ SURFACE_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 # The reduced sweep of ``--quick``: coarser models, two forces (one small, one large deformation), fewer steps.
 QUICK_RESOLUTION = 400
 QUICK_FORCES_N = (1.0, 10.0)
+QUICK_MAX_STEPS = 1000
 
 
 @dataclass(frozen=True)
@@ -56,6 +57,9 @@ class ExperimentConfig:
         dt: time step of the timed steps [s]; None: each solver's own default (0.01 s, 100 Hz).
         warmup_steps: untimed steps before timing.
         timing_steps: timed steps per case and method (the median is reported).
+        max_steps: cap on the steps of one quasi-static solve (30 s of simulated time at 0.01 s). A solver that
+            has not settled by then is recorded with its last positions and ``converged: false`` rather than
+            stopping the whole sweep; the report lists such cases.
         solver_options: per-method keyword options for ``make_solver`` (default: the calibrated defaults).
     """
 
@@ -68,6 +72,7 @@ class ExperimentConfig:
     dt: float | None = None
     warmup_steps: int = 5
     timing_steps: int = 30
+    max_steps: int = 3000
     solver_options: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -84,6 +89,8 @@ class ExperimentConfig:
         protocol.load_cases(self.forces, self.loads)  # validates the forces
         if self.dt is not None and not (self.dt > 0 and np.isfinite(self.dt)):
             raise SolverError(f"dt must be a positive number of seconds, got {self.dt!r}")
+        if self.max_steps < 1:
+            raise SolverError(f"max_steps must be at least 1, got {self.max_steps}")
         if self.warmup_steps < 0 or self.timing_steps < 1:
             raise SolverError(f"need warmup_steps ≥ 0 and timing_steps ≥ 1, got {self.warmup_steps}, "
                               f"{self.timing_steps}")
@@ -94,8 +101,9 @@ class ExperimentConfig:
 
     @classmethod
     def quick(cls, **overrides) -> "ExperimentConfig":
-        """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps."""
-        settings = dict(resolution=QUICK_RESOLUTION, forces=QUICK_FORCES_N, warmup_steps=2, timing_steps=5)
+        """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps, at most 1000 steps a solve."""
+        settings = dict(resolution=QUICK_RESOLUTION, forces=QUICK_FORCES_N, warmup_steps=2, timing_steps=5,
+                        max_steps=QUICK_MAX_STEPS)
         settings.update(overrides)
         return cls(**settings)
 
@@ -179,7 +187,7 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
                         "rmse_mm": 1e3 * protocol.rmse(positions, target, rmse_nodes),
                         "relative_rmse": _finite_or_none(protocol.relative_rmse(positions, target, rest, rmse_nodes)),
                         "step_ms": record["step_ms"], "equilibrium_ms": record["equilibrium_ms"],
-                        "equilibrium_steps": record["equilibrium_steps"],
+                        "equilibrium_steps": record["equilibrium_steps"], "converged": record["converged"],
                         "displacements_mm": [float(d) for d in 1e3 * protocol.displacements(positions, rest,
                                                                                             plot_nodes)],
                     })
@@ -199,11 +207,20 @@ def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfi
     """Equilibrium positions and time, then the median step time with the load set, of one solver in one case."""
     force = case.vector
     solver.reset()
+    solver.last_solve = None
     start = time.perf_counter()
-    positions = np.array(solver.solve_static(node, force), dtype=np.float64)
+    try:
+        positions = np.array(solver.solve_static(node, force, max_steps=config.max_steps), dtype=np.float64)
+    except SolverError:
+        # Not settled within max_steps: keep the last (finite) positions and say so; anything else is re-raised.
+        report = solver.last_solve
+        if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
+            raise
+        positions = np.array(solver.positions, dtype=np.float64)
     equilibrium_ms = 1e3 * (time.perf_counter() - start)
-    report = getattr(solver, "last_solve", None)
+    report = solver.last_solve
     steps = int(report.steps) if report is not None else None
+    converged = bool(report.converged) if report is not None else True
     if positions.shape != np.shape(solver.rest_positions) or not np.all(np.isfinite(positions)):
         raise SolverError(f"{type(solver).__name__} returned non-finite or misshapen positions for {case.label}")
     solver.reset()
@@ -218,7 +235,7 @@ def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfi
     solver.clear_load()
     solver.reset()
     return {"positions": positions, "equilibrium_ms": equilibrium_ms, "equilibrium_steps": steps,
-            "step_ms": 1e3 * float(np.median(times))}
+            "converged": converged, "step_ms": 1e3 * float(np.median(times))}
 
 
 def _record_order(names, loads, methods):

@@ -12,7 +12,8 @@
 ``rmse_mm`` is eq 26 over the 50 sample nodes against ``fem`` [mm]; ``relative_rmse`` divides it by the reference's
 RMS displacement over the same nodes (null when that is zero); ``step_ms`` is the median time of one ``step(dt)``
 with the load set [ms]; ``equilibrium_ms`` is the wall time of ``solve_static`` [ms]; ``displacements_mm`` is eq 25
-for the 10 plot sample nodes, nearest first [mm].
+for the 10 plot sample nodes, nearest first [mm]. Optional extras: ``equilibrium_steps`` (steps the quasi-static
+solve took) and ``converged`` (false when it hit the step cap; its last positions are what is measured).
 """
 
 from __future__ import annotations
