@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import logging
 import math
+from contextlib import redirect_stderr, redirect_stdout
+from io import StringIO
 from pathlib import Path
 
 import numpy as np
@@ -155,11 +157,16 @@ def _read_polygons(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
                         f"{', '.join(SURFACE_EXTENSIONS)}")
     import meshio
 
+    chatter = StringIO()
     try:
-        mesh = meshio.read(path, file_format=_MESHIO_FORMATS[ext])
-    except Exception as exc:  # meshio raises many types (ReadError, ValueError, struct.error, ...)
-        reason = " ".join(str(exc).split()) or type(exc).__name__
-        raise MeshError(f"cannot read {path} as {ext[1:].upper()}: {reason}") from exc
+        # meshio prints its diagnosis and may call sys.exit(1) on a file it cannot parse: capture both.
+        with redirect_stdout(chatter), redirect_stderr(chatter):
+            mesh = meshio.read(path, file_format=_MESHIO_FORMATS[ext])
+    except (Exception, SystemExit) as exc:  # ReadError, ValueError, struct.error, SystemExit, ...
+        printed = chatter.getvalue().strip().splitlines()
+        reason = (printed[0] if printed else "") if isinstance(exc, SystemExit) else str(exc)
+        reason = " ".join(reason.split()) or type(exc).__name__
+        raise MeshError(f"cannot read {path} as {ext[1:].upper()}: {reason}") from None
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.ndim == 2 and points.shape[1] == 2:
         raise MeshError(f"{path}: the points are 2D; a surface needs x, y, z coordinates")
