@@ -61,7 +61,7 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
     """
     if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
         raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
-    vertices, polygons = _read_polygons(Path(path))
+    vertices, polygons = read_polygons(Path(path))
     surface = surface_from_polygons(vertices * float(scale), polygons, source=str(path))
     from .mesh.validate import validate_surface
 
@@ -143,8 +143,13 @@ def write_surface(path, surface: SurfaceMesh) -> None:
 # -----------------------------------------------------------------------------------------------------------------
 
 
-def _read_polygons(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
-    """``(vertices (n, 3) float64 in file units, face blocks)`` from a file, 0-based indices."""
+def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The file's raw content, unmerged, unscaled and unvalidated, for diagnosing a file ``read_surface`` refuses.
+
+    Returns ``(vertices, blocks)``: ``(n, 3) float64`` positions in the file's unit, and a list of ``(k, c) int64``
+    face blocks of ``c`` corners each (0-based vertex indices). Feed them to :func:`surface_from_polygons`.
+    """
+    path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"surface file not found: {path}")
     if path.is_dir():
