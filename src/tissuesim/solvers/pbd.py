@@ -4,10 +4,10 @@ The surface layer is M_S with a stretch constraint per edge (eq 8–9) and a ben
 (eq 10–12), stepped by one Numba call per time step (:mod:`tissuesim.pbd.kernels`: eq 15, 16, prescribed nodes
 as eq 17's first case, Gauss–Seidel projection, eq 18). Two forms (option ``form``):
 
-* ``"xpbd"`` (default): XPBD compliance from the material, the layer being a membrane + shell of thickness h
+* ``"xpbd"``: XPBD compliance from the material, the layer being a membrane + shell of thickness h
   (:mod:`tissuesim.pbd.compliance`); the one free scalar is ``thickness`` h [m]. Its equilibrium is that of a
   physical elastic layer and does not depend on dt (in the converged limit of the iterations);
-* ``"pbd"``: the paper's stiffness coefficients; the one free scalar is ``stiffness`` k in (0, 1], used for both
+* ``"pbd"`` (default): the paper's stiffness coefficients; the one free scalar is ``stiffness`` k in (0, 1], used for both
   stretch and bending (Müller's per-iteration correction makes it independent of the iteration count, not of dt).
 
 Masses: the body's mass (density × enclosed volume) spread over the surface nodes by lumped area
@@ -26,7 +26,7 @@ from .base import Solver, _positive, register
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
-DEFAULT_FORM = "xpbd"
+DEFAULT_FORM = "pbd"
 DEFAULT_ITERATIONS = 10
 #: Default per-step velocity damping (measured to settle quasi-static solves quickly, docs/solvers.md).
 DEFAULT_DAMPING = 0.2
