@@ -83,3 +83,12 @@ def test_triangle_intersection_predicate():
     # An edge neighbour is never an intersection (the fold test handles it); a duplicate always is.
     assert not _triangles_intersect(P, t, (1, 0, 6))
     assert _triangles_intersect(P, t, (2, 1, 0))
+
+
+def test_aggressive_simplification_of_a_thin_slab_stays_valid():
+    # A 2.5 mm thick slab with ~6 mm edges, simplified tenfold with loose limits: top and bottom must not cross.
+    fine = models.steak(600)
+    thin = fine.with_vertices(fine.vertices * [1.0, 1.0, 0.1])
+    result = simplify(thin, target_vertices=60, max_normal_change=89.0, max_fold=179.0, min_quality=0.01)
+    assert result.surface.vertex_count == 60
+    validate_surface(result.surface)
