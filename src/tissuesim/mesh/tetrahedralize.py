@@ -56,7 +56,7 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
     if "Q" not in switches:
         switches += "Q"
     try:
-        with _quiet_stdout():
+        with _quiet_stdout(), _scratch_directory():
             nodes, elems, *_ = tetgen.TetGen(surface.vertices, surface.triangles).tetrahedralize(switches=switches)
     except (RuntimeError, ValueError) as error:
         raise MeshError(
@@ -87,6 +87,18 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
             f"{first_indices(extra)}), {missing.size} surface vertices not on the boundary (first: "
             f"{first_indices(missing)}); the surface is probably not a closed manifold")
     return volume, surface_nodes
+
+
+@contextmanager
+def _scratch_directory():
+    """Run inside a temporary working directory: on failure TetGen writes ``tetgen-tmpfile_skipped.*`` to the cwd."""
+    previous = os.getcwd()
+    with tempfile.TemporaryDirectory(prefix="tissuesim-tetgen-") as scratch:
+        os.chdir(scratch)
+        try:
+            yield
+        finally:
+            os.chdir(previous)
 
 
 @contextmanager
