@@ -12,10 +12,10 @@ Choices where the paper is silent:
 * **Self-intersection** (Devillers-Guigue orientation predicates in plain float64, no exact arithmetic):
   triangle pairs sharing no vertex intersect if they share any point (touching counts); pairs sharing one vertex
   intersect if they share any point other than that vertex (tested by the edge opposite the shared vertex of each
-  against the other triangle, which is complete: see :func:`_shared_vertex_intersect`); pairs sharing an edge
+  against the other triangle, which is complete: see :func:`_pair_intersects`); pairs sharing an edge
   intersect only if they are coplanar (orientation exactly 0.0) and folded onto each other; pairs with the same
-  three vertices (duplicate faces) always intersect. Broad phase: sweep and prune over the triangles' bounding
-  boxes sorted along their longest extent, all in Numba.
+  three vertices (duplicate faces) always intersect. Broad phase: the triangles' bounding boxes in a uniform grid
+  (cell side twice the median box size), each overlapping pair tested once, in Numba.
 * **Components** are vertex-connected pieces (two tetrahedra sharing one vertex are one component with a
   non-manifold vertex).
 """
