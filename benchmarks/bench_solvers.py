@@ -1,0 +1,99 @@
+"""Per-step time of every method on one hybrid mesh, same iteration count, same run; ratios as issue 4 asks.
+
+Prints: hybrid step / pbd step (paper 3.8 / 2.4 ms ≈ 1.6; aim ≤ 1.2), fem solve / hybrid step, our pbd step / a
+pypbd step (PositionBasedDynamics, same distance + dihedral constraints and iterations; timed by
+benchmarks/bench_pbd.py's own routine), and the embedded and mass-spring steps. The hybrid is timed twice: with a
+constant load (the FEM part is cached) and with the load changed before every step (a pin-head drag: one FEM fast-
+path evaluation per step). CPU time, fastest of several blocks (shared machines). Asserts nothing about time.
+
+    python benchmarks/bench_solvers.py [--model sphere] [--iterations 10] [--steps 100] [--bundle FILE]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import numpy as np
+
+from tissuesim import HybridMesh, make_solver
+from tissuesim.experiments.protocol import load_node
+from tissuesim.mesh import models
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+
+def best_of(step, steps, repeats=5):
+    blocks = []
+    for _ in range(repeats):
+        start = time.process_time()
+        for _ in range(steps):
+            step()
+        blocks.append((time.process_time() - start) / steps)
+    return float(np.min(blocks))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--model", default="sphere")
+    parser.add_argument("--iterations", type=int, default=10)
+    parser.add_argument("--steps", type=int, default=100)
+    parser.add_argument("--bundle", type=Path, default=None)
+    args = parser.parse_args(argv)
+    h = HybridMesh.load(args.bundle) if args.bundle else HybridMesh.build(models.model(args.model))
+    s = h.surface
+    node = load_node(s.vertices, s.triangles)
+    print(f"{args.model}: M_S {s.vertex_count} vertices, M_V {h.volume.node_count} nodes / {h.volume.element_count} "
+          f"tets, fine volume {h.fine_volume.node_count} nodes / {h.fine_volume.element_count} tets; "
+          f"{args.iterations} iterations")
+    times = {}
+    for label, method, options in [
+        ("pbd", "pbd", {"iterations": args.iterations}),
+        ("pbd xpbd", "pbd", {"iterations": args.iterations, "form": "xpbd"}),
+        ("hybrid", "hybrid", {"iterations": args.iterations}),
+        ("hybrid xpbd", "hybrid", {"iterations": args.iterations, "form": "xpbd"}),
+        ("hybrid no warm start", "hybrid", {"iterations": args.iterations, "warm_start": False}),
+        ("mass-spring", "mass-spring", {}),
+        ("embedded", "embedded", {}),
+        ("fem", "fem", {}),
+    ]:
+        solver = make_solver(method, h, **options)
+        solver.set_load(node, [0.0, 0.0, -1.0])
+        solver.step()  # compile, cache FEM columns
+        steps = max(5, args.steps // 10) if method == "fem" else args.steps
+        times[label] = best_of(solver.step, steps)
+        if method == "hybrid" and "xpbd" not in label:
+            forces = [np.array([0.0, 0.0, -1.0 - 1e-3 * k]) for k in range(steps)]
+            counter = iter(range(10**9))
+
+            def drag():
+                solver.set_load(node, forces[next(counter) % steps])
+                solver.step()
+
+            times[label + " (load changed every step)"] = best_of(drag, steps)
+    for label, t in times.items():
+        print(f"  {label:45s} {1e3 * t:8.3f} ms/step")
+    print(f"hybrid / pbd step:                 {times['hybrid'] / times['pbd']:.2f} (paper 1.6; aim <= 1.2)")
+    print(f"hybrid (drag) / pbd step:          {times['hybrid (load changed every step)'] / times['pbd']:.2f}")
+    print(f"fem solve / hybrid step:           {times['fem'] / times['hybrid']:.2f}")
+    print(f"embedded step / hybrid step:       {times['embedded'] / times['hybrid']:.2f}")
+    try:
+        from bench_pbd import time_pypbd
+        from tissuesim.pbd.topology import SurfaceConstraints
+
+        theirs, count = time_pypbd(s, SurfaceConstraints.from_surface(s), iterations=args.iterations,
+                                   steps=args.steps)
+        print(f"pypbd step ({count} constraints):  {1e3 * theirs:.3f} ms; our pbd / pypbd: "
+              f"{times['pbd'] / theirs:.2f} (aim <= 0.5)")
+    except ImportError as error:
+        print(f"pypbd comparison skipped: {error}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
