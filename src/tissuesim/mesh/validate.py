@@ -305,11 +305,11 @@ def _triangle_triangle(v, p1, q1, r1, p2, q2, r2):
     elif dr1 < 0.0:
         p1, q1, r1, swap = r1, p1, q1, True
     else:
-        return _coplanar_intersect(v, coplanar, 3)
+        dp2 = dq2 = dr2 = 0.0  # coplanar: fall through to the single coplanar test below
     if swap:
         q2, r2, dq2, dr2 = r2, q2, dr2, dq2
     # Now rotate triangle 2 so that p2 is alone on its side of plane 1; "flip" swaps q1 and r1.
-    flip = False
+    flip = coplanar_case = False
     if dp2 > 0.0:
         if dq2 > 0.0:
             p2, q2, r2, flip = r2, p2, q2, True
@@ -335,6 +335,8 @@ def _triangle_triangle(v, p1, q1, r1, p2, q2, r2):
     elif dr2 < 0.0:
         p2, q2, r2, flip = r2, p2, q2, True
     else:
+        coplanar_case = True
+    if coplanar_case:  # one call site: each inlined copy of the 2D test costs seconds of compile
         return _coplanar_intersect(v, coplanar, 3)
     if flip:
         q1, r1 = r1, q1
@@ -378,7 +380,11 @@ def _pair_intersects(v, t, a, b):
         a1, a2 = t[a, (ia0 + 1) % 3], t[a, (ia0 + 2) % 3]
         b1, b2 = t[b, (ib0 + 1) % 3], t[b, (ib0 + 2) % 3]
         s = t[a, ia0]
-        return _segment_triangle(v, a1, a2, s, b1, b2) or _segment_triangle(v, b1, b2, s, a1, a2)
+        for _ in range(2):  # a loop, not two calls: one inlined copy of the segment test
+            if _segment_triangle(v, a1, a2, s, b1, b2):
+                return True
+            a1, a2, b1, b2 = b1, b2, a1, a2
+        return False
     if shared == 2:
         # Different planes meet only along the shared edge's line; coplanar ones overlap iff folded onto each other.
         e0, e1 = t[a, ia0], t[a, ia1]
