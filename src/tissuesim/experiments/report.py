@@ -147,6 +147,13 @@ def _differences(data: dict) -> list[str]:
             lines.append(f"{name}: ours differs from the paper's by more than a factor 2 on {', '.join(far)}.")
         else:
             lines.append(f"{name}: ours is within a factor 2 of the paper's on every model with published figures.")
+    for method in ("hybrid", "pbd", "mass-spring"):
+        scale = [r["rmse_mm"] / paper.rmse_mm(r["model"], r["load"], r["force_N"], method) for r in data["records"]
+                 if r["method"] == method and paper.rmse_mm(r["model"], r["load"], r["force_N"], method)]
+        if scale:
+            lines.append(f"Absolute RMSE of {LABELS[method]}: ours is {min(scale):.3g}–{max(scale):.3g}× the paper's "
+                         "figure for the same case (different meshes, sizes and calibration: compare ratios and the "
+                         "relative RMSE rather than millimetres).")
     linear = _linearity(data)
     if linear:
         lines.append("RMSE per newton of the linear methods (largest / smallest over forces, 1 = exactly linear): "

@@ -40,7 +40,7 @@ SURFACE_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 # The reduced sweep of ``--quick``: coarser models, two forces (one small, one large deformation), fewer steps.
 QUICK_RESOLUTION = 400
 QUICK_FORCES_N = (1.0, 10.0)
-QUICK_MAX_STEPS = 1000
+QUICK_MAX_STEPS = 500
 
 
 @dataclass(frozen=True)
@@ -57,7 +57,7 @@ class ExperimentConfig:
         dt: time step of the timed steps [s]; None: each solver's own default (0.01 s, 100 Hz).
         warmup_steps: untimed steps before timing.
         timing_steps: timed steps per case and method (the median is reported).
-        max_steps: cap on the steps of one quasi-static solve (30 s of simulated time at 0.01 s). A solver that
+        max_steps: cap on the steps of one quasi-static solve (10 s of simulated time at 0.01 s). A solver that
             has not settled by then is recorded with its last positions and ``converged: false`` rather than
             stopping the whole sweep; the report lists such cases.
         solver_options: per-method keyword options for ``make_solver`` (default: the calibrated defaults).
@@ -72,7 +72,7 @@ class ExperimentConfig:
     dt: float | None = None
     warmup_steps: int = 5
     timing_steps: int = 30
-    max_steps: int = 3000
+    max_steps: int = 1000
     solver_options: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -101,7 +101,7 @@ class ExperimentConfig:
 
     @classmethod
     def quick(cls, **overrides) -> "ExperimentConfig":
-        """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps, at most 1000 steps a solve."""
+        """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps, at most 500 steps a solve."""
         settings = dict(resolution=QUICK_RESOLUTION, forces=QUICK_FORCES_N, warmup_steps=2, timing_steps=5,
                         max_steps=QUICK_MAX_STEPS)
         settings.update(overrides)
