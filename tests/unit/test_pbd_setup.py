@@ -24,7 +24,8 @@ def sphere():
 def test_closed_surface_has_one_hinge_per_edge_with_consistent_rest_values(sphere):
     surface, c = sphere
     assert c.stretch_count == c.bending_count == 3 * surface.triangle_count // 2
-    assert np.array_equal(c.edges, surface.edges)
+    assert np.array_equal(np.unique(c.edges, axis=0), surface.edges)  # every edge once (interleaved order)
+    assert np.allclose(c.rest_length, np.linalg.norm(np.subtract(*surface.vertices[c.edges.T]), axis=1))
     assert np.array_equal(np.sort(c.bending[:, :2], axis=1), c.edges[c.hinge_edge])
     for h in (0, 7, c.bending_count - 1):
         assert c.rest_angle[h] == pytest.approx(C.dihedral_angle(*surface.vertices[c.bending[h]]), abs=1e-14)
@@ -52,6 +53,15 @@ def test_non_manifold_and_zero_length_edges_are_refused():
     dup = SurfaceMesh(np.array([[0, 0, 0], [0, 0, 0], [0, 1, 0]], dtype=float), np.array([[0, 1, 2]]))
     with pytest.raises(MeshError, match="zero length"):
         SurfaceConstraints.from_surface(dup)
+
+
+def test_interleaved_order_is_a_permutation():
+    from tissuesim.pbd.topology import interleaved_order
+
+    for count in (0, 1, 2, 7, 10):
+        order = interleaved_order(count)
+        assert sorted(order.tolist()) == list(range(count))
+    assert interleaved_order(5).tolist() == [0, 3, 1, 4, 2]
 
 
 # ---------------------------------------------------------------- compliance

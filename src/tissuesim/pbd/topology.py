@@ -1,10 +1,13 @@
 """Static constraint data of a fine surface M_S: stretch edges (eq 8) and bending hinges (eq 10), with rest values.
 
-Gauss–Seidel order (the order the kernels sweep, which the result of a finite number of sweeps depends on):
-stretch constraints follow :attr:`SurfaceMesh.edges` — edges sorted ``(low, high)`` in lexicographic order — and
-hinges follow the same order (one per interior edge). Sweeping by increasing lowest vertex index walks the position
-array front to back, which is cache friendly for any mesh whose vertex order has some locality (the built-in models
-and TetGen/trimesh outputs do); no colouring is needed because the sweep is sequential.
+Gauss–Seidel order (the order the kernels sweep, which the result of a finite number of sweeps depends on): start
+from :attr:`SurfaceMesh.edges` — edges sorted ``(low, high)`` in lexicographic order — and the hinges in the same
+order (one per interior edge), then interleave the first and second halves of each list: 0, m/2, 1, m/2 + 1, ...
+Why: in lexicographic order consecutive constraints share their low vertex, so each projection waits for the
+previous one's writes (a latency chain); interleaving two far-apart halves lets the CPU overlap two independent
+projections while each half still walks the position array front to back (cache friendly for any mesh whose
+vertex order has some locality). Measured: ~20 % less time per sweep on a 10k-vertex sphere, the same as a full
+greedy colouring (docs/pbd.md). No colouring is needed for correctness because the sweep is sequential.
 """
 
 from __future__ import annotations
@@ -113,6 +116,15 @@ class SurfaceConstraints:
         bending = np.stack([a[h1], b[h1], opp[h1], opp[h2]], axis=1).astype(np.int32)
         hinge_area = areas[tri_of[h1]] + areas[tri_of[h2]]
 
+        # Gauss–Seidel order (module docstring): interleave the halves of both lists.
+        edge_order = interleaved_order(len(edges))
+        hinge_order = interleaved_order(len(bending))
+        new_index = np.empty(len(edges), dtype=np.int64)
+        new_index[edge_order] = np.arange(len(edges))
+        edges, edge_area = edges[edge_order], edge_area[edge_order]
+        bending, hinge_area = bending[hinge_order], hinge_area[hinge_order]
+        interior = new_index[interior[hinge_order]]
+
         vertices = np.ascontiguousarray(surface.vertices)
         edges32 = edges.astype(np.int32)
         rest_length = edge_lengths(vertices, edges32)
@@ -123,3 +135,12 @@ class SurfaceConstraints:
         rest_angle = dihedral_angles(vertices, bending)
         return cls(vertex_count=n, edges=edges32, rest_length=rest_length, edge_area=edge_area, bending=bending,
                    rest_angle=rest_angle, hinge_edge=interior.astype(np.int32), hinge_area=hinge_area)
+
+
+def interleaved_order(count: int) -> np.ndarray:
+    """``(count,) int64`` the permutation 0, h, 1, h + 1, 2, ... with h = ⌈count/2⌉ (see the module docstring)."""
+    half = -(-count // 2)
+    order = np.empty(count, dtype=np.int64)
+    order[0::2] = np.arange(half)
+    order[1::2] = np.arange(half, count)
+    return order
