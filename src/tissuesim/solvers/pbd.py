@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
+from ..pbd.kernels import pbd_step, xpbd_step
 from .base import Solver, _positive, register
 from .mass_spring import surface_lumped_mass
 
@@ -98,8 +99,6 @@ class SurfaceLayerSolver(Solver):
         self.inv_mass[self.prescribed] = 0.0
 
     def _step(self, dt: float) -> None:
-        from ..pbd.kernels import pbd_step, xpbd_step
-
         c, s = self.constraints, self.state
         if self.form == "xpbd":
             xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
