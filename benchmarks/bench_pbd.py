@@ -36,7 +36,7 @@ def _perturbed(surface, seed=0):
     return surface.vertices + rng.normal(scale=0.05 * mean_edge, size=surface.vertices.shape)
 
 
-def time_ours(surface, c, *, iterations, steps, form):
+def ours_stepper(surface, c, *, iterations, form):
     n = surface.vertex_count
     x0 = _perturbed(surface)
     x, v, pred, f = x0.copy(), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
@@ -57,25 +57,27 @@ def time_ours(surface, c, *, iterations, steps, form):
     step()  # compile / load the cache
     x[:] = x0
     v[:] = 0.0
-    return _best_of(step, steps)
+    return step
 
 
-def _best_of(step, steps, repeats=7):
-    """Fastest of ``repeats`` blocks of the mean step time in a block [s], in this process's CPU time.
+def best_of(steppers, steps, repeats=9):
+    """Per stepper, the fastest of ``repeats`` blocks of the mean step time in a block [s], in CPU time.
 
-    CPU time rather than wall time, and the fastest block, because the machines this runs on are often shared: a
-    descheduled process would otherwise be charged for another's work. Both sides run single-threaded.
+    Blocks of the steppers alternate, so a busy machine slows all of them alike; CPU time rather than wall time, and
+    the fastest block, because a descheduled process would otherwise be charged for another's work. Every stepper
+    runs single-threaded.
     """
-    blocks = []
+    best = [float("inf")] * len(steppers)
     for _ in range(repeats):
-        start = time.process_time()
-        for _ in range(steps):
-            step()
-        blocks.append((time.process_time() - start) / steps)
-    return float(np.min(blocks))
+        for k, step in enumerate(steppers):
+            start = time.process_time()
+            for _ in range(steps):
+                step()
+            best[k] = min(best[k], (time.process_time() - start) / steps)
+    return best
 
 
-def time_pypbd(surface, c, *, iterations, steps):
+def pypbd_stepper(surface, c, *, iterations):
     import pypbd as pbd
 
     x0 = _perturbed(surface)
@@ -104,7 +106,7 @@ def time_pypbd(surface, c, *, iterations, steps):
     if np.allclose(before, after):
         raise RuntimeError("pypbd did not move the perturbed surface: constraints not projected")
     count = len(model.getConstraints())
-    return _best_of(lambda: ts.step(model), steps), count
+    return (lambda: ts.step(model)), count
 
 
 def main(argv=None) -> int:
@@ -122,13 +124,17 @@ def main(argv=None) -> int:
         surface = models.sphere(resolution)
         c = SurfaceConstraints.from_surface(surface)
         constraints = c.stretch_count + c.bending_count
-        ours = time_ours(surface, c, iterations=args.iterations, steps=args.steps, form="pbd")
-        ours_x = time_ours(surface, c, iterations=args.iterations, steps=args.steps, form="xpbd")
+        steppers = [ours_stepper(surface, c, iterations=args.iterations, form="pbd"),
+                    ours_stepper(surface, c, iterations=args.iterations, form="xpbd")]
         try:
-            theirs, count = time_pypbd(surface, c, iterations=args.iterations, steps=args.steps)
+            theirs_step, count = pypbd_stepper(surface, c, iterations=args.iterations)
             assert count == constraints, (count, constraints)
+            steppers.append(theirs_step)
         except ImportError:
-            theirs = float("nan")
+            print("pypbd is not installed (pip install pypbd); timing ours only")
+        times = best_of(steppers, args.steps)
+        ours, ours_x = times[:2]
+        theirs = times[2] if len(times) > 2 else float("nan")
         per = 1e9 / (constraints * args.iterations)
         print(f"{surface.vertex_count:>8} {constraints:>11} {ours * 1e3:>11.3f} {ours_x * 1e3:>12.3f} "
               f"{theirs * 1e3:>9.3f} {ours / theirs:>9.3f} {ours_x / theirs:>10.3f} {ours * per:>12.1f} "
