@@ -158,3 +158,18 @@ def test_write_outputs_refuses_malformed_results(tmp_path):
     with pytest.raises(ResultsError):
         output.write_outputs(data, tmp_path / "out")
     assert not (tmp_path / "out").exists()
+
+
+def test_radar_clips_a_method_far_off_the_reference():
+    data = synthetic_results(models=("cube",), forces=(1.0,))
+    for record in data["records"]:
+        if record["method"] == "pbd":
+            record["displacements_mm"] = [100.0] * 10  # 50x the reference's largest d
+    figure = plots.radar_figure(data, "cube")
+    ax = figure.get_axes()[0]
+    lines = {line.get_label(): line for line in ax.get_lines()}
+    rim = np.hypot(lines["PBD"].get_xdata(), lines["PBD"].get_ydata())
+    fem = np.hypot(lines["FEM"].get_xdata(), lines["FEM"].get_ydata())
+    assert rim == pytest.approx(np.ones(11))  # drawn at the rim
+    assert fem.max() == pytest.approx(1.0 / plots.CLIP_FACTOR)  # the rim is 3x the reference's largest d
+    assert any("clipped at rim: PBD" in text.get_text() for text in ax.texts)

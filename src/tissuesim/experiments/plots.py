@@ -2,7 +2,8 @@
 
 One PNG per model: a grid of radar subplots, rows = load kinds (tension, pressure), columns = forces. Each spoke is
 one of the 10 sample nodes (nearest the load node first, spoke 1 = the load node itself); the radius is its
-displacement d of eq 25 [mm]; one closed line per method. Matplotlib's Agg backend: no display needed.
+displacement d of eq 25 [mm]; one closed line per method. The rim is at most 3× the reference's largest d: a
+method beyond it is drawn clipped at the rim and named under the subplot. Matplotlib's Agg backend: no display needed.
 """
 
 from __future__ import annotations
@@ -11,7 +12,11 @@ from pathlib import Path
 
 import numpy as np
 
+from .protocol import REFERENCE
 from .tables import LABELS, cases_of, index, methods_of, models_of
+
+# A method whose displacement exceeds this multiple of the reference's largest is drawn clipped at the rim.
+CLIP_FACTOR = 3.0
 
 STYLE = {  # method -> (colour, line style); the reference drawn thick and black, as the paper's FEM line
     "fem": ("black", "-", 2.2),
@@ -52,6 +57,11 @@ def radar_figure(data: dict, model: str):
                 continue
             count = max(len(d) for d in found.values())
             top = max(float(d.max()) for d in found.values()) or 1.0
+            if REFERENCE in found and found[REFERENCE].max() > 0:
+                # Keep the reference readable: a method far off it is clipped at the rim (and named) rather than
+                # shrinking every other line to a dot.
+                top = min(top, CLIP_FACTOR * float(found[REFERENCE].max()))
+            clipped = [LABELS.get(m, m) for m, d in found.items() if d.max() > top * (1 + 1e-9)]
             ticks = [t for t in MaxNLocator(nbins=4).tick_values(0.0, top) if 0 < t]
             outer = ticks[-1] if ticks and ticks[-1] >= top else top
             angles = np.pi / 2 - np.linspace(0.0, 2.0 * np.pi, count, endpoint=False)  # node 1 at the top
@@ -64,15 +74,18 @@ def radar_figure(data: dict, model: str):
                 ax.plot([0.0, np.cos(a)], [0.0, np.sin(a)], color="0.85", linewidth=0.6, zorder=0)
                 ax.text(1.13 * np.cos(a), 1.13 * np.sin(a), str(i + 1), fontsize=7, ha="center", va="center")
             for method, d in found.items():
-                r = np.append(d, d[0]) / outer
+                r = np.minimum(np.append(d, d[0]), outer) / outer
                 a = np.append(angles[: len(d)], angles[0])
                 colour, style, width = STYLE.get(method, ("grey", "-", 1.0))
                 (line,) = ax.plot(r * np.cos(a), r * np.sin(a), color=colour, linestyle=style, linewidth=width,
                                   label=LABELS.get(method, method))
                 handles[method] = line
             ax.set_xlim(-1.25, 1.25)
-            ax.set_ylim(-1.25, 1.25)
+            ax.set_ylim(-1.45, 1.25)
             ax.set_title(f"{load}, {force:g} N (d in mm)", fontsize=9)
+            if clipped:
+                ax.text(0.0, -1.3, f"clipped at rim: {', '.join(clipped)}", fontsize=6.5, ha="center", va="top",
+                        color="0.3")
     figure.legend([handles[m] for m in methods if m in handles], [LABELS.get(m, m) for m in methods if m in handles],
                   loc="lower center", ncols=max(1, len(handles)), fontsize=9, frameon=False)
     figure.suptitle(f"{model}: displacement d (eq 25) of the 10 sample nodes nearest the load node "
