@@ -27,6 +27,8 @@ def add_arguments(parser) -> None:
                         help="surface vertices of the built-in models (default: the paper's Table-1 sizes)")
     parser.add_argument("--scale", default="1", metavar="FACTOR",
                         help="factor from a surface file's unit to metres, e.g. 0.01 for cm (default: 1)")
+    parser.add_argument("--repair", action="store_true",
+                        help="fix what can be fixed safely in a surface file (e.g. inward faces) and say what changed")
     parser.add_argument("--steps", metavar="COUNT", help="timed steps per case and method (default: 30; quick: 5)")
     parser.add_argument("--no-plots", action="store_true", help="skip the radar plots")
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
@@ -58,6 +60,7 @@ def run(args) -> int:
     if args.resolution is not None:
         options["resolution"] = int(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["scale"] = _number(args.scale, "--scale", "factor")
+    options["repair"] = bool(args.repair)
     if args.steps is not None:
         options["timing_steps"] = int(_number(args.steps, "--steps", "steps", integer=True))
     config = ExperimentConfig.quick(**options) if args.quick else ExperimentConfig(**options)

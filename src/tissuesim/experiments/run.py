@@ -54,6 +54,7 @@ class ExperimentConfig:
         methods: solver names; must include :data:`protocol.REFERENCE` (``fem``) for the RMSE.
         resolution: surface vertices of the built-in models (None: the Table-1 size).
         scale: factor from a surface file's unit to metres (e.g. 0.01 for cm).
+        repair: let :func:`tissuesim.read_surface` fix what it safely can in a surface file (e.g. inward faces).
         dt: time step of the timed steps [s]; None: each solver's own default (0.01 s, 100 Hz).
         warmup_steps: untimed steps before timing.
         timing_steps: timed steps per case and method (the median is reported).
@@ -69,6 +70,7 @@ class ExperimentConfig:
     methods: tuple = protocol.METHODS
     resolution: int | None = None
     scale: float = 1.0
+    repair: bool = False
     dt: float | None = None
     warmup_steps: int = 5
     timing_steps: int = 30
@@ -130,7 +132,8 @@ def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     if path.suffix.lower() in SURFACE_SUFFIXES:
         from ..io import read_surface
 
-        return HybridMesh.build(read_surface(path, scale=config.scale), fine_volume=True, progress=progress)
+        surface = read_surface(path, scale=config.scale, repair=config.repair)
+        return HybridMesh.build(surface, fine_volume=True, progress=progress)
     hybrid = HybridMesh.load(path)
     if hybrid.fine_volume is None:
         raise MeshError(f"bundle {spec!r} has no fine volume, which the FEM reference needs; rebuild it with "
