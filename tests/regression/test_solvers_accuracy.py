@@ -1,8 +1,8 @@
 """Accuracy against the fine FEM reference (eq 26), reduced-resolution models, calibrated defaults.
 
 Measured when written (RMSE over 50 nodes, mm; reference RMS in brackets), 1 N pressure / tension:
-cube 386: hybrid 1.47 / 1.48, embedded 1.52, pbd 150 / 14.6, mass-spring 1.34 / 1.36 [3.18];
-sphere 400: hybrid 2.34 / 2.42, embedded 2.55, pbd 175 / 17.7, mass-spring 4.72 / 4.93 [5.04].
+cube 386: hybrid 1.47 / 1.48, embedded 1.52, pbd 2.90 / 2.91, mass-spring 1.34 / 1.36 [3.18];
+sphere 400: hybrid 2.34 / 2.42, embedded 2.55, pbd 4.86 / 4.86, mass-spring 4.72 / 4.93 [5.04].
 """
 
 import pytest
@@ -29,4 +29,4 @@ def test_hybrid_is_closer_to_the_fine_fem_than_pbd_and_than_standing_still(case,
     hybrid = rmse(make_solver("hybrid", h).solve_static(node, force, tolerance=1e-6), reference, samples)
     pbd = rmse(make_solver("pbd", h).solve_static(node, force, tolerance=1e-6), reference, samples)
     assert hybrid < 0.6 * scale  # measured 0.46–0.48
-    assert hybrid < 0.5 * pbd
+    assert hybrid < 0.75 * pbd  # measured 0.48–0.51

@@ -41,7 +41,7 @@ DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
 DEFAULT_DENSITY = 1000.0  # kg/m³
 DEFAULT_DT = 0.01  # s
-DEFAULT_TOLERANCE = 1e-7  # m of motion per step at which a quasi-static solve counts as settled
+DEFAULT_TOLERANCE = 1e-6  # m of motion per step at which a quasi-static solve counts as settled (1 µm)
 DEFAULT_MAX_STEPS = 20000
 
 

@@ -9,12 +9,12 @@ NaN was not calibrated (a provisional value; the xpbd forms, see docs/solvers.md
 # method -> form -> (option name, value, calibration RMSE [m], reference RMS displacement [m])
 CALIBRATED = {
     'hybrid': {
-        'xpbd': ('thickness', 0.002, float("nan"), float("nan")),
+        'xpbd': ('thickness', 0.011899, 0.003637, 0.006356),
         'pbd': ('stiffness', 0.777423, 0.002958, 0.006356),
     },
     'pbd': {
-        'xpbd': ('thickness', 0.005, float("nan"), float("nan")),
-        'pbd': ('stiffness', 0.993244, 0.185889, 0.006356),
+        'xpbd': ('thickness', 0.0197958, 0.084361, 0.006356),
+        'pbd': ('mass_scale', 40.3473, 0.004048, 0.006356),
     },
     'mass-spring': {
         'springs': ('thickness', 2.34916, 0.003997, 0.006356),
@@ -27,3 +27,9 @@ MASS_SPRING_THICKNESS = CALIBRATED["mass-spring"]["springs"][1]
 def value(method: str, form: str) -> float:
     """The calibrated free scalar of ``method`` in ``form``."""
     return CALIBRATED[method][form][1]
+
+
+def option(method: str, form: str) -> tuple[str, float]:
+    """``(option name, calibrated value)`` of ``method`` in ``form``."""
+    name, number = CALIBRATED[method][form][:2]
+    return name, number

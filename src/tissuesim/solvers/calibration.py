@@ -30,7 +30,7 @@ CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure
 #: method -> form -> (option, lower bound, upper bound): the search interval of the free scalar.
 PARAMETERS = {
     "hybrid": {"pbd": ("stiffness", 1e-3, 1.0), "xpbd": ("thickness", 1e-4, 0.05)},
-    "pbd": {"pbd": ("stiffness", 1e-3, 1.0), "xpbd": ("thickness", 1e-4, 0.05)},
+    "pbd": {"pbd": ("mass_scale", 1.0, 1e5), "xpbd": ("thickness", 1e-4, 0.05)},
     "mass-spring": {"springs": ("thickness", 1e-3, 20.0)},
 }
 #: Quasi-static settings of every calibration solve.
@@ -142,7 +142,11 @@ def write_calibrated(results, path: Path | None = None) -> Path:
     lines += ["}", "", 'MASS_SPRING_THICKNESS = CALIBRATED["mass-spring"]["springs"][1]', "", "",
               "def value(method: str, form: str) -> float:",
               '    """The calibrated free scalar of ``method`` in ``form``."""',
-              "    return CALIBRATED[method][form][1]", ""]
+              "    return CALIBRATED[method][form][1]", "", "",
+              "def option(method: str, form: str) -> tuple[str, float]:",
+              '    """``(option name, calibrated value)`` of ``method`` in ``form``."""',
+              "    name, number = CALIBRATED[method][form][:2]",
+              "    return name, number", ""]
     path.write_text("\n".join(lines))
     return path
 
