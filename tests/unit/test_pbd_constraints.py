@@ -105,3 +105,14 @@ def test_xpbd_multiplier_update_limits():
     g = np.array([[1.0, 0, 0], [-1.0, 0, 0]])
     assert C.xpbd_multiplier_update(0.1, g, [1.0, 1.0], 0.0, 0.0, 1e-3) == pytest.approx(-0.05)  # hard: eq 9
     assert C.xpbd_multiplier_update(0.1, g, [0.0, 0.0], 0.0, 0.0, 1e-3) == 0.0  # both prescribed
+
+
+def test_signed_bend_gradient_matches_central_differences_also_when_flat():
+    rng = np.random.default_rng(6)
+    configs = [_random_hinge(rng) for _ in range(10)]
+    configs.append(np.array([[0, 0, 0], [1, 0, 0], [0.3, 1, 0], [0.6, -1, 0]], dtype=float))  # flat
+    for p in configs:
+        numeric = _central_difference(lambda q: C.signed_bend_angle(*q), p)
+        assert np.allclose(C.signed_bend_gradient(*p), numeric, atol=1e-6 * max(1.0, np.abs(numeric).max()))
+        # β and eq 10's θ describe the same hinge: θ = π − |β|
+        assert np.pi - abs(C.signed_bend_angle(*p)) == pytest.approx(C.dihedral_angle(*p), abs=1e-12)

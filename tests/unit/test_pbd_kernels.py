@@ -18,7 +18,7 @@ def small():
 
 
 def _reference_step(x, v, w, f, pre, targets, dt, damping, iterations, c, *, k_stretch=None, k_bend=None,
-                    stretch_compliance=None, bend_compliance=None):
+                    stretch_compliance=None, bend_compliance=None, signed=False):
     """Eq 15–18 with the NumPy constraint functions, one constraint at a time, in the kernels' order."""
     x, v = x.copy(), v.copy()
     v = v * (1.0 - damping) + f * (w * dt)[:, None]
@@ -43,7 +43,16 @@ def _reference_step(x, v, w, f, pre, targets, dt, damping, iterations, c, *, k_s
             p[i] += dp[0]
             p[j] += dp[1]
         for h, idx in enumerate(c.bending):
-            if xpbd:
+            if signed:
+                g = C.signed_bend_gradient(*p[idx])
+                value = C.signed_bend_angle(*p[idx]) - c.rest_signed_angle[h]
+                alpha = bend_compliance[h] if xpbd else 0.0
+                dl = C.xpbd_multiplier_update(value, g, w[idx], lam_b[h], alpha, dt)
+                if not xpbd:
+                    dl *= kb
+                lam_b[h] += dl
+                dp = w[idx, None] * g * dl
+            elif xpbd:
                 g = C.bending_gradient(*p[idx])
                 dl = C.xpbd_multiplier_update(C.bending_value(*p[idx], c.rest_angle[h]), g, w[idx], lam_b[h],
                                               bend_compliance[h], dt)
@@ -97,6 +106,26 @@ def test_xpbd_kernel_matches_numpy_reference(small):
     assert np.allclose(v, ref_v, rtol=0, atol=1e-12 / 1e-3)
 
 
+@pytest.mark.parametrize("form", ["pbd", "xpbd"])
+def test_signed_bending_kernel_matches_numpy_reference(small, form):
+    surface, c = small
+    x, v, f, w, pre, targets = _state(surface, seed=3)
+    alpha_s, alpha_b = shell_compliance(c, thickness=2e-3)
+    pred, ls, lb = _ws(len(x), c)
+    if form == "pbd":
+        ref_x, ref_v = _reference_step(x, v, w, f, pre, targets, 1e-3, 0.1, 3, c, k_stretch=0.7, k_bend=0.4,
+                                       signed=True)
+        pbd_step(x, v, pred, w, f, pre, targets, 1e-3, 0.1, 3, c.edges, c.rest_length, 0.7, c.bending,
+                 c.rest_signed_angle, 0.4, True)
+    else:
+        ref_x, ref_v = _reference_step(x, v, w, f, pre, targets, 1e-3, 0.1, 3, c, stretch_compliance=alpha_s,
+                                       bend_compliance=alpha_b, signed=True)
+        xpbd_step(x, v, pred, w, f, pre, targets, 1e-3, 0.1, 3, c.edges, c.rest_length, alpha_s, c.bending,
+                  c.rest_signed_angle, alpha_b, ls, lb, True)
+    assert np.allclose(x, ref_x, rtol=0, atol=1e-12)
+    assert np.allclose(v, ref_v, rtol=0, atol=1e-12 / 1e-3)
+
+
 @pytest.mark.parametrize("model", ["sphere", "cube"])
 def test_rest_stays_exactly_at_rest(model):
     surface = models.model(model, 200)
@@ -111,6 +140,10 @@ def test_rest_stays_exactly_at_rest(model):
                  c.rest_angle, 1.0)
         xpbd_step(x, v, pred, w, f, pre, targets, 1e-2, 0.0, 10, c.edges, c.rest_length, alpha_s, c.bending,
                   c.rest_angle, alpha_b, ls, lb)
+        pbd_step(x, v, pred, w, f, pre, targets, 1e-2, 0.0, 10, c.edges, c.rest_length, 1.0, c.bending,
+                 c.rest_signed_angle, 1.0, True)
+        xpbd_step(x, v, pred, w, f, pre, targets, 1e-2, 0.0, 10, c.edges, c.rest_length, alpha_s, c.bending,
+                  c.rest_signed_angle, alpha_b, ls, lb, True)
     assert np.array_equal(x, surface.vertices)
     assert not np.any(v)
 

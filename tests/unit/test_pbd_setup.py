@@ -150,6 +150,11 @@ def test_xpbd_stepper_runs_and_needs_compliance(sphere):
     assert np.all(np.isfinite(x)) and np.any(x != surface.vertices)
     with pytest.raises(SolverError, match="needs stretch_compliance"):
         _stepper(surface, c, form="xpbd")
+    signed, y, _ = _stepper(surface, c, form="xpbd", stretch_compliance=alpha_s, bend_compliance=alpha_b,
+                            signed_bending=True)
+    signed.forces[3] = [0.0, 0.0, 1e-3]
+    signed.step(1e-3)
+    assert np.all(np.isfinite(y)) and np.any(y != surface.vertices)
 
 
 @pytest.mark.parametrize("options, match", [

@@ -165,3 +165,45 @@ def xpbd_multiplier_update(value: float, gradient: np.ndarray, w, lam: float, co
     if denom <= 0.0:
         return 0.0
     return (-value - alpha * lam) / denom
+
+
+# ---------------------------------------------------------------- signed bending (beyond the paper)
+
+def signed_bend_angle(p1, p2, p3, p4) -> float:
+    """β [rad] in (−π, π]: the signed angle between the outward normals of (P1, P2, P3) and (P2, P1, P4).
+
+    0 for a flat hinge and smooth through it, unlike eq 10's unsigned θ (= π − |β|), whose cusp at flat makes the
+    paper's bending constraint push a flat region's nodes sideways. The sign is that of ``(nA × nB) · (P2 − P1)``.
+    0 for a degenerate hinge.
+    """
+    p1 = np.asarray(p1, dtype=np.float64)
+    a = np.asarray(p2, dtype=np.float64) - p1
+    na = np.cross(a, np.asarray(p3, dtype=np.float64) - p1)
+    nb = np.cross(np.asarray(p4, dtype=np.float64) - p1, a)
+    la, lb, length = np.sqrt(na @ na), np.sqrt(nb @ nb), np.sqrt(a @ a)
+    if la <= TINY_LENGTH or lb <= TINY_LENGTH or length <= TINY_LENGTH:
+        return 0.0
+    return float(np.arctan2(np.cross(na, nb) @ a / length, na @ nb))
+
+
+def signed_bend_gradient(p1, p2, p3, p4) -> np.ndarray:
+    """``(4, 3)`` gradient of β [rad/m], in closed form (no division by sin β, exact at flat).
+
+    A vertex opposite the edge rotates its triangle about the edge by its normal displacement over the triangle's
+    height h = |N|/|e|: ∇_3 β = −|e| N_A/|N_A|², ∇_4 β = −|e| N_B/|N_B|². The edge vertices share these by the lever
+    rule (t = foot of the opposite vertex along the edge from P1): ∇_1 = −(1 − t_A) ∇_3 − (1 − t_B) ∇_4,
+    ∇_2 = −t_A ∇_3 − t_B ∇_4, so the four sum to zero (translation invariance).
+    """
+    p1 = np.asarray(p1, dtype=np.float64)
+    a = np.asarray(p2, dtype=np.float64) - p1
+    b = np.asarray(p3, dtype=np.float64) - p1
+    c = np.asarray(p4, dtype=np.float64) - p1
+    na, nb = np.cross(a, b), np.cross(c, a)
+    la2, lb2, length2 = na @ na, nb @ nb, a @ a
+    if la2 <= TINY_LENGTH or lb2 <= TINY_LENGTH or length2 <= TINY_LENGTH:
+        return np.zeros((4, 3))
+    length = np.sqrt(length2)
+    g3 = -length * na / la2
+    g4 = -length * nb / lb2
+    ta, tb = (b @ a) / length2, (c @ a) / length2
+    return np.stack([-(1 - ta) * g3 - (1 - tb) * g4, -ta * g3 - tb * g4, g3, g4])

@@ -177,6 +177,92 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     return dlam
 
 
+@njit(cache=True, inline="always")
+def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
+    """One signed bending constraint ``C = β − β0`` (beyond the paper, see :func:`constraints.signed_bend_angle`).
+
+    Gradient in closed form (``constraints.signed_bend_gradient``): no division by sin β, so it is exact and smooth
+    at flat hinges, where eq 10's unsigned angle has a cusp. Same PBD/XPBD update as :func:`_project_bend`.
+    """
+    ox = x[i1, 0]
+    oy = x[i1, 1]
+    oz = x[i1, 2]
+    px2 = x[i2, 0]
+    py2 = x[i2, 1]
+    pz2 = x[i2, 2]
+    px3 = x[i3, 0]
+    py3 = x[i3, 1]
+    pz3 = x[i3, 2]
+    px4 = x[i4, 0]
+    py4 = x[i4, 1]
+    pz4 = x[i4, 2]
+    ax = px2 - ox
+    ay = py2 - oy
+    az = pz2 - oz
+    bx = px3 - ox
+    by = py3 - oy
+    bz = pz3 - oz
+    cx = px4 - ox
+    cy = py4 - oy
+    cz = pz4 - oz
+    w1 = w[i1]
+    w2 = w[i2]
+    w3 = w[i3]
+    w4 = w[i4]
+    # N_A = a×b, N_B = c×a (outward normals of (P1, P2, P3) and (P2, P1, P4))
+    nax = ay * bz - az * by
+    nay = az * bx - ax * bz
+    naz = ax * by - ay * bx
+    nbx = cy * az - cz * ay
+    nby = cz * ax - cx * az
+    nbz = cx * ay - cy * ax
+    la2 = nax * nax + nay * nay + naz * naz
+    lb2 = nbx * nbx + nby * nby + nbz * nbz
+    length2 = ax * ax + ay * ay + az * az
+    if la2 <= TINY_LENGTH or lb2 <= TINY_LENGTH or length2 <= TINY_LENGTH:
+        return 0.0
+    length = math.sqrt(length2)
+    # β = atan2((N_A × N_B)·a/|a|, N_A·N_B)
+    crx = nay * nbz - naz * nby
+    cry = naz * nbx - nax * nbz
+    crz = nax * nby - nay * nbx
+    beta = math.atan2((crx * ax + cry * ay + crz * az) / length, nax * nbx + nay * nby + naz * nbz)
+    fa = -length / la2
+    fb = -length / lb2
+    g3x = fa * nax
+    g3y = fa * nay
+    g3z = fa * naz
+    g4x = fb * nbx
+    g4y = fb * nby
+    g4z = fb * nbz
+    ta = (bx * ax + by * ay + bz * az) / length2
+    tb = (cx * ax + cy * ay + cz * az) / length2
+    g2x = -ta * g3x - tb * g4x
+    g2y = -ta * g3y - tb * g4y
+    g2z = -ta * g3z - tb * g4z
+    g1x = -g2x - g3x - g4x
+    g1y = -g2y - g3y - g4y
+    g1z = -g2z - g3z - g4z
+    denom = (w1 * (g1x * g1x + g1y * g1y + g1z * g1z) + w2 * (g2x * g2x + g2y * g2y + g2z * g2z)
+             + w3 * (g3x * g3x + g3y * g3y + g3z * g3z) + w4 * (g4x * g4x + g4y * g4y + g4z * g4z)) + alpha
+    if denom <= 0.0:
+        return 0.0
+    dlam = scale * (-(beta - rest) - alpha * lam) / denom
+    x[i1, 0] = ox + w1 * dlam * g1x
+    x[i1, 1] = oy + w1 * dlam * g1y
+    x[i1, 2] = oz + w1 * dlam * g1z
+    x[i2, 0] = px2 + w2 * dlam * g2x
+    x[i2, 1] = py2 + w2 * dlam * g2y
+    x[i2, 2] = pz2 + w2 * dlam * g2z
+    x[i3, 0] = px3 + w3 * dlam * g3x
+    x[i3, 1] = py3 + w3 * dlam * g3y
+    x[i3, 2] = pz3 + w3 * dlam * g3z
+    x[i4, 0] = px4 + w4 * dlam * g4x
+    x[i4, 1] = py4 + w4 * dlam * g4y
+    x[i4, 2] = pz4 + w4 * dlam * g4z
+    return dlam
+
+
 # ---------------------------------------------------------------- the parts of a step shared by both forms
 
 @njit(cache=True, inline="always")
@@ -210,7 +296,7 @@ def _finish(positions, velocities, predicted, dt):
 
 @njit(cache=True)
 def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
-             edges, rest_length, k_stretch, bending, rest_angle, k_bend):
+             edges, rest_length, k_stretch, bending, rest_angle, k_bend, signed_bending=False):
     """One PBD time step (paper §6.5, eq 15–18) with stiffness coefficients; all arrays updated in place.
 
     Args:
@@ -226,6 +312,8 @@ def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, tar
         k_stretch: stretch stiffness in [0, 1] (after all sweeps).
         bending: ``(b, 4) int32`` hinges (P1, P2 shared edge, P3, P4 opposite); rest_angle: ``(b,) float64`` [rad].
         k_bend: bending stiffness in [0, 1] (after all sweeps).
+        signed_bending: False (the paper, eq 10: ``rest_angle`` = ``SurfaceConstraints.rest_angle``) or True (the
+            signed angle β, smooth at flat hinges: ``rest_angle`` = ``SurfaceConstraints.rest_signed_angle``).
     """
     _predict(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping)
     ks = 1.0 - (1.0 - k_stretch) ** (1.0 / iterations)
@@ -233,7 +321,11 @@ def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, tar
     for _ in range(iterations):
         for c in range(edges.shape[0]):
             _project_stretch(predicted, inv_mass, edges[c, 0], edges[c, 1], rest_length[c], ks, 0.0, 0.0)
-        if kb > 0.0:
+        if kb > 0.0 and signed_bending:
+            for c in range(bending.shape[0]):
+                _project_bend_signed(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2],
+                                     bending[c, 3], rest_angle[c], kb, 0.0, 0.0)
+        elif kb > 0.0:
             for c in range(bending.shape[0]):
                 _project_bend(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2], bending[c, 3],
                               rest_angle[c], kb, 0.0, 0.0)
@@ -243,13 +335,14 @@ def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, tar
 @njit(cache=True)
 def xpbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
               edges, rest_length, stretch_compliance, bending, rest_angle, bend_compliance,
-              lambda_stretch, lambda_bend):
+              lambda_stretch, lambda_bend, signed_bending=False):
     """One XPBD time step (paper §6.5 flow, Macklin et al. 2016 projection); all arrays updated in place.
 
     Arguments as :func:`pbd_step`, except:
         stretch_compliance: ``(e,) float64`` α per stretch constraint [m/N] (0 = inextensible).
         bend_compliance: ``(b,) float64`` α per hinge [1/(N·m)] (0 = rigid hinge).
         lambda_stretch, lambda_bend: ``(e,)``, ``(b,) float64`` multiplier workspaces (zeroed here each step).
+        signed_bending: as :func:`pbd_step`.
     """
     _predict(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping)
     inv_dt2 = 1.0 / (dt * dt)
@@ -259,10 +352,16 @@ def xpbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, ta
         for c in range(edges.shape[0]):
             lambda_stretch[c] += _project_stretch(predicted, inv_mass, edges[c, 0], edges[c, 1], rest_length[c],
                                                   1.0, stretch_compliance[c] * inv_dt2, lambda_stretch[c])
-        for c in range(bending.shape[0]):
-            lambda_bend[c] += _project_bend(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2],
-                                            bending[c, 3], rest_angle[c], 1.0, bend_compliance[c] * inv_dt2,
-                                            lambda_bend[c])
+        if signed_bending:
+            for c in range(bending.shape[0]):
+                lambda_bend[c] += _project_bend_signed(predicted, inv_mass, bending[c, 0], bending[c, 1],
+                                                       bending[c, 2], bending[c, 3], rest_angle[c], 1.0,
+                                                       bend_compliance[c] * inv_dt2, lambda_bend[c])
+        else:
+            for c in range(bending.shape[0]):
+                lambda_bend[c] += _project_bend(predicted, inv_mass, bending[c, 0], bending[c, 1], bending[c, 2],
+                                                bending[c, 3], rest_angle[c], 1.0, bend_compliance[c] * inv_dt2,
+                                                lambda_bend[c])
     _finish(positions, velocities, predicted, dt)
 
 
@@ -324,4 +423,44 @@ def edge_lengths(positions, edges):
         d1 = positions[i, 1] - positions[j, 1]
         d2 = positions[i, 2] - positions[j, 2]
         out[c] = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    return out
+
+
+@njit(cache=True)
+def signed_bend_angles(positions, bending):
+    """``(b,) float64`` signed angle β [rad] per hinge, by :func:`_project_bend_signed`'s own arithmetic.
+
+    Degenerate hinges give 0.
+    """
+    out = np.zeros(bending.shape[0])
+    for c in range(bending.shape[0]):
+        i1 = bending[c, 0]
+        ox = positions[i1, 0]
+        oy = positions[i1, 1]
+        oz = positions[i1, 2]
+        ax = positions[bending[c, 1], 0] - ox
+        ay = positions[bending[c, 1], 1] - oy
+        az = positions[bending[c, 1], 2] - oz
+        bx = positions[bending[c, 2], 0] - ox
+        by = positions[bending[c, 2], 1] - oy
+        bz = positions[bending[c, 2], 2] - oz
+        cx = positions[bending[c, 3], 0] - ox
+        cy = positions[bending[c, 3], 1] - oy
+        cz = positions[bending[c, 3], 2] - oz
+        nax = ay * bz - az * by
+        nay = az * bx - ax * bz
+        naz = ax * by - ay * bx
+        nbx = cy * az - cz * ay
+        nby = cz * ax - cx * az
+        nbz = cx * ay - cy * ax
+        la2 = nax * nax + nay * nay + naz * naz
+        lb2 = nbx * nbx + nby * nby + nbz * nbz
+        length2 = ax * ax + ay * ay + az * az
+        if la2 <= TINY_LENGTH or lb2 <= TINY_LENGTH or length2 <= TINY_LENGTH:
+            continue
+        length = math.sqrt(length2)
+        crx = nay * nbz - naz * nby
+        cry = naz * nbx - nax * nbz
+        crz = nax * nby - nay * nbx
+        out[c] = math.atan2((crx * ax + cry * ay + crz * az) / length, nax * nbx + nay * nby + naz * nbz)
     return out

@@ -44,6 +44,7 @@ class SurfaceStepper:
         bend_compliance: ``(b,)`` or scalar α [1/(N·m)] ≥ 0 (form "xpbd").
         prescribed: ``(k,)`` node indices whose positions are set from :attr:`targets` each step (eq 17).
         forces: optional ``(n, 3) float64`` external-force array [N] to bind; by default one is allocated (zeros).
+        signed_bending: False (the paper's eq 10) or True (signed angle, smooth at flat hinges; beyond the paper).
 
     Attributes:
         forces: ``(n, 3) float64`` external force per node [N]; write into it between steps.
@@ -55,7 +56,7 @@ class SurfaceStepper:
     def __init__(self, constraints: SurfaceConstraints, *, positions: np.ndarray, velocities: np.ndarray,
                  inv_mass, form: str = "pbd", iterations: int = 10, damping: float = 0.0,
                  k_stretch: float = 1.0, k_bend: float = 1.0, stretch_compliance=None, bend_compliance=None,
-                 prescribed=(), forces: np.ndarray | None = None):
+                 prescribed=(), forces: np.ndarray | None = None, signed_bending: bool = False):
         if not isinstance(constraints, SurfaceConstraints):
             raise SolverError(f"constraints must be a SurfaceConstraints, got {type(constraints).__name__}; "
                               "build one with SurfaceConstraints.from_surface(surface)")
@@ -64,6 +65,11 @@ class SurfaceStepper:
         if form not in FORMS:
             raise SolverError(f"unknown PBD form {form!r}; choose one of {', '.join(FORMS)}")
         self.form = form
+        self.signed_bending = bool(signed_bending)
+        if self.signed_bending and constraints.rest_signed_angle is None:
+            raise SolverError("signed_bending needs constraints.rest_signed_angle; build the constraints with "
+                              "SurfaceConstraints.from_surface(surface)")
+        self._rest_bend = constraints.rest_signed_angle if self.signed_bending else constraints.rest_angle
         self.bind(positions, velocities, forces)
         self.set_iterations(iterations)
         self.set_damping(damping)
@@ -172,12 +178,12 @@ class SurfaceStepper:
         if self.form == "pbd":
             pbd_step(self.positions, self.velocities, self._predicted, self._weights, self.forces, self.prescribed,
                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length, self.k_stretch,
-                     c.bending, c.rest_angle, self.k_bend)
+                     c.bending, self._rest_bend, self.k_bend, self.signed_bending)
         else:
             xpbd_step(self.positions, self.velocities, self._predicted, self._weights, self.forces,
                       self.prescribed, self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
-                      self.stretch_compliance, c.bending, c.rest_angle, self.bend_compliance,
-                      self._lambda_stretch, self._lambda_bend)
+                      self.stretch_compliance, c.bending, self._rest_bend, self.bend_compliance,
+                      self._lambda_stretch, self._lambda_bend, self.signed_bending)
 
     @property
     def weights(self) -> np.ndarray:

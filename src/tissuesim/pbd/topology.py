@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import MeshError, first_indices
 from ..mesh.surface import SurfaceMesh
-from .kernels import dihedral_angles, edge_lengths
+from .kernels import dihedral_angles, edge_lengths, signed_bend_angles
 
 
 @dataclass(frozen=True, eq=False)
@@ -38,6 +38,9 @@ class SurfaceConstraints:
             the kernels measure it (π for a flat hinge, see :mod:`tissuesim.pbd.constraints`).
         hinge_edge: ``(b,) int32`` index into ``edges`` of each hinge's shared edge.
         hinge_area: ``(b,) float64`` A1 + A2, the rest areas of the hinge's two triangles [m²].
+        rest_signed_angle: ``(b,) float64`` β0 [rad], the rest value of the signed bending angle (0 when flat;
+            beyond the paper, for the kernels' ``signed_bending=True``; see
+            :func:`tissuesim.pbd.constraints.signed_bend_angle`). ``None`` if not computed.
     """
 
     vertex_count: int
@@ -48,6 +51,7 @@ class SurfaceConstraints:
     rest_angle: np.ndarray
     hinge_edge: np.ndarray
     hinge_area: np.ndarray
+    rest_signed_angle: np.ndarray | None = None
 
     def __post_init__(self):
         for name in ("edges", "rest_length", "edge_area", "bending", "rest_angle", "hinge_edge", "hinge_area"):
@@ -70,6 +74,12 @@ class SurfaceConstraints:
             if bad.size:
                 raise MeshError(f"{bad.size} {name} rows reference nodes outside 0..{self.vertex_count - 1} "
                                 f"(first rows: {first_indices(bad)})")
+        if self.rest_signed_angle is not None:
+            value = np.ascontiguousarray(self.rest_signed_angle, dtype=np.float64)
+            if value.shape != (b,):
+                raise MeshError(f"rest_signed_angle has shape {value.shape}; expected ({b},), one per hinge")
+            value.flags.writeable = False
+            object.__setattr__(self, "rest_signed_angle", value)
 
     @property
     def stretch_count(self) -> int:
@@ -134,7 +144,8 @@ class SurfaceConstraints:
                             "duplicate vertices first (tissuesim.read_surface(..., repair=True))")
         rest_angle = dihedral_angles(vertices, bending)
         return cls(vertex_count=n, edges=edges32, rest_length=rest_length, edge_area=edge_area, bending=bending,
-                   rest_angle=rest_angle, hinge_edge=interior.astype(np.int32), hinge_area=hinge_area)
+                   rest_angle=rest_angle, hinge_edge=interior.astype(np.int32), hinge_area=hinge_area,
+                   rest_signed_angle=signed_bend_angles(vertices, bending))
 
 
 def interleaved_order(count: int) -> np.ndarray:
