@@ -14,7 +14,7 @@ CALIBRATED = {
     },
     'pbd': {
         'xpbd': ('thickness', 0.0197958, 0.084361, 0.006356),
-        'pbd': ('mass_scale', 40.3473, 0.004048, 0.006356),
+        'pbd': ('mass_scale', 142.189, 0.004008, 0.006356),
     },
     'mass-spring': {
         'springs': ('thickness', 2.34916, 0.003997, 0.006356),

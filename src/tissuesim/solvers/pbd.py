@@ -18,7 +18,7 @@ step, more than any k pulls back (the cube's top collapses: RMSE 186 mm at k →
 stiffness is therefore set by the mass scale, not by k.
 
 The free scalar of each method and form (calibrated, :mod:`tissuesim.solvers.calibrated`):
-pbd form: ``stiffness`` for hybrid (masses physical), ``mass_scale`` for pbd (with k = 1); xpbd form: ``thickness``.
+pbd form: ``stiffness`` for hybrid (masses physical), ``mass_scale`` for pbd (with k = :data:`DEFAULT_STIFFNESS`); xpbd form: ``thickness``.
 
 ``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
 """
@@ -35,6 +35,9 @@ from .mass_spring import surface_lumped_mass
 FORMS = ("xpbd", "pbd")
 DEFAULT_FORM = "pbd"
 DEFAULT_ITERATIONS = 10
+#: PBD-form stiffness where it is not the calibrated scalar: just below 1, because a full projection (k' = 1 in every
+#: sweep) of a folded hinge diverges (measured: 20 N of pressure on the cube, positions ~1e77 m within 1000 steps).
+DEFAULT_STIFFNESS = 0.99
 #: Default per-step velocity damping (measured to settle quasi-static solves quickly, docs/solvers.md).
 DEFAULT_DAMPING = 0.2
 
@@ -46,7 +49,8 @@ class SurfaceLayerSolver(Solver):
         form: ``"xpbd"`` or ``"pbd"``.
         iterations: Gauss–Seidel sweeps per step (≥ 1).
         thickness: XPBD layer thickness h [m]; default: the calibrated value of this method.
-        stiffness: PBD stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or 1.
+        stiffness: PBD stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or
+            :data:`DEFAULT_STIFFNESS`.
         mass_scale: factor on the lumped node masses (> 0); default: the calibrated value of this method, or 1.
 
     Attributes:
@@ -71,7 +75,7 @@ class SurfaceLayerSolver(Solver):
         from . import calibrated as frozen
 
         option, value = frozen.option(self.name, form)
-        defaults = {"thickness": None, "stiffness": 1.0, "mass_scale": 1.0, option: value}
+        defaults = {"thickness": None, "stiffness": DEFAULT_STIFFNESS, "mass_scale": 1.0, option: value}
         thickness = defaults["thickness"] if thickness is None else thickness
         stiffness_default, stiffness = stiffness is None, defaults["stiffness"] if stiffness is None else stiffness
         mass_scale = defaults["mass_scale"] if mass_scale is None else mass_scale
