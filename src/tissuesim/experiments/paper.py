@@ -174,6 +174,16 @@ def time_ms(model: str, load: str, force_N: float, method: str) -> float | None:
     return TIME_MS.get(model, {}).get((load, float(force_N)), {}).get(method)
 
 
+def median_ratio(table: dict, model: str, numerator: str, denominator: str) -> float | None:
+    """Median over the published cases of ``numerator / denominator`` for ``model`` (None if no case has both)."""
+    ratios = sorted(row[numerator] / row[denominator] for row in table.get(model, {}).values()
+                    if row.get(numerator) is not None and row.get(denominator))
+    if not ratios:
+        return None
+    middle = len(ratios) // 2
+    return ratios[middle] if len(ratios) % 2 else 0.5 * (ratios[middle - 1] + ratios[middle])
+
+
 def mean_ratio(table: dict, model: str, numerator: str, denominator: str) -> float | None:
     """Mean over the published cases of ``numerator / denominator`` for ``model`` (None if no case has both)."""
     ratios = [row[numerator] / row[denominator] for row in table.get(model, {}).values()

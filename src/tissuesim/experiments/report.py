@@ -48,7 +48,7 @@ def report_markdown(data: dict) -> str:
         "",
     ]
     parts += [f"- {line}" for line in _verdict(data)]
-    parts += ["", "## Headline ratios, ours beside the paper's (means over load cases)", ""]
+    parts += ["", "## Headline ratios, ours beside the paper's (medians over load cases)", ""]
     summary = ratio_summary(data)
     rows = [[model] + [f"{fmt(ours, 3)} ({fmt(theirs, 3)})" for ours, theirs in summary[model].values()]
             for model in summary]

@@ -3,12 +3,15 @@
 Column names follow the paper: "Ours" is the ``hybrid`` method, "MSM" is ``mass-spring``, "FEM" the fine-volume
 reference; "Emb." is the embedded-surface baseline the paper does not have. Ratios: Ours/PBD and Ours/MSM of the
 RMSE (below 1: the hybrid is more accurate), Ours/PBD and FEM/Ours of the per-step time (FEM/Ours above 1: the
-hybrid is faster than the fine FEM). Ratio summaries are means over load cases of the per-case ratios.
+hybrid is faster than the fine FEM). Ratio summaries are medians over load cases of the per-case ratios (one
+diverged case must not swamp a model's summary), for ours and the paper's alike.
 """
 
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from . import paper
 from .protocol import REFERENCE
@@ -45,7 +48,7 @@ def methods_of(data: dict, model: str) -> list[str]:
 
 
 def measured_ratio(data: dict, model: str, quantity: str, numerator: str, denominator: str) -> float | None:
-    """Mean over ``model``'s cases of ``numerator/denominator`` of ``rmse_mm`` or ``step_ms`` (None if absent)."""
+    """Median over ``model``'s cases of ``numerator/denominator`` of ``rmse_mm`` or ``step_ms`` (None if absent)."""
     field = "rmse_mm" if quantity == "rmse" else "step_ms"
     records = index(data)
     ratios = []
@@ -53,12 +56,12 @@ def measured_ratio(data: dict, model: str, quantity: str, numerator: str, denomi
         top, bottom = records.get((model, load, force, numerator)), records.get((model, load, force, denominator))
         if top and bottom and bottom[field] > 0:
             ratios.append(top[field] / bottom[field])
-    return sum(ratios) / len(ratios) if ratios else None
+    return float(np.median(ratios)) if ratios else None
 
 
 def published_ratio(model: str, quantity: str, numerator: str, denominator: str) -> float | None:
     table = paper.RMSE_MM if quantity == "rmse" else paper.TIME_MS
-    return paper.mean_ratio(table, model, numerator, denominator)
+    return paper.median_ratio(table, model, numerator, denominator)
 
 
 def ratio_summary(data: dict) -> dict:
@@ -165,7 +168,7 @@ def tables_markdown(data: dict) -> str:
         "node [mm]; rel. = RMSE / the reference's RMS displacement over those nodes. Paper columns are the "
         "published figures (– where it has none).",
         "",
-        "## Headline ratios (means over load cases)",
+        "## Headline ratios (medians over load cases)",
         "",
         ratio_table(data),
         "",
