@@ -238,3 +238,24 @@ def test_explicit_fixed_set_is_used_by_every_method(cube386, top_node):
         solver = make_solver(method, h, fixed=bottom_controls)
         positions = solver.solve_static(top_node, [0.0, 0.0, -1.0], tolerance=1e-6)
         assert np.array_equal(positions[bottom_controls], h.surface.vertices[bottom_controls]), method
+
+
+@pytest.mark.parametrize("method", DYNAMIC)
+def test_steps_allocate_no_arrays(cube386, top_node, method):
+    """DESIGN: nothing allocated per step. An (n, 3) float64 array here would be 9,264 bytes."""
+    import tracemalloc
+
+    solver = make_solver(method, cube386)
+    solver.set_load(top_node, [0.0, 0.0, -1.0])
+    solver.step()
+    solver.step()
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        before = tracemalloc.get_traced_memory()[0]
+        for _ in range(10):
+            solver.step()
+        current, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak - before < 2048 and current - before < 512
