@@ -172,9 +172,9 @@ def xpbd_multiplier_update(value: float, gradient: np.ndarray, w, lam: float, co
 def signed_bend_angle(p1, p2, p3, p4) -> float:
     """β [rad] in (−π, π]: the signed angle between the outward normals of (P1, P2, P3) and (P2, P1, P4).
 
-    0 for a flat hinge and smooth through it, unlike eq 10's unsigned θ (= π − |β|), whose cusp at flat makes the
-    paper's bending constraint push a flat region's nodes sideways. The sign is that of ``(nA × nB) · (P2 − P1)``.
-    0 for a degenerate hinge.
+    0 for a flat hinge and smooth through it, unlike eq 10's unsigned θ (= π − |β|), which has a cusp there. The
+    sign is that of ``(nA × nB) · (P2 − P1)``. 0 for a degenerate hinge. Opt-in and not the default: in the PBD
+    form it measured no gain and failed to settle on the hybrid cube (docs/pbd.md).
     """
     p1 = np.asarray(p1, dtype=np.float64)
     a = np.asarray(p2, dtype=np.float64) - p1
