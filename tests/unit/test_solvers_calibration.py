@@ -37,3 +37,22 @@ def test_write_calibrated_round_trips(tmp_path):
     assert module.CALIBRATED["hybrid"]["pbd"][2:] == (1e-3, 2e-3)
     assert module.MASS_SPRING_THICKNESS == calibrated.MASS_SPRING_THICKNESS
     assert np.isnan(module.CALIBRATED["hybrid"]["xpbd"][2]) == np.isnan(calibrated.CALIBRATED["hybrid"]["xpbd"][2])
+
+
+def test_calibrate_command_prints_the_value_and_rmse(small_cube, tmp_path, capsys):
+    from tissuesim.cli import main
+
+    bundle = tmp_path / "cube.npz"
+    small_cube.save(bundle)
+    assert main(["calibrate", "--bundle", str(bundle), "--method", "hybrid", "--form", "pbd"]) == 0
+    line = capsys.readouterr().out.strip()
+    assert line.startswith("hybrid") and "stiffness =" in line and "RMSE" in line
+    value = float(line.split("stiffness =")[1].split()[0])
+    assert 1e-3 <= value <= 1.0
+
+
+def test_calibrate_command_refuses_a_method_without_free_scalar(capsys):
+    from tissuesim.cli import main
+
+    assert main(["calibrate", "--method", "fem"]) == 1
+    assert "cannot calibrate fem" in capsys.readouterr().err
