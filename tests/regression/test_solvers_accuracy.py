@@ -1,8 +1,8 @@
 """Accuracy against the fine FEM reference (eq 26), reduced-resolution models, calibrated defaults.
 
 Measured when written (RMSE over 50 nodes, mm; reference RMS in brackets), 1 N pressure / tension:
-cube 386: hybrid 1.47 / 1.48, embedded 1.52, pbd 2.85 / 2.86, mass-spring 1.34 / 1.36 [3.18];
-sphere 400: hybrid 2.34 / 2.42, embedded 2.55, pbd 4.81 / 4.82, mass-spring 4.72 / 4.93 [5.04].
+cube 386: hybrid 1.48 / 1.49, embedded 1.52, pbd 2.90 / 2.90, mass-spring 1.34 / 1.36 [3.18];
+sphere 400: hybrid 2.35 / 2.43, embedded 2.55, pbd 4.81 / 4.82, mass-spring 4.72 / 4.93 [5.04].
 """
 
 import pytest

@@ -9,12 +9,12 @@ NaN was not calibrated (a provisional value; the xpbd forms, see docs/solvers.md
 # method -> form -> (option name, value, calibration RMSE [m], reference RMS displacement [m])
 CALIBRATED = {
     'hybrid': {
-        'xpbd': ('thickness', 0.011899, 0.003637, 0.006356),
-        'pbd': ('stiffness', 0.777423, 0.002958, 0.006356),
+        'xpbd': ('thickness', 0.0119025, 0.003637, 0.006356),
+        'pbd': ('stiffness', 0.784635, 0.002994, 0.006356),
     },
     'pbd': {
         'xpbd': ('thickness', 0.0197958, 0.084361, 0.006356),
-        'pbd': ('mass_scale', 142.189, 0.004008, 0.006356),
+        'pbd': ('mass_scale', 142.98, 0.004009, 0.006356),
     },
     'mass-spring': {
         'springs': ('thickness', 2.34916, 0.003997, 0.006356),

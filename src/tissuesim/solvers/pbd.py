@@ -40,6 +40,9 @@ DEFAULT_ITERATIONS = 10
 DEFAULT_STIFFNESS = 0.99
 #: Default per-step velocity damping (measured to settle quasi-static solves quickly, docs/solvers.md).
 DEFAULT_DAMPING = 0.2
+#: The pbd method's default: settles 1 N on the cube in 104 steps (0.2: 157; 0.4: 286) and 20 N in 1261 (0.2: not
+#: within 1500).
+PBD_DAMPING = 0.1
 
 
 class SurfaceLayerSolver(Solver):
@@ -127,6 +130,6 @@ class SurfaceLayerSolver(Solver):
 class PBDSolver(SurfaceLayerSolver):
     """PBD on M_S alone: fixed nodes pinned at rest, every other node projected (see the module docstring)."""
 
-    def __init__(self, hybrid_mesh, **options):
-        super().__init__(hybrid_mesh, **options)
+    def __init__(self, hybrid_mesh, *, damping: float = PBD_DAMPING, **options):
+        super().__init__(hybrid_mesh, damping=damping, **options)
         self._set_prescribed(self.fixed)
