@@ -55,6 +55,8 @@ class SurfaceLayerSolver(Solver):
         stiffness: PBD stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or
             :data:`DEFAULT_STIFFNESS`.
         mass_scale: factor on the lumped node masses (> 0); default: the calibrated value of this method, or 1.
+        signed_bending: use the PBD kernels' signed bending angle (smooth at flat hinges, beyond the paper) instead
+            of eq 10's unsigned one; default False (the paper's; see docs/solvers.md for the measurement).
 
     Attributes:
         prescribed: ``(k,) int64`` M_S nodes set to ``targets`` each step (inverse mass 0).
@@ -63,6 +65,7 @@ class SurfaceLayerSolver(Solver):
 
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness: float | None = None, stiffness: float | None = None, mass_scale: float | None = None,
+                 signed_bending: bool = False,
                  damping: float = DEFAULT_DAMPING, **common):
         super().__init__(hybrid_mesh, damping=damping, **common)
         from ..pbd.compliance import shell_compliance
@@ -75,6 +78,9 @@ class SurfaceLayerSolver(Solver):
         self.form = form
         self.iterations = int(iterations)
         self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
+        self.signed_bending = bool(signed_bending)
+        self._rest_angle = (self.constraints.rest_signed_angle if self.signed_bending
+                            else self.constraints.rest_angle)
         from . import calibrated as frozen
 
         option, value = frozen.option(self.name, form)
@@ -118,12 +124,12 @@ class SurfaceLayerSolver(Solver):
         if self.form == "xpbd":
             xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
                       self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
-                      self.stretch_compliance, c.bending, c.rest_angle, self.bend_compliance,
-                      self._lambda_stretch, self._lambda_bend)
+                      self.stretch_compliance, c.bending, self._rest_angle, self.bend_compliance,
+                      self._lambda_stretch, self._lambda_bend, self.signed_bending)
         else:
             pbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length, self.stiffness,
-                     c.bending, c.rest_angle, self.stiffness)
+                     c.bending, self._rest_angle, self.stiffness, self.signed_bending)
 
 
 @register("pbd")
