@@ -237,3 +237,21 @@ def test_xpbd_converges_to_the_compliance_equilibrium_independent_of_iterations_
     assert lift > 5e-4
     for other in results[1:]:
         assert abs(other[top, 2] - results[0][top, 2]) < 0.03 * lift
+
+
+def test_a_tangled_hinge_moves_no_vertex_by_more_than_half_its_edge():
+    """Eq 11 on a hinge folded almost shut against a flat rest angle asks for a huge correction; the kernel bounds
+    it (BEND_MOVE_LIMIT), as a surface pushed through itself under a large load otherwise blows up."""
+    from tissuesim.pbd.kernels import BEND_MOVE_LIMIT
+
+    # P1, P2: the hinge edge (length 1); P3, P4 folded onto the same side, 1e-6 rad apart; rest angle π (flat).
+    x = np.array([[0.0, 0, 0], [1.0, 0, 0], [0.5, 1.0, 0], [0.5, np.cos(1e-6), np.sin(1e-6)]])
+    start = x.copy()
+    hinge = _readonly(np.array([[0, 1, 2, 3]], dtype=np.int32))
+    none = np.zeros(0, dtype=np.int64)
+    pbd_step(x, np.zeros((4, 3)), np.zeros((4, 3)), np.ones(4), np.zeros((4, 3)), none, np.zeros((0, 3)), 1e-2,
+             0.0, 1, _readonly(np.zeros((0, 2), np.int32)), _readonly(np.zeros(0)), 0.0, hinge,
+             _readonly(np.array([np.pi])), 1.0)
+    moved = np.linalg.norm(x - start, axis=1)
+    assert np.all(np.isfinite(x))
+    assert moved.max() == pytest.approx(BEND_MOVE_LIMIT * 1.0, rel=1e-9)  # the bound is reached, not exceeded

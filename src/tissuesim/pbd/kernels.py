@@ -38,6 +38,11 @@ from numba import njit
 # Same thresholds as the reference (tissuesim.pbd.constraints).
 TINY_LENGTH = 1e-300
 TINY_SINE = 1e-12
+# Safeguard beyond the paper: one bending projection may move a vertex by at most this fraction of the hinge edge's
+# current length. Eq 11's correction grows without bound on a tangled hinge (a surface pushed through itself under a
+# large load), and one such step sends positions to ~1e20 m. Near rest the corrections are orders of magnitude
+# smaller, so the limit changes nothing there.
+BEND_MOVE_LIMIT = 0.5
 
 
 # ---------------------------------------------------------------- single-constraint projections
@@ -162,6 +167,13 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
         return 0.0
     dlam = scale * (-(theta - rest) - alpha * lam) / denom
     s = dlam / sine
+    largest = max(w1 * w1 * (q1x * q1x + q1y * q1y + q1z * q1z), w2 * w2 * (q2x * q2x + q2y * q2y + q2z * q2z),
+                  w3 * w3 * (q3x * q3x + q3y * q3y + q3z * q3z), w4 * w4 * (q4x * q4x + q4y * q4y + q4z * q4z))
+    limit = BEND_MOVE_LIMIT * math.sqrt(ax * ax + ay * ay + az * az)
+    move = abs(s) * math.sqrt(largest)
+    if move > limit:
+        s *= limit / move
+        dlam *= limit / move
     x[i1, 0] = ox + w1 * s * q1x
     x[i1, 1] = oy + w1 * s * q1y
     x[i1, 2] = oz + w1 * s * q1z

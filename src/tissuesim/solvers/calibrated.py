@@ -9,15 +9,15 @@ NaN was not calibrated (a provisional value; the xpbd forms, see docs/solvers.md
 # method -> form -> (option name, value, calibration RMSE [m], reference RMS displacement [m])
 CALIBRATED = {
     'hybrid': {
-        'xpbd': ('thickness', 0.0119025, 0.003637, 0.006356),
-        'pbd': ('stiffness', 0.784635, 0.002994, 0.006356),
+        'xpbd': ('thickness', 0.009297591413958216, 0.003530542453641147, 0.006356496460080796),
+        'pbd': ('stiffness', 0.7846353417495806, 0.0029940996196070524, 0.006356496460080796),
     },
     'pbd': {
-        'xpbd': ('thickness', 0.0330156, 0.080196, 0.006356),
-        'pbd': ('mass_scale', 142.98, 0.004009, 0.006356),
+        'xpbd': ('thickness', 0.022783666879046843, 0.1612706784244815, 0.006356496460080796),
+        'pbd': ('mass_scale', 142.98011876119094, 0.0040085301029780755, 0.006356496460080796),
     },
     'mass-spring': {
-        'springs': ('thickness', 2.34916, 0.003997, 0.006356),
+        'springs': ('thickness', 2.4349545871417684, 0.003996886701671008, 0.006356496460080796),
     },
 }
 
