@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SolverError
+from .solvers.base import _positive
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0
@@ -100,13 +101,3 @@ def _point(point) -> np.ndarray:
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise SolverError(f"a point must be 3 finite coordinates [m], got {point!r}")
     return point
-
-
-def _positive(name: str, value, unit: str) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise SolverError(f"{name} must be a number [{unit}], got {value!r}") from None
-    if not np.isfinite(value) or value <= 0.0:
-        raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
-    return value
