@@ -45,3 +45,11 @@ def test_missing_file_and_unknown_model_fail_cleanly(tmp_path, capsys):
     assert main(["build", "kidney"]) == 1
     stderr = capsys.readouterr().err
     assert stderr.count("tissuesim build: error:") == 2 and "Traceback" not in stderr
+
+
+def test_an_unknown_model_name_lists_the_built_in_models(capsys):
+    from tissuesim.cli import main
+
+    assert main(["build", "kidney"]) == 1
+    assert "neither a built-in model (cube, sphere, liver, steak) nor an existing surface file" in (
+        capsys.readouterr().err)

@@ -39,6 +39,9 @@ def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution
         if scale != 1.0:
             surface = surface.with_vertices(surface.vertices * scale)
         return surface
+    if not Path(name).exists() and not Path(name).suffix:
+        raise FileNotFoundError(
+            f"{name!r} is neither a built-in model ({', '.join(models.MODELS)}) nor an existing surface file")
     from ..io import read_surface
 
     return read_surface(name, scale=scale, repair=repair)

@@ -35,7 +35,7 @@ from .surface import SurfaceMesh
 DEGENERATE_AREA_RATIO = 1e-12
 
 # How each defect can be fixed; quoted in the error messages.
-_FIX_REPAIR = "read_surface(..., repair=True) / repair_surface(surface) fixes it"
+_FIX_REPAIR = "repair (read_surface(..., repair=True), repair_surface(surface), or --repair on the command line) fixes it"
 _FIX_MANUAL = "fix the mesh in MeshLab or Blender"
 
 
@@ -545,7 +545,7 @@ def surface_defects(surface: SurfaceMesh) -> list[str]:
     if len(crossings):
         defects.append(
             f"{len(crossings)} self-intersecting triangle pairs (first: {_pairs(crossings)}); "
-            f"repair=True removes them with pymeshfix, or {_FIX_MANUAL}")
+            f"repair (repair=True, or --repair on the command line) removes them with pymeshfix, or {_FIX_MANUAL}")
     return defects
 
 
