@@ -1,5 +1,7 @@
 """LinearFEM: boundary-condition checks, full solve, and the cached-column fast path for point loads."""
 
+import sys
+
 import numpy as np
 import pytest
 
@@ -127,3 +129,33 @@ def test_refuses_bad_forces_and_nodes(fem, box):
         fem.point_load_response([1, 2], [[0, 0, 1.0]], output_nodes=[0])
     with pytest.raises(SolverError, match="out must"):
         fem.point_load_response([1], [[0, 0, 1.0]], output_nodes=[0, 1], out=np.zeros((3, 3)))
+
+
+@pytest.mark.parametrize("route", ["cholmod+metis", "cholmod+amd", "superlu+metis", "superlu+mmd"])
+def test_every_factorisation_route_matches_a_plain_sparse_solve(box, route, monkeypatch):
+    """CHOLMOD (cvxopt) or SuperLU, with METIS nested dissection (pymetis) or the solver's own ordering when that
+    optional package is missing: all give the plain sparse solve, multi-RHS included, and refuse a non-SPD K_ff."""
+    import scipy.sparse.linalg as spla
+
+    from tissuesim.fem.linear import _factorise
+
+    solver, ordering = route.split("+")
+    if solver == "cholmod":
+        pytest.importorskip("cvxopt")
+    else:
+        monkeypatch.setitem(sys.modules, "cvxopt", None)  # import fails: the SuperLU fallback
+    if ordering == "metis":
+        pytest.importorskip("pymetis")
+    else:
+        monkeypatch.setitem(sys.modules, "pymetis", None)
+    fem = LinearFEM(box, fixed=np.flatnonzero(box.points[:, 0] < 1e-9))
+    forces = RNG.normal(size=(box.node_count, 3))
+    expected = spla.spsolve(fem.reduced_stiffness, forces.ravel()[fem.free_dofs])
+    u = fem.solve(forces)
+    assert np.abs(u.ravel()[fem.free_dofs] - expected).max() <= 1e-12 * np.abs(expected).max()
+    rhs = RNG.normal(size=(fem.free_dofs.size, 4))
+    factor = _factorise(fem.reduced_stiffness, fem.free_dofs // 3)
+    expected = spla.spsolve(fem.reduced_stiffness, rhs)
+    assert np.abs(factor.solve(rhs) - expected).max() <= 1e-12 * np.abs(expected).max()
+    with pytest.raises(SolverError, match="not positive definite"):
+        _factorise(-fem.reduced_stiffness, fem.free_dofs // 3)
