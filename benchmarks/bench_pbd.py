@@ -8,7 +8,8 @@ What one pypbd step includes (TimeStepController.step, with no collision detecti
 accelerations and adding gravity, semi-implicit Euler prediction, MAX_ITERATIONS sweeps over the constraint groups
 (graph colouring; OpenMP-parallel inside a group when built with OpenMP — run with OMP_NUM_THREADS=1 for a
 single-thread comparison), the velocity update, and a velocity-constraint pass (empty here). Ours: eq 15–18 with the
-same sweeps, one Numba call. Prints figures and ratios; asserts nothing about time.
+same sweeps, one Numba call. Prints figures and ratios, and our cost per stretch and per bending projection (steps
+with one constraint type only, less an empty step); asserts nothing about time.
 
     python benchmarks/bench_pbd.py [--iterations 10] [--steps 200] [--resolutions 1402 5000]
 """
@@ -36,7 +37,8 @@ def _perturbed(surface, seed=0):
     return surface.vertices + rng.normal(scale=0.05 * mean_edge, size=surface.vertices.shape)
 
 
-def ours_stepper(surface, c, *, iterations, form):
+def ours_stepper(surface, c, *, iterations, form, stretch=True, bending=True):
+    """One of our steps on the perturbed ``surface``; ``stretch``/``bending`` False leaves that constraint type out."""
     n = surface.vertex_count
     x0 = _perturbed(surface)
     x, v, pred, f = x0.copy(), np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
@@ -45,11 +47,16 @@ def ours_stepper(surface, c, *, iterations, form):
     alpha_s, alpha_b = shell_compliance(c, thickness=2e-3)
     ls, lb = np.zeros(c.stretch_count), np.zeros(c.bending_count)
     dt = 1e-3
+    edges, rest_length, hinges, rest_angle = c.edges, c.rest_length, c.bending, c.rest_angle
+    if not stretch:
+        edges, rest_length = _readonly(np.zeros((0, 2), np.int32)), _readonly(np.zeros(0))
+    if not bending:
+        hinges, rest_angle = _readonly(np.zeros((0, 4), np.int32)), _readonly(np.zeros(0))
 
     def step():
         if form == "pbd":
-            pbd_step(x, v, pred, w, f, pre, targets, dt, 0.0, iterations, c.edges, c.rest_length, 1.0, c.bending,
-                     c.rest_angle, 1.0)
+            pbd_step(x, v, pred, w, f, pre, targets, dt, 0.0, iterations, edges, rest_length, 1.0, hinges,
+                     rest_angle, 1.0)
         else:
             xpbd_step(x, v, pred, w, f, pre, targets, dt, 0.0, iterations, c.edges, c.rest_length, alpha_s,
                       c.bending, c.rest_angle, alpha_b, ls, lb)
@@ -58,6 +65,21 @@ def ours_stepper(surface, c, *, iterations, form):
     x[:] = x0
     v[:] = 0.0
     return step
+
+
+def _readonly(a):
+    a.flags.writeable = False  # as SurfaceConstraints hands them over: the same Numba specialisation
+    return a
+
+
+def per_projection_ns(surface, c, *, iterations, steps):
+    """Our PBD form's cost of one stretch and of one bending projection [ns]: steps with only that constraint type,
+    less a step with none (prediction and eq 18), per constraint and sweep."""
+    kinds = [dict(stretch=False, bending=False), dict(bending=False), dict(stretch=False)]
+    none, only_stretch, only_bend = best_of([ours_stepper(surface, c, iterations=iterations, form="pbd", **kind)
+                                             for kind in kinds], steps)
+    return (1e9 * (only_stretch - none) / (c.stretch_count * iterations),
+            1e9 * (only_bend - none) / (c.bending_count * iterations))
 
 
 def best_of(steppers, steps, repeats=9):
@@ -139,6 +161,8 @@ def main(argv=None) -> int:
         print(f"{surface.vertex_count:>8} {constraints:>11} {ours * 1e3:>11.3f} {ours_x * 1e3:>12.3f} "
               f"{theirs * 1e3:>9.3f} {ours / theirs:>9.3f} {ours_x / theirs:>10.3f} {ours * per:>12.1f} "
               f"{theirs * per:>13.1f}")
+        stretch_ns, bend_ns = per_projection_ns(surface, c, iterations=args.iterations, steps=args.steps)
+        print(f"{'':>8} ours (PBD) per projection: stretch {stretch_ns:.1f} ns, bending {bend_ns:.1f} ns")
     return 0
 
 

@@ -255,3 +255,17 @@ def test_a_tangled_hinge_moves_no_vertex_by_more_than_half_its_edge():
     moved = np.linalg.norm(x - start, axis=1)
     assert np.all(np.isfinite(x))
     assert moved.max() == pytest.approx(BEND_MOVE_LIMIT * 1.0, rel=1e-9)  # the bound is reached, not exceeded
+
+
+def test_kernel_dihedral_angle_matches_the_reference_formula():
+    """The kernels take θ as atan2(|a| |det(a, b, c)|, (a×b)·(a×c)); the reference as atan2(|n1×n2|, n1·n2)."""
+    from tissuesim.pbd.kernels import dihedral_angles
+
+    rng = np.random.default_rng(7)
+    points = rng.normal(size=(300, 4, 3))
+    points[::3, 3] = points[::3, 0] + points[::3, 1] - points[::3, 2] + 1e-7 * rng.normal(size=(100, 3))  # ~flat
+    points[1::3, 3] = points[1::3, 2] + 1e-7 * rng.normal(size=(100, 3))  # ~folded shut
+    x = points.reshape(-1, 3)
+    hinges = np.arange(len(x), dtype=np.int32).reshape(-1, 4)
+    reference = np.array([C.dihedral_angle(*p) for p in points])
+    assert np.allclose(dihedral_angles(x, hinges), reference, rtol=0, atol=1e-13)

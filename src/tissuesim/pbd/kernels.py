@@ -23,8 +23,9 @@ Two forms share this flow:
 * :func:`xpbd_step`: XPBD (Macklin et al. 2016) with per-constraint compliance α (stretch [m/N], bending
   [1/(N·m)]), ``α̃ = α/dt²``, multipliers λ accumulated across sweeps and reset at the start of each step.
 
-The constraint arithmetic is the same, in the same order, as the NumPy reference in
-:mod:`tissuesim.pbd.constraints` (angles by atan2; degenerate constraints skipped). Array loads are copied into
+The constraints are the NumPy reference's (:mod:`tissuesim.pbd.constraints`: angles by atan2, degenerate
+constraints skipped, the same thresholds), equal to it up to round-off; the bending projection gets θ and its gradient
+from cheaper, equivalent expressions (see :func:`_project_bend`). Array loads are copied into
 locals before any write, so aliasing between positions does not force re-reads (DESIGN performance rules).
 """
 
@@ -71,8 +72,9 @@ def _project_stretch(x, w, i, j, rest, scale, alpha, lam):
     denom = wi + wj + alpha
     if length <= TINY_LENGTH or denom <= 0.0:
         return 0.0
-    dlam = scale * (-(length - rest) - alpha * lam) / denom
-    s = dlam / length
+    # s = Δλ/|d| with one division: Δλ = k(−C − α̃λ)/(w_i + w_j + α̃), the correction is w s d.
+    s = (-(length - rest) - alpha * lam) * (scale / (denom * length))
+    dlam = s * length
     x[i, 0] = xi0 + wi * s * d0
     x[i, 1] = xi1 + wi * s * d1
     x[i, 2] = xi2 + wi * s * d2
@@ -86,8 +88,17 @@ def _project_stretch(x, w, i, j, rest, scale, alpha, lam):
 def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     """One bending constraint (eq 10) on hinge (P1, P2 | P3, P4), in place. Returns the multiplier increment.
 
-    Gradient from eq 12 (P1 at the origin): ∇_i C = q_i / sinθ. PBD (``alpha`` = 0, ``lam`` = 0): eq 11 scaled by
-    k'. XPBD: Δλ = (−C − α̃λ)/(Σ w_j |∇_j C|² + α̃), Δp_i = w_i ∇_i C Δλ.
+    PBD (``alpha`` = 0, ``lam`` = 0): eq 11 scaled by k'. XPBD: Δλ = (−C − α̃λ)/(Σ w_j |∇_j C|² + α̃),
+    Δp_i = w_i ∇_i C Δλ. With P1 at the origin (a = P2, b = P3, c = P4):
+
+    * θ = atan2(|n1×n2|, n1·n2) = atan2(|a| |det(a, b, c)|, (a×b)·(a×c)), because (a×b)×(a×c) = det(a, b, c) a and
+      atan2 ignores the common positive factor 1/(|a×b| |a×c|). So the atan2 call needs no square root or division
+      and overlaps the rest.
+    * ∇C = ∇θ, eq 12's q_i / sinθ, in closed form (Bridson et al. 2003; σ times the signed angle's gradient of
+      ``constraints.signed_bend_gradient``): the same vectors up to round-off, without eq 12's division by sinθ,
+      which loses digits near flat hinges (tested against eq 12's reference): ∇_3 = −σ|a| (a×b)/|a×b|²,
+      ∇_4 = σ|a| (a×c)/|a×c|², σ = sign det(a, b, c); ∇_2 = −(b·a/|a|²) ∇_3 − (c·a/|a|²) ∇_4 (lever rule);
+      ∇_1 = −∇_2 − ∇_3 − ∇_4.
     """
     ox = x[i1, 0]
     oy = x[i1, 1]
@@ -114,80 +125,67 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     w2 = w[i2]
     w3 = w[i3]
     w4 = w[i4]
-    # n1 = a×b/|a×b|, n2 = a×c/|a×c|
+    # n1 ∥ a×b, n2 ∥ a×c
     c1x = ay * bz - az * by
     c1y = az * bx - ax * bz
     c1z = ax * by - ay * bx
     c2x = ay * cz - az * cy
     c2y = az * cx - ax * cz
     c2z = ax * cy - ay * cx
-    l1 = math.sqrt(c1x * c1x + c1y * c1y + c1z * c1z)
-    l2 = math.sqrt(c2x * c2x + c2y * c2y + c2z * c2z)
-    if l1 <= TINY_LENGTH or l2 <= TINY_LENGTH:
+    det = c1x * cx + c1y * cy + c1z * cz
+    length2 = ax * ax + ay * ay + az * az
+    length = math.sqrt(length2)
+    theta = math.atan2(length * abs(det), c1x * c2x + c1y * c2y + c1z * c2z)
+    l1sq = c1x * c1x + c1y * c1y + c1z * c1z
+    l2sq = c2x * c2x + c2y * c2y + c2z * c2z
+    # Degenerate: |a×b| or |a×c| ≤ TINY_LENGTH (squared, TINY_LENGTH² underflows to 0: the same test), or
+    # sinθ = |a| |det| / (|a×b| |a×c|) ≤ TINY_SINE (squared, no root).
+    if (l1sq <= TINY_LENGTH * TINY_LENGTH or l2sq <= TINY_LENGTH * TINY_LENGTH
+            or length2 * (det * det) <= (TINY_SINE * TINY_SINE) * (l1sq * l2sq)):
         return 0.0
-    r1 = 1.0 / l1
-    r2 = 1.0 / l2
-    n1x = c1x * r1
-    n1y = c1y * r1
-    n1z = c1z * r1
-    n2x = c2x * r2
-    n2y = c2y * r2
-    n2z = c2z * r2
-    d = n1x * n2x + n1y * n2y + n1z * n2z
-    crx = n1y * n2z - n1z * n2y
-    cry = n1z * n2x - n1x * n2z
-    crz = n1x * n2y - n1y * n2x
-    sine = math.sqrt(crx * crx + cry * cry + crz * crz)
-    if sine <= TINY_SINE:
-        return 0.0
-    theta = math.atan2(sine, d)
-    # Eq 12 factored (fewer operations, same vectors): with u = (n2 − d n1)/l1 and v = (n1 − d n2)/l2,
-    # q3 = a×u, q4 = a×v, q2 = −(b×u + c×v), q1 = −q2 − q3 − q4.
-    ux = (n2x - d * n1x) * r1
-    uy = (n2y - d * n1y) * r1
-    uz = (n2z - d * n1z) * r1
-    vx = (n1x - d * n2x) * r2
-    vy = (n1y - d * n2y) * r2
-    vz = (n1z - d * n2z) * r2
-    q3x = ay * uz - az * uy
-    q3y = az * ux - ax * uz
-    q3z = ax * uy - ay * ux
-    q4x = ay * vz - az * vy
-    q4y = az * vx - ax * vz
-    q4z = ax * vy - ay * vx
-    q2x = -(by * uz - bz * uy) - (cy * vz - cz * vy)
-    q2y = -(bz * ux - bx * uz) - (cz * vx - cx * vz)
-    q2z = -(bx * uy - by * ux) - (cx * vy - cy * vx)
-    q1x = -q2x - q3x - q4x
-    q1y = -q2y - q3y - q4y
-    q1z = -q2z - q3z - q4z
-    qsum = (w1 * (q1x * q1x + q1y * q1y + q1z * q1z) + w2 * (q2x * q2x + q2y * q2y + q2z * q2z)
-            + w3 * (q3x * q3x + q3y * q3y + q3z * q3z) + w4 * (q4x * q4x + q4y * q4y + q4z * q4z))
-    # In gradient form: Σ w|∇C|² = qsum / sin²θ; Δp_i = w_i (q_i / sinθ) Δλ.
-    denom = qsum / (sine * sine) + alpha
+    f3 = -math.copysign(length, det) / l1sq
+    f4 = math.copysign(length, det) / l2sq
+    g3x = f3 * c1x
+    g3y = f3 * c1y
+    g3z = f3 * c1z
+    g4x = f4 * c2x
+    g4y = f4 * c2y
+    g4z = f4 * c2z
+    inv_length2 = 1.0 / length2
+    ta = (bx * ax + by * ay + bz * az) * inv_length2
+    tb = (cx * ax + cy * ay + cz * az) * inv_length2
+    g2x = -ta * g3x - tb * g4x
+    g2y = -ta * g3y - tb * g4y
+    g2z = -ta * g3z - tb * g4z
+    g1x = -g2x - g3x - g4x
+    g1y = -g2y - g3y - g4y
+    g1z = -g2z - g3z - g4z
+    m1 = w1 * (g1x * g1x + g1y * g1y + g1z * g1z)
+    m2 = w2 * (g2x * g2x + g2y * g2y + g2z * g2z)
+    m3 = w3 * (g3x * g3x + g3y * g3y + g3z * g3z)
+    m4 = w4 * (g4x * g4x + g4y * g4y + g4z * g4z)
+    denom = (m1 + m2 + m3 + m4) + alpha
     if denom <= 0.0:
         return 0.0
-    dlam = scale * (-(theta - rest) - alpha * lam) / denom
-    s = dlam / sine
-    largest = max(w1 * w1 * (q1x * q1x + q1y * q1y + q1z * q1z), w2 * w2 * (q2x * q2x + q2y * q2y + q2z * q2z),
-                  w3 * w3 * (q3x * q3x + q3y * q3y + q3z * q3z), w4 * w4 * (q4x * q4x + q4y * q4y + q4z * q4z))
-    limit = BEND_MOVE_LIMIT * math.sqrt(ax * ax + ay * ay + az * az)
-    move = abs(s) * math.sqrt(largest)
+    factor = scale / denom  # computed while atan2 runs: after it, only multiplications
+    largest = math.sqrt(max(w1 * m1, w2 * m2, w3 * m3, w4 * m4))  # max_i |Δp_i| / |Δλ|
+    limit = BEND_MOVE_LIMIT * length
+    dlam = (-(theta - rest) - alpha * lam) * factor
+    move = abs(dlam) * largest
     if move > limit:
-        s *= limit / move
         dlam *= limit / move
-    x[i1, 0] = ox + w1 * s * q1x
-    x[i1, 1] = oy + w1 * s * q1y
-    x[i1, 2] = oz + w1 * s * q1z
-    x[i2, 0] = px2 + w2 * s * q2x
-    x[i2, 1] = py2 + w2 * s * q2y
-    x[i2, 2] = pz2 + w2 * s * q2z
-    x[i3, 0] = px3 + w3 * s * q3x
-    x[i3, 1] = py3 + w3 * s * q3y
-    x[i3, 2] = pz3 + w3 * s * q3z
-    x[i4, 0] = px4 + w4 * s * q4x
-    x[i4, 1] = py4 + w4 * s * q4y
-    x[i4, 2] = pz4 + w4 * s * q4z
+    x[i1, 0] = ox + w1 * dlam * g1x
+    x[i1, 1] = oy + w1 * dlam * g1y
+    x[i1, 2] = oz + w1 * dlam * g1z
+    x[i2, 0] = px2 + w2 * dlam * g2x
+    x[i2, 1] = py2 + w2 * dlam * g2y
+    x[i2, 2] = pz2 + w2 * dlam * g2z
+    x[i3, 0] = px3 + w3 * dlam * g3x
+    x[i3, 1] = py3 + w3 * dlam * g3y
+    x[i3, 2] = pz3 + w3 * dlam * g3z
+    x[i4, 0] = px4 + w4 * dlam * g4x
+    x[i4, 1] = py4 + w4 * dlam * g4y
+    x[i4, 2] = pz4 + w4 * dlam * g4z
     return dlam
 
 
@@ -410,19 +408,10 @@ def dihedral_angles(positions, bending):
         l2 = math.sqrt(c2x * c2x + c2y * c2y + c2z * c2z)
         if l1 <= TINY_LENGTH or l2 <= TINY_LENGTH:
             continue
-        r1 = 1.0 / l1
-        r2 = 1.0 / l2
-        n1x = c1x * r1
-        n1y = c1y * r1
-        n1z = c1z * r1
-        n2x = c2x * r2
-        n2y = c2y * r2
-        n2z = c2z * r2
-        d = n1x * n2x + n1y * n2y + n1z * n2z
-        crx = n1y * n2z - n1z * n2y
-        cry = n1z * n2x - n1x * n2z
-        crz = n1x * n2y - n1y * n2x
-        out[c] = math.atan2(math.sqrt(crx * crx + cry * cry + crz * crz), d)
+        # As _project_bend: atan2(|a| |det(a, b, c)|, (a×b)·(a×c)).
+        length = math.sqrt(ax * ax + ay * ay + az * az)
+        across = length * abs(c1x * cx + c1y * cy + c1z * cz)
+        out[c] = math.atan2(across, c1x * c2x + c1y * c2y + c1z * c2z)
     return out
 
 
