@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SolverError
-from .solvers.base import _positive
+from .solvers.base import positive_number
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0
@@ -44,13 +44,13 @@ class PinHead:
             if not hasattr(solver, needed):
                 raise SolverError(f"PinHead needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
         self.solver = solver
-        self.stiffness = _positive("pin-head stiffness", stiffness, "N/m")
+        self.stiffness = positive_number("pin-head stiffness", stiffness, "N/m")
         if snap_radius is None:
             surface = solver.hybrid.surface
             edges = surface.edges
             lengths = np.linalg.norm(surface.vertices[edges[:, 0]] - surface.vertices[edges[:, 1]], axis=1)
             snap_radius = SNAP_RADIUS_EDGES * float(lengths.mean())
-        self.snap_radius = _positive("snap radius", snap_radius, "m")
+        self.snap_radius = positive_number("snap radius", snap_radius, "m")
         self.node: int | None = None
         self.anchor: np.ndarray | None = None
 

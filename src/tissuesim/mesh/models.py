@@ -171,7 +171,7 @@ def _farthest_points(points: np.ndarray, count: int, weight: np.ndarray) -> np.n
 
 def _merge(points: np.ndarray, triangles: np.ndarray, decimals: int = 9):
     keys = np.round(points, decimals)
-    unique, index, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
+    _, index, inverse = np.unique(keys, axis=0, return_index=True, return_inverse=True)
     return points[index], inverse.ravel()[triangles].astype(np.int32)
 
 

@@ -139,8 +139,8 @@ class Solver(ABC):
         self.material = Material(youngs_modulus=float(youngs_modulus), poisson_ratio=float(poisson_ratio))
         self.youngs_modulus = float(youngs_modulus)
         self.poisson_ratio = float(poisson_ratio)
-        self.density = _positive("density", density, "kg/m³")
-        self.dt = _positive("dt", dt, "s")
+        self.density = positive_number("density", density, "kg/m³")
+        self.dt = positive_number("dt", dt, "s")
         self.damping = _fraction("damping", damping)
         self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
         n = len(self.rest_positions)
@@ -234,7 +234,7 @@ class Solver(ABC):
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
         The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
         """
-        tolerance = _positive("tolerance", tolerance, "m")
+        tolerance = positive_number("tolerance", tolerance, "m")
         if int(max_steps) < 1:
             raise SolverError(f"max_steps must be at least 1, got {max_steps}")
         dt = self._check_dt(dt)
@@ -294,7 +294,7 @@ class Solver(ABC):
     def _check_dt(self, dt) -> float:
         if dt is None:
             return self.dt
-        return _positive("time step dt", dt, "s")
+        return positive_number("time step dt", dt, "s")
 
     def fixed_volume_nodes(self, volume_points: np.ndarray, surface_to_volume: np.ndarray | None) -> np.ndarray:
         """``(k,) int32`` fixed nodes of a volume mesh with nodes ``volume_points`` ``(N, 3)`` [m].
@@ -317,7 +317,8 @@ class Solver(ABC):
 
 
 # --------------------------------------------------------------------------------------------------- helpers
-def _positive(name: str, value, unit: str) -> float:
+def positive_number(name: str, value, unit: str) -> float:
+    """``value`` as a float, or a :class:`SolverError` naming ``name`` and its ``unit`` unless positive and finite."""
     try:
         value = float(value)
     except (TypeError, ValueError):

@@ -35,7 +35,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SolverError
-from .base import Solver, _positive, register
+from .base import Solver, positive_number, register
 
 #: Fraction of the explicit stability limit 2/ω_max used as substep (ω_max is already an upper bound: measured
 #: 1.6x the true highest frequency on the sphere at rest, tests/unit/test_solvers_mass_spring.py).
@@ -149,7 +149,7 @@ class MassSpringSolver(Solver):
         super().__init__(hybrid_mesh, damping=damping, **common)
         if thickness is None:
             from .calibrated import MASS_SPRING_THICKNESS as thickness
-        self.thickness = _positive("thickness", thickness, "m")
+        self.thickness = positive_number("thickness", thickness, "m")
         surface = hybrid_mesh.surface
         self.springs, self.rest_lengths, span = spring_network(surface)
         self.stiffness = self.youngs_modulus * self.thickness * span / self.rest_lengths**2

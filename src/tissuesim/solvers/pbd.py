@@ -29,7 +29,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..pbd.kernels import pbd_step, xpbd_step
-from .base import Solver, _positive, register
+from .base import Solver, positive_number, register
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
@@ -88,11 +88,11 @@ class SurfaceLayerSolver(Solver):
         thickness = defaults["thickness"] if thickness is None else thickness
         stiffness_default, stiffness = stiffness is None, defaults["stiffness"] if stiffness is None else stiffness
         mass_scale = defaults["mass_scale"] if mass_scale is None else mass_scale
-        self.mass_scale = _positive("mass_scale", mass_scale, "1")
+        self.mass_scale = positive_number("mass_scale", mass_scale, "1")
         if form == "xpbd":
             if not stiffness_default:
                 raise SolverError("stiffness is the pbd form's parameter; the xpbd form takes thickness [m]")
-            self.thickness = _positive("thickness", thickness, "m")
+            self.thickness = positive_number("thickness", thickness, "m")
             self.stiffness = None
             self.stretch_compliance, self.bend_compliance = shell_compliance(
                 self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
