@@ -71,7 +71,7 @@ class PinHead:
             )
         if self.node is not None:
             self.solver.clear_load()
-        self.node, self.anchor = node, point
+        self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
         return node
 
     def force(self, point) -> np.ndarray:
