@@ -43,6 +43,11 @@ DEFAULT_DENSITY = 1000.0  # kg/m³
 DEFAULT_DT = 0.01  # s
 DEFAULT_TOLERANCE = 1e-6  # m of motion per step at which a quasi-static solve counts as settled (1 µm)
 DEFAULT_MAX_STEPS = 20000
+#: A state has run away when a node lies farther than this many model sizes (the diagonal of M_S's rest bounding
+#: box) from its rest position. Linear elasticity stops being valid near 0.1 sizes; the paper's largest load (20 N on
+#: a cube corner) moves the fine FEM 31 sizes and the hybrid 28, so 100 sizes is no tissue's answer, only a blow-up
+#: (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
+RUNAWAY_SIZES = 100.0
 
 
 @dataclass
@@ -97,6 +102,25 @@ def max_motion_and_copy(previous: np.ndarray, current: np.ndarray) -> float:
     return largest
 
 
+@njit(cache=True)
+def farthest_node(positions: np.ndarray, rest: np.ndarray) -> tuple[int, float]:
+    """``(node, distance [m])`` of the node of ``positions`` ``(n, 3)`` farthest from ``rest`` ``(n, 3)``.
+
+    A non-finite coordinate wins with distance inf (its node is returned), so one pass checks finiteness too.
+    """
+    worst, node = 0.0, -1
+    for i in range(positions.shape[0]):
+        d2 = 0.0
+        for k in range(3):
+            d = positions[i, k] - rest[i, k]
+            d2 += d * d
+        if not d2 <= worst:           # true for NaN and inf too
+            if not np.isfinite(d2):
+                return i, np.inf
+            worst, node = d2, i
+    return node, np.sqrt(worst)
+
+
 class Solver(ABC):
     """Base class of every method: state, load, stepping and the quasi-static loop.
 
@@ -110,6 +134,9 @@ class Solver(ABC):
         forces: ``(n, 3) float64`` external nodal forces [N] on M_S (zero but for the loaded node); read-only to
             users, change it through :meth:`set_load` / :meth:`clear_load`.
         state: the :class:`State`.
+        size: diagonal of M_S's rest bounding box [m].
+        runaway_distance: :data:`RUNAWAY_SIZES` × ``size`` [m]: a node farther than this from rest, or a non-finite
+            position, makes :meth:`step` and :meth:`solve_static` raise :class:`SolverError` (a blow-up).
         last_solve: :class:`SolveReport` of the last :meth:`solve_static`, or None.
     """
 
@@ -155,6 +182,9 @@ class Solver(ABC):
         self._load_node = -1
         self.state = State.at_rest(self.rest_positions)
         self._previous = np.array(self.rest_positions)  # workspace of the quasi-static loop
+        extent = self.rest_positions.max(axis=0) - self.rest_positions.min(axis=0)
+        self.size = float(np.linalg.norm(extent))
+        self.runaway_distance = RUNAWAY_SIZES * self.size
         self.last_solve: SolveReport | None = None
 
     # ----------------------------------------------------------------------------------------------- state access
@@ -205,8 +235,14 @@ class Solver(ABC):
 
     # -------------------------------------------------------------------------------------------------- stepping
     def step(self, dt: float | None = None) -> None:
-        """Advance one time step of ``dt`` [s] (default: the ``dt`` option)."""
-        self._step(self._check_dt(dt))
+        """Advance one time step of ``dt`` [s] (default: the ``dt`` option).
+
+        Raises SolverError when the state blew up (non-finite, or a node beyond :attr:`runaway_distance` from rest);
+        :meth:`reset` then returns the solver to rest.
+        """
+        dt = self._check_dt(dt)
+        self._step(dt)
+        self._check_blow_up(dt)
 
     def reset(self) -> None:
         """Back to rest: rest positions, zero velocities, no load."""
@@ -232,7 +268,8 @@ class Solver(ABC):
 
         Steps (with the solver's damping) until no node moves more than ``tolerance`` [m] in one step; the load
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
-        The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
+        The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling,
+        or at once when the state blows up (see :meth:`step`).
         """
         tolerance = positive_number("tolerance", tolerance, "m")
         if int(max_steps) < 1:
@@ -250,22 +287,35 @@ class Solver(ABC):
         while steps < int(max_steps):
             self._step(dt)
             steps += 1
+            self._check_blow_up(dt, steps)
             motion = max_motion_and_copy(previous, self.state.positions)
             if motion < tolerance or (self.static and steps >= 1):
                 break
         converged = bool(motion < tolerance or self.static)
         self.last_solve = SolveReport(steps, converged, float(motion), tolerance, time.perf_counter() - start)
-        if not np.all(np.isfinite(self.state.positions)):
-            raise SolverError(
-                f"{self.name} solver diverged under {np.linalg.norm(force):g} N on node {node} (non-finite "
-                "positions); lower dt or raise damping"
-            )
         if not converged:
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
                 f"{motion:.3g} m > tolerance {tolerance:g} m); raise max_steps or damping, or loosen tolerance"
             )
         return self.state.positions.copy()
+
+    def _check_blow_up(self, dt: float, steps: int | None = None) -> None:
+        """SolverError naming the cause and the fix when the state is non-finite or ran away (one O(n) pass)."""
+        node, distance = farthest_node(self.state.positions, self.rest_positions)
+        if distance <= self.runaway_distance:
+            return
+        if np.isfinite(distance):
+            what = (f"node {node} ran {distance:.3g} m from rest, more than {RUNAWAY_SIZES:g} times the model's "
+                    f"size {self.size:.3g} m")
+        else:
+            what = f"node {node} has a non-finite position"
+        load = "no load" if self._load_node < 0 else (
+            f"{np.linalg.norm(self.forces[self._load_node]):.3g} N on node {self._load_node}")
+        when = f" after {steps} steps" if steps is not None else ""
+        raise SolverError(
+            f"{self.name} solver diverged{when} ({what}) under {load} with dt = {dt:g} s; the step is unstable for "
+            "this load: lower dt, the load or the pin-head stiffness, or raise damping, then call reset()")
 
     # --------------------------------------------------------------------------------------- subclass interface
     @abstractmethod
