@@ -12,7 +12,8 @@ Both searches use a k-d tree on element centroids, so the cost is about O(n log 
 
 Bundle (:meth:`HybridMesh.save` / :meth:`HybridMesh.load`): one ``.npz`` file of plain arrays (no pickle) plus a JSON
 header carrying the bundle format version and the tissuesim version that wrote it. Loading a bundle of another
-format version or an unreadable one raises :class:`BundleError`; saving writes a temporary file beside the target
+format version, an unreadable one, or one whose arrays fail the checks of :mod:`.bundle_check` (dtype, shape,
+finiteness, index range, consistency between the meshes) raises :class:`BundleError` naming the array; saving writes a temporary file beside the target
 and renames it, so a bundle is never half-written. Arrays survive bit for bit; M'_S is stored as triangles only (its
 vertices are ``surface.vertices[control]``).
 
@@ -35,6 +36,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import BundleError, MeshError
+from .bundle_check import check_arrays, check_header
 from .surface import SurfaceMesh
 from .tetmesh import TET_FACES, TetMesh
 
@@ -209,32 +211,27 @@ class HybridMesh:
             raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); rebuild it with "
                               "`tissuesim build ... --output`") from error
         header = _read_header(path, arrays)
+        fine_volume = header["has_fine_volume"]
         required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
                     "control", "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet",
                     "embedding_barycentric"]
-        if header.get("has_fine_volume"):
+        if fine_volume:
             required += ["fine_points", "fine_tets", "fine_surface_nodes"]
         missing = [key for key in required if key not in arrays]
         if missing:
             raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+        check_arrays(path, arrays, fine=fine_volume)
         try:
             surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
             control = arrays["control"]
             coarse = SurfaceMesh(surface.vertices[control], arrays["coarse_triangles"])
             volume = TetMesh(arrays["volume_points"], arrays["volume_tets"])
             fine = fine_nodes = None
-            if header.get("has_fine_volume"):
+            if fine_volume:
                 fine = TetMesh(arrays["fine_points"], arrays["fine_tets"])
                 fine_nodes = arrays["fine_surface_nodes"]
-        except (MeshError, IndexError) as error:
+        except MeshError as error:
             raise BundleError(f"{path} holds inconsistent meshes ({error}); rebuild it") from error
-        n = surface.vertex_count
-        shapes = {"coarse_triangle": (n,), "coarse_barycentric": (n, 3), "embedding_tet": (n,),
-                  "embedding_barycentric": (n, 4), "control_volume": control.shape}
-        wrong = [key for key, shape in shapes.items() if arrays[key].shape != shape]
-        if wrong:
-            raise BundleError(f"{path}: arrays {', '.join(wrong)} do not match the surface's {n} vertices; "
-                              "rebuild it")
         return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
                    control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
                    coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
@@ -420,6 +417,7 @@ def _read_header(path: Path, arrays: dict) -> dict:
         raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
     if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:
         raise BundleError(f"{path} is not a tissuesim hybrid-mesh bundle")
+    check_header(path, header)
     if header.get("format_version") != BUNDLE_VERSION:
         raise BundleError(
             f"{path} is bundle format version {header.get('format_version')} (written by tissuesim "
