@@ -25,6 +25,7 @@ Common options (keyword-only, the same for every method):
 from __future__ import annotations
 
 import inspect
+import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -48,6 +49,9 @@ DEFAULT_MAX_STEPS = 20000
 #: a cube corner) moves the fine FEM 31 sizes and the hybrid 28, so 100 sizes is no tissue's answer, only a blow-up
 #: (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
 RUNAWAY_SIZES = 100.0
+#: Linear elasticity (small strain, small rotation) is no longer a model of the body once a node moves more than
+#: about this fraction of the model's size; :class:`SolveReport` says so.
+LINEAR_VALIDITY_FRACTION = 0.1
 
 
 @dataclass
@@ -79,6 +83,8 @@ class SolveReport:
         max_motion: largest node motion [m] in the last step.
         tolerance: the tolerance asked for [m].
         elapsed: wall time of the solve [s].
+        largest_displacement: largest node displacement from rest at the end [m].
+        model_size: the model's size, the diagonal of M_S's rest bounding box [m].
     """
 
     steps: int
@@ -86,6 +92,22 @@ class SolveReport:
     max_motion: float
     tolerance: float
     elapsed: float
+    largest_displacement: float = math.nan
+    model_size: float = math.nan
+
+    @property
+    def linear_valid(self) -> bool:
+        """False when the largest displacement exceeds :data:`LINEAR_VALIDITY_FRACTION` of the model's size."""
+        return not self.largest_displacement > LINEAR_VALIDITY_FRACTION * self.model_size
+
+    @property
+    def warning(self) -> str | None:
+        """A sentence saying that linear elasticity is not valid for this answer, or None."""
+        if self.linear_valid:
+            return None
+        return (f"linear elasticity is not valid here: a node moved {self.largest_displacement:.3g} m, "
+                f"{self.largest_displacement / self.model_size:.2g} times the model's size {self.model_size:.3g} m "
+                f"(small-strain theory holds to about {LINEAR_VALIDITY_FRACTION:g}); lower the load")
 
 
 @njit(cache=True)
@@ -268,7 +290,8 @@ class Solver(ABC):
 
         Steps (with the solver's damping) until no node moves more than ``tolerance`` [m] in one step; the load
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
-        The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling,
+        The steps taken, and whether linear elasticity is valid for the answer (``last_solve.warning``), are in
+        :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling,
         or at once when the state blows up (see :meth:`step`).
         """
         tolerance = positive_number("tolerance", tolerance, "m")
@@ -292,7 +315,9 @@ class Solver(ABC):
             if motion < tolerance or (self.static and steps >= 1):
                 break
         converged = bool(motion < tolerance or self.static)
-        self.last_solve = SolveReport(steps, converged, float(motion), tolerance, time.perf_counter() - start)
+        _, largest = farthest_node(self.state.positions, self.rest_positions)
+        self.last_solve = SolveReport(steps, converged, float(motion), tolerance, time.perf_counter() - start,
+                                      float(largest), self.size)
         if not converged:
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
