@@ -16,6 +16,9 @@ from importlib import import_module
 from . import __version__
 from .errors import TissuesimError
 
+DESCRIPTION = ("Soft-tissue surface deformation with the hybrid FEM + PBD method: build hybrid meshes, run the "
+               "paper's experiments, calibrate the free scalars.")
+
 # sub-command name -> module under tissuesim.commands
 COMMANDS = {
     "build": "build",
@@ -34,7 +37,7 @@ def _available_commands():
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tissuesim", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tissuesim", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"tissuesim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in _available_commands():

@@ -109,45 +109,45 @@ class HybridMesh:
         steps = ["validate M_S", "simplify M_S -> M'_S", "tetrahedralize M'_S -> M_V", "map M_S onto M'_S and M_V"]
         if fine_volume:
             steps.append("tetrahedralize M_S -> fine volume")
-        bar = _progress(len(steps), progress)
-        timings = {}
+        # A bar left open on an error would run into the error line on stderr: close it on every exit.
+        with _progress(len(steps), progress) as bar:
+            timings = {}
 
-        def step(k):
-            bar.set_description(steps[k])
-            return time.perf_counter()
+            def step(k):
+                bar.set_description(steps[k])
+                return time.perf_counter()
 
-        t = step(0)
-        validate_surface(surface)
-        timings["validate_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(1)
-        simplified = simplify(surface, target_vertices=target_vertices)
-        coarse, control = simplified.surface, simplified.kept
-        timings["simplify_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(2)
-        volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
-        timings["coarse_tetgen_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(3)
-        coarse_triangle, coarse_barycentric = closest_on_surface(coarse, surface.vertices)
-        # Control nodes map to themselves exactly (the search can land on another triangle at distance 0).
-        coarse_triangle[control], coarse_barycentric[control] = _own_corner(coarse, len(control))
-        embedding_tet, embedding_barycentric = embed_in_volume(volume, surface.vertices, coarse, coarse_triangle,
-                                                               coarse_barycentric)
-        timings["maps_s"] = time.perf_counter() - t
-        bar.update()
-
-        fine, fine_nodes = None, None
-        if fine_volume:
-            t = step(4)
-            fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
-            timings["fine_tetgen_s"] = time.perf_counter() - t
+            t = step(0)
+            validate_surface(surface)
+            timings["validate_s"] = time.perf_counter() - t
             bar.update()
-        bar.close()
+
+            t = step(1)
+            simplified = simplify(surface, target_vertices=target_vertices)
+            coarse, control = simplified.surface, simplified.kept
+            timings["simplify_s"] = time.perf_counter() - t
+            bar.update()
+
+            t = step(2)
+            volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
+            timings["coarse_tetgen_s"] = time.perf_counter() - t
+            bar.update()
+
+            t = step(3)
+            coarse_triangle, coarse_barycentric = closest_on_surface(coarse, surface.vertices)
+            # Control nodes map to themselves exactly (the search can land on another triangle at distance 0).
+            coarse_triangle[control], coarse_barycentric[control] = _own_corner(coarse, len(control))
+            embedding_tet, embedding_barycentric = embed_in_volume(volume, surface.vertices, coarse, coarse_triangle,
+                                                                   coarse_barycentric)
+            timings["maps_s"] = time.perf_counter() - t
+            bar.update()
+
+            fine, fine_nodes = None, None
+            if fine_volume:
+                t = step(4)
+                fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
+                timings["fine_tetgen_s"] = time.perf_counter() - t
+                bar.update()
         timings["total_s"] = sum(timings.values())
         info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
                 "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings}

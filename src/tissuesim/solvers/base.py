@@ -185,9 +185,9 @@ class Solver(ABC):
                 "tissuesim.HybridMesh.build(surface)"
             )
         self.hybrid = hybrid_mesh
-        self.material = Material(youngs_modulus=float(youngs_modulus), poisson_ratio=float(poisson_ratio))
-        self.youngs_modulus = float(youngs_modulus)
-        self.poisson_ratio = float(poisson_ratio)
+        self.material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)  # checks both
+        self.youngs_modulus = self.material.youngs_modulus
+        self.poisson_ratio = self.material.poisson_ratio
         self.density = positive_number("density", density, "kg/m³")
         self.dt = positive_number("dt", dt, "s")
         self.damping = _fraction("damping", damping)
@@ -295,8 +295,8 @@ class Solver(ABC):
         or at once when the state blows up (see :meth:`step`).
         """
         tolerance = positive_number("tolerance", tolerance, "m")
-        if int(max_steps) < 1:
-            raise SolverError(f"max_steps must be at least 1, got {max_steps}")
+        if not _is_integer(max_steps) or max_steps < 1:
+            raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
         node = self._check_node(node)
         force = _check_force(force)
@@ -355,11 +355,10 @@ class Solver(ABC):
 
     # ---------------------------------------------------------------------------------------------- validation
     def _check_node(self, node) -> int:
-        try:
-            index = int(node)
-        except (TypeError, ValueError):
-            raise SolverError(f"load node must be an integer vertex index, got {node!r}") from None
-        if index != node or not 0 <= index < self.node_count:
+        if not _is_integer(node):
+            raise SolverError(f"load node must be an integer vertex index, got {node!r}")
+        index = int(node)
+        if not 0 <= index < self.node_count:
             raise SolverError(
                 f"load node {node!r} is outside the surface's vertices 0..{self.node_count - 1}; pick an M_S "
                 "vertex index (PinHead.grab snaps a point to one)"
@@ -401,6 +400,15 @@ def positive_number(name: str, value, unit: str) -> float:
     if not np.isfinite(value) or value <= 0.0:
         raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
     return value
+
+
+def _is_integer(value) -> bool:
+    """True for an int or NumPy integer (not a bool: True would otherwise mean node 1), or an integral float."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (int, np.integer)):
+        return True
+    return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
 def _fraction(name: str, value) -> float:
