@@ -42,6 +42,13 @@ SURFACE_EXTENSIONS = (".obj", *_MESHIO_FORMATS)
 _VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27", "wedge15")
 
 
+def check_scale(scale) -> float:
+    """``scale`` (factor from a file's unit to metres) as a float, or a MeshError unless positive and finite."""
+    if isinstance(scale, bool) or not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
+    return float(scale)
+
+
 def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
     """Read a closed triangle surface from ``path`` (OBJ, STL, PLY, OFF, VTK, VTU) and validate it.
 
@@ -59,8 +66,7 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
         MeshError: unknown extension, unreadable file, no triangles, or a defect that validation finds (and, with
             ``repair=True``, that repair could not fix).
     """
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
-        raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
+    check_scale(scale)
     vertices, polygons = read_polygons(Path(path))
     surface = surface_from_polygons(vertices * float(scale), polygons, source=str(path))
     from .mesh.validate import validate_surface
