@@ -13,8 +13,9 @@ Both searches use a k-d tree on element centroids, so the cost is about O(n log 
 Bundle (:meth:`HybridMesh.save` / :meth:`HybridMesh.load`): one ``.npz`` file of plain arrays (no pickle) plus a JSON
 header carrying the bundle format version and the tissuesim version that wrote it. Loading a bundle of another
 format version, an unreadable one, or one whose arrays fail the checks of :mod:`.bundle_check` (dtype, shape,
-finiteness, index range, consistency between the meshes) raises :class:`BundleError` naming the array; saving writes a temporary file beside the target
-and renames it, so a bundle is never half-written. Arrays survive bit for bit; M'_S is stored as triangles only (its
+finiteness, index range, consistency between the meshes) raises :class:`BundleError` naming the array. Saving writes
+a temporary file beside the target and renames it, so a bundle is never half-written; a target that exists and is
+not a regular file is refused. Arrays survive bit for bit; M'_S is stored as triangles only (its
 vertices are ``surface.vertices[control]``).
 
 Table 1 (:func:`table1_row`): nodes, elements and size of M_S, M_V and the fine volume. *Size* is the byte count of
@@ -160,10 +161,17 @@ class HybridMesh:
     # -- bundle ------------------------------------------------------------------------------------------------
 
     def save(self, path) -> Path:
-        """Write the bundle to ``path`` (``.npz``) atomically; return the path."""
+        """Write the bundle to ``path`` (``.npz``) atomically; return the path.
+
+        Raises:
+            BundleError: ``path`` exists and is not a regular file (a folder, device or pipe would be replaced).
+        """
         from .. import __version__
 
         path = Path(path)
+        if path.exists() and not path.is_file():
+            raise BundleError(f"cannot save the bundle to {path}: it exists and is not a regular file (a folder, "
+                              "device or pipe); give the path of a new or existing .npz file")
         header = {"format": BUNDLE_FORMAT, "format_version": BUNDLE_VERSION, "tissuesim_version": __version__,
                   "has_fine_volume": self.fine_volume is not None, "info": _jsonable(self.info)}
         arrays = {
