@@ -177,6 +177,10 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
         printed = chatter.getvalue().strip().splitlines()
         reason = (printed[0] if printed else "") if isinstance(exc, SystemExit) else str(exc)
         reason = " ".join(reason.split()) or type(exc).__name__
+        if ext == ".stl":
+            # meshio's ASCII STL reader refuses valid files it did not write (e.g. trimesh's blank line before
+            # 'endsolid'); trimesh reads those.
+            return _read_stl_with_trimesh(path, reason)
         raise MeshError(f"cannot read {path} as {ext[1:].upper()}: {reason}") from None
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.ndim == 2 and points.shape[1] == 2:
@@ -192,6 +196,23 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
         found = f" (found {', '.join(volume)} cells: a volume mesh)" if volume else ""
         raise MeshError(f"{path}: no triangle or polygon faces{found}; read_surface needs a surface mesh")
     return points, blocks
+
+
+def _read_stl_with_trimesh(path: Path, meshio_reason: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """An STL file meshio could not read, read by trimesh (unprocessed: one vertex per corner, merged later)."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load_mesh(path, file_type="stl", process=False)
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        trimesh_reason = "" if len(faces) else "no triangle faces"
+    except Exception as exc:  # trimesh raises many kinds on a malformed file
+        trimesh_reason = " ".join(str(exc).split()) or type(exc).__name__
+    if trimesh_reason:
+        raise MeshError(f"cannot read {path} as STL: {meshio_reason} (meshio); {trimesh_reason} (trimesh); check "
+                        "that the file is a complete ASCII or binary STL with its faces")
+    return vertices, [faces]
 
 
 def _read_obj(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
