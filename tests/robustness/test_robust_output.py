@@ -9,10 +9,11 @@ from pathlib import Path
 
 import pytest
 
+import tissuesim
 from tissuesim.cli import main
 from tissuesim.experiments import output
 
-SRC = Path(__file__).resolve().parents[2] / "src"
+SRC = Path(tissuesim.__file__).resolve().parents[1]      # the package under test, for the child process
 
 
 def test_a_place_where_staging_fails_is_refused_before_the_run(tmp_path, monkeypatch):
