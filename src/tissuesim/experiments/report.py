@@ -181,11 +181,13 @@ def _validity(data: dict) -> list[str]:
                          f"model's size ({size_mm:.0f} mm) in any case: linear elasticity holds.")
             continue
         worst = max(beyond, key=lambda c: c[2])
+        loads = dict.fromkeys(load for load, _, _ in beyond)
+        onset = ", ".join(f"{load} from {min(f for l, f, _ in beyond if l == load):g} N" for load in loads)
         lines.append(f"{model}: linear elasticity is not valid in {len(beyond)} of {len(cases)} cases, where the "
                      f"reference moves a node more than {LINEAR_VALIDITY_FRACTION:g} of the model's size "
-                     f"({size_mm:.0f} mm): " + ", ".join(f"{load} {force:g} N" for load, force, _ in beyond)
-                     + f" (worst: {worst[2] / size_mm:.2g} sizes, {worst[0]} {worst[1]:g} N). There the methods are "
-                     "compared with a linear reference, not with what tissue would do.")
+                     f"({size_mm:.0f} mm): {onset} (worst: {worst[2] / size_mm:.2g} sizes, {worst[0]} "
+                     f"{worst[1]:g} N). There the methods are compared with a linear reference, not with what "
+                     "tissue would do.")
     return lines
 
 
