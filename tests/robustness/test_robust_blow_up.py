@@ -29,14 +29,16 @@ def test_a_non_finite_state_is_caught_on_the_next_step(small_cube, small_cube_to
         solver.step()
 
 
-def test_a_runaway_dynamic_solver_is_stopped_within_the_bound(small_cube, small_cube_top, small_cube_size):
+def test_a_runaway_dynamic_solver_is_stopped_at_the_first_step_beyond_the_bound(small_cube, small_cube_top,
+                                                                                small_cube_size):
     solver = make_solver("pbd", small_cube)
     solver.set_load(small_cube_top, [0.0, 0.0, 1e6])
+    rest = small_cube.surface.vertices
     with pytest.raises(SolverError, match="more than 100 times the model's size"):
         for _ in range(200):
+            before = np.linalg.norm(solver.positions - rest, axis=1).max()
             solver.step()
-    farthest = np.linalg.norm(solver.positions - small_cube.surface.vertices, axis=1).max()
-    assert farthest < 1000 * small_cube_size       # stopped early, not at 1e4 m
+    assert before <= 100 * small_cube_size      # the step that crossed the bound raised, not a later one
 
 
 @pytest.mark.parametrize("method", ["hybrid", "fem"])
@@ -47,5 +49,5 @@ def test_solve_static_calls_a_divergence_a_divergence(small_cube, method):
     assert np.all(np.isfinite(solver.solve_static(corner, [0.0, 0.0, 20.0], max_steps=2000)))
     with pytest.raises(SolverError) as caught:
         solver.solve_static(corner, [0.0, 0.0, 1e6])
-    assert "diverged after 1 steps" in str(caught.value)
+    assert "diverged" in str(caught.value)
     assert "max_steps" not in str(caught.value)
