@@ -50,8 +50,8 @@ DEFAULT_RTOL = 1e-5
 DEFAULT_MAX_STEPS = 20000
 #: A state has run away when a node lies farther than this many model sizes (the diagonal of M_S's rest bounding
 #: box) from its rest position. Linear elasticity stops being valid near 0.1 sizes; the paper's largest load (20 N on
-#: a cube corner) moves the fine FEM 31 sizes and the hybrid 28, so 100 sizes is no tissue's answer, only a blow-up
-#: (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
+#: a cube corner) moves the fine FEM 35 sizes and the embedded surface 31, so 100 sizes is no tissue's answer, only
+#: a blow-up (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
 RUNAWAY_SIZES = 100.0
 #: Linear elasticity (small strain, small rotation) is no longer a model of the body once a node moves more than
 #: about this fraction of the model's size; :class:`SolveReport` says so.
