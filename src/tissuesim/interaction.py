@@ -76,7 +76,7 @@ class PinHead:
             self.solver.contact_patch(node, self.radius)  # refuse a tip that reaches the fixed region now
         if self.node is not None:
             self.solver.clear_load()
-        self.node, self.anchor = node, point
+        self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
         return node
 
     def force(self, point) -> np.ndarray:
