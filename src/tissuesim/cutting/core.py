@@ -47,6 +47,8 @@ class CutResult:
         cut_edges: ``(c, 2) int64`` the edges cut by this move (vertex pairs, before duplication).
         closed: ``(p, 2) int64`` cut edges still shared by two triangles (a cut's tips), to pass to the next cut.
         split_count: old triangles split.
+        end_vertex: the cut point farthest along the sweep (where the cut stopped), −1 if none; a progressive
+            cut starts its next sweep there so the wound stays one path.
     """
 
     rest: np.ndarray
@@ -61,6 +63,7 @@ class CutResult:
     cut_edges: np.ndarray
     closed: np.ndarray
     split_count: int
+    end_vertex: int = -1
 
     @property
     def duplicated(self) -> np.ndarray:
@@ -176,10 +179,18 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     changed_rows = np.flatnonzero(np.isin(out, np.flatnonzero(copies >= 0)).any(axis=1))
     changed = np.unique(np.concatenate([np.asarray(affected, dtype=np.int64), changed_rows,
                                         np.arange(len(triangles), len(out))]))
-    return CutResult(rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
+    return CutResult(end_vertex=_farthest(segments, new_pos, sweep), rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
                      parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
                      changed=changed, cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
                      closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
+
+
+def _farthest(segments, positions, sweep) -> int:
+    """The segment end with the largest sweep coordinate s (the tip's side of the cut)."""
+    ends = np.unique(np.array(list(segments.values()), dtype=np.int64).ravel())
+    if ends.size == 0:
+        return -1
+    return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
 
 
 def _affected(positions, triangles, sweep, segments, points) -> list[int]:
