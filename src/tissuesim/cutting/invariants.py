@@ -120,18 +120,29 @@ def _euler(triangles, unique_edges, counts, n, max_genus):
     rows = np.repeat(np.arange(len(triangles)), 3)
     graph = coo_matrix((np.ones(rows.size), (rows, triangles.ravel())), shape=(len(triangles), n)).tocsr()
     components, _ = connected_components(graph @ graph.T, directed=False)
-    boundary = unique_edges[counts == 1]
-    loops = 0
-    if boundary.size:
-        a, b = boundary // n, boundary % n
-        g = coo_matrix((np.ones(a.size), (a, b)), shape=(n, n))
-        count, label = connected_components(g, directed=False)
-        loops = np.unique(label[np.concatenate([a, b])]).size
+    loops = _loops(unique_edges[counts == 1], n)
     twice_genus = 2 * components - loops - chi
     if twice_genus % 2 or not 0 <= twice_genus // 2 <= max_genus:
         return [f"Euler characteristic {chi} with {components} components and {loops} boundary loops implies "
                 f"genus {twice_genus / 2:g}, outside 0..{max_genus}"]
     return []
+
+
+def boundary_loops(triangles: np.ndarray, n: int) -> int:
+    """Number of boundary loops (the openings a cut made) of ``triangles`` ``(m, 3)`` over n vertices."""
+    triangles = np.asarray(triangles, dtype=np.int64)
+    directed = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    key = directed[:, 0] * n + directed[:, 1]
+    unique, counts = np.unique(key, return_counts=True)
+    return _loops(unique[counts == 1], n)
+
+
+def _loops(boundary_keys, n):
+    if boundary_keys.size == 0:
+        return 0
+    a, b = boundary_keys // n, boundary_keys % n
+    _, label = connected_components(coo_matrix((np.ones(a.size), (a, b)), shape=(n, n)), directed=False)
+    return np.unique(label[np.concatenate([a, b])]).size
 
 
 def _lengths(rest, edges, rest_length, unique_edges, n):
