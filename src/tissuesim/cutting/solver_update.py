@@ -225,4 +225,4 @@ class RefuseFineFEM:
 
 def _load_updaters() -> None:
     """Import the modules that register the updaters of the built-in methods."""
-    from . import layer_update  # noqa: F401
+    from . import layer_update, spring_update  # noqa: F401
