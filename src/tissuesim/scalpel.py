@@ -74,7 +74,8 @@ class Scalpel:
         from .mesh.surface import SurfaceMesh
 
         point = _point(point)
-        now = SurfaceMesh(self.solver.positions, self.solver.hybrid.surface.triangles)
+        # a copy: SurfaceMesh freezes the array it is given, and the solver's positions must stay writeable
+        now = SurfaceMesh(np.array(self.solver.positions), self.solver.hybrid.surface.triangles)
         tri, bary = closest_on_surface(now, point[None])
         corners = now.vertices[now.triangles[tri[0]]]
         distance = float(np.linalg.norm(bary[0] @ corners - point))
