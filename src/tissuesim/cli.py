@@ -18,6 +18,7 @@ COMMANDS = {
     "build": "build",
     "experiment": "experiment",
     "calibrate": "calibrate",
+    "incise": "incise",
 }
 
 

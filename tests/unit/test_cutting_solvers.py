@@ -91,15 +91,18 @@ def test_a_held_pin_head_keeps_its_node_and_stepping_goes_on(cube):
     assert np.all(np.isfinite(solver.positions))
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring", "embedded"])
-def test_no_nan_after_500_steps_with_1_newton_next_to_the_cut(cube, method):
+# The mass-spring model needs ~360 explicit substeps per step after the cut (its smallest new masses), ~30 s for 500
+# steps: slow-marked, and checked over 50 steps in the quick suite.
+@pytest.mark.parametrize("method,steps", [("hybrid", 500), ("pbd", 500), ("embedded", 500), ("mass-spring", 50),
+                                          pytest.param("mass-spring", 500, marks=pytest.mark.slow)])
+def test_no_nan_after_500_steps_with_1_newton_next_to_the_cut(cube, method, steps):
     solver = tissuesim.make_solver(method, cube)
     run = scripted_incision(solver)
     start, end = run["line"]
     node = int(np.argmin(np.linalg.norm(solver.rest_positions - (0.5 * (start + end) + [0, 0.004, -0.001]),
                                         axis=1)))
     solver.set_load(node, [0.0, 1.0, 0.0])
-    for _ in range(500):
+    for _ in range(steps):
         solver.step()
     assert np.all(np.isfinite(solver.positions))
 

@@ -217,10 +217,20 @@ def _lumped_area(points, triangles):
 class RefuseFineFEM:
     """The fine-FEM reference cannot be cut: its volume would need re-tetrahedralizing."""
 
+    reason = ("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing and "
+              "re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, mass-spring or embedded "
+              "solver")
+
     def __init__(self, solver):
-        raise SolverError("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing "
-                          "and re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, "
-                          "mass-spring or embedded solver")
+        raise SolverError(self.reason)
+
+
+def refusal(name: str) -> str | None:
+    """Why solver method ``name`` cannot be cut, or None if it can."""
+    _load_updaters()
+    if name not in _REGISTRY:
+        return f"the {name} method does not support cutting"
+    return getattr(_REGISTRY[name], "reason", None)
 
 
 def _load_updaters() -> None:
