@@ -51,7 +51,7 @@ def _run(solver, plan, mass):
     h = solver.hybrid
     edge = float(np.mean(np.linalg.norm(h.surface.vertices[h.surface.edges[:, 0]]
                                         - h.surface.vertices[h.surface.edges[:, 1]], axis=1)))
-    cuts, last = 0, None
+    cuts = 0
     for stroke in plan:
         rng = np.random.default_rng(stroke["seed"])
         s = solver.hybrid.surface
@@ -63,13 +63,16 @@ def _run(solver, plan, mass):
                 solver.step()
             solver.clear_load()
         t = int(rng.integers(s.triangle_count))
+        if stroke["start"] == "previous" and cuts:
+            # re-cut: start on the newest vertex, which lies on an earlier cut
+            t = int(np.flatnonzero(np.any(s.triangles == solver.node_count - 1, axis=1))[0])
         a, b, c = s.triangles[t]
         if stroke["start"] == "vertex":
             point = x[a].copy()
         elif stroke["start"] == "edge":
             point = 0.5 * (x[a] + x[b])
-        elif stroke["start"] == "previous" and last is not None:
-            point = last
+        elif stroke["start"] == "previous" and cuts:
+            point = x[solver.node_count - 1].copy()
         else:
             point = rng.dirichlet([1, 1, 1]) @ x[[a, b, c]]
         normal = np.cross(x[b] - x[a], x[c] - x[a])
@@ -101,7 +104,6 @@ def _run(solver, plan, mass):
             if solver.name == "hybrid":
                 assert np.all(np.isin(solver.hybrid.control, solver.prescribed))
         scalpel.release()
-        last = tip - 0.3 * edge * normal
     for _ in range(5):
         solver.step()
     assert np.all(np.isfinite(solver.positions))

@@ -8,7 +8,7 @@ from tissuesim.cutting.invariants import check_cut_invariants
 from tissuesim.cutting.wound import incision_line, scripted_incision, wound_gap, wound_pairs
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import shell_compliance
+from tissuesim.pbd.compliance import relative_shell_compliance
 from tissuesim.pbd.topology import SurfaceConstraints
 
 
@@ -53,8 +53,9 @@ def test_new_constraints_take_the_material_compliance_of_their_new_lengths_and_a
     solver = tissuesim.make_solver("hybrid", cube, form="xpbd")
     scripted_incision(solver)
     fresh = SurfaceConstraints.from_surface(solver.hybrid.surface)
-    stretch, bend = shell_compliance(fresh, youngs_modulus=solver.youngs_modulus,
-                                     poisson_ratio=solver.poisson_ratio, thickness=solver.thickness)
+    stretch, bend = relative_shell_compliance(fresh, youngs_modulus=solver.youngs_modulus,
+                                              poisson_ratio=solver.poisson_ratio,
+                                              thickness_ratio=solver.thickness_ratio)
     n = solver.node_count
     edges, _, keep = _live(solver)
     ours = dict(zip((np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n

@@ -82,35 +82,53 @@ class _Points:
     parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
     weights: list = field(default_factory=list)   # per new point: (3,) weights
 
-    def add(self, corners: np.ndarray, triangle: int, w: np.ndarray) -> int:
-        """Snap barycentric ``w`` in a triangle with vertex ids ``corners``; the point's vertex id."""
+    def locate(self, corners: np.ndarray, triangle: int, w: np.ndarray) -> tuple:
+        """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
+        from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
         w = np.where(w < self.snap, 0.0, w)
         w = w / w.sum()
         nonzero = np.flatnonzero(w)
         if nonzero.size == 1:
-            return int(corners[nonzero[0]])
+            return ("v", int(corners[nonzero[0]]))
         if nonzero.size == 2:
             i, j = corners[nonzero]
-            lo, hi = (i, j) if i < j else (j, i)
+            lo, hi = (int(i), int(j)) if i < j else (int(j), int(i))
             t = float(w[nonzero[1]] if j == hi else w[nonzero[0]])
-            return self._edge_point(int(lo), int(hi), t)
+            if t < self.snap:
+                return ("v", lo)
+            if t > 1.0 - self.snap:
+                return ("v", hi)
+            return ("e", lo, hi, t)
+        return ("f", triangle, w)
+
+    def same(self, a: tuple, b: tuple) -> bool:
+        """Whether two located points are one point after snapping (then the segment between them is dropped)."""
+        if a[0] != b[0]:
+            return False
+        if a[0] == "v":
+            return a[1] == b[1]
+        if a[0] == "e":
+            return a[1:3] == b[1:3] and abs(a[3] - b[3]) < self.snap
+        return a[1] == b[1] and bool(np.all(np.abs(a[2] - b[2]) < self.snap))
+
+    def commit(self, corners: np.ndarray, point: tuple) -> int:
+        """The vertex id of a located point, registering a new edge or facet point (or reusing a near one)."""
+        if point[0] == "v":
+            return point[1]
+        if point[0] == "e":
+            _, lo, hi, t = point
+            for existing, pid in self.edge.get((lo, hi), []):
+                if abs(existing - t) < self.snap:
+                    return pid
+            pid = self._new(np.array([lo, hi, lo]), np.array([1.0 - t, t, 0.0]))
+            self.edge.setdefault((lo, hi), []).append([t, pid])
+            return pid
+        _, triangle, w = point
         for existing, pid in self.facet.get(triangle, []):
             if np.all(np.abs(existing - w) < self.snap):
                 return pid
         pid = self._new(corners, w)
         self.facet.setdefault(triangle, []).append([w, pid])
-        return pid
-
-    def _edge_point(self, lo: int, hi: int, t: float) -> int:
-        if t < self.snap:
-            return lo
-        if t > 1.0 - self.snap:
-            return hi
-        for existing, pid in self.edge.get((lo, hi), []):
-            if abs(existing - t) < self.snap:
-                return pid
-        pid = self._new(np.array([lo, hi, lo]), np.array([1.0 - t, t, 0.0]))
-        self.edge.setdefault((lo, hi), []).append([t, pid])
         return pid
 
     def _new(self, parents, weights) -> int:
@@ -146,7 +164,10 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        a, b = (points.add(corners, crossing.triangle, w) for w in crossing.ends)
+        ends = [points.locate(corners, crossing.triangle, w) for w in crossing.ends]
+        if points.same(*ends):
+            continue            # the segment snapped to a point: nothing to cut in this triangle
+        a, b = (points.commit(corners, end) for end in ends)
         if a != b:
             segments[crossing.triangle] = (a, b)
     if not points.parents and not segments:

@@ -157,18 +157,21 @@ class SurfaceLayerCut(SolverCut):
         self.bend.retire(gone)
 
     def _compliance(self, rows, hrows) -> None:
-        from ..pbd.compliance import hinge_stiffness, membrane_stiffness
+        """XPBD compliance of the new rows from the material, with their own rest lengths and areas."""
+        from ..pbd.compliance import relative_shell_compliance
 
         s, a, b = self.solver, self.stretch.arrays, self.bend.arrays
-        stretch = SimpleNamespace(edge_area=a["edge_area"][rows], rest_length=a["rest_length"][rows])
-        a["compliance"][rows] = 1.0 / membrane_stiffness(stretch, youngs_modulus=s.youngs_modulus,
-                                                         thickness=s.thickness)
         hinge_length = np.linalg.norm(s.rest_positions[b["bending"][hrows, 0]]
                                       - s.rest_positions[b["bending"][hrows, 1]], axis=1)
-        hinge = SimpleNamespace(rest_length=hinge_length, hinge_edge=np.arange(len(hrows)),
-                                hinge_area=b["hinge_area"][hrows])
-        b["compliance"][hrows] = 1.0 / hinge_stiffness(hinge, youngs_modulus=s.youngs_modulus,
-                                                       poisson_ratio=s.poisson_ratio, thickness=s.thickness)
+        # the new stretch rows, then the hinges' edges as extra rows that the hinges point at
+        new = SimpleNamespace(rest_length=np.concatenate([a["rest_length"][rows], hinge_length]),
+                              edge_area=np.concatenate([a["edge_area"][rows], np.ones(len(hrows))]),
+                              hinge_edge=np.arange(len(rows), len(rows) + len(hrows)),
+                              hinge_area=b["hinge_area"][hrows])
+        stretch, bend = relative_shell_compliance(new, youngs_modulus=s.youngs_modulus,
+                                                  poisson_ratio=s.poisson_ratio, thickness_ratio=s.thickness_ratio)
+        a["compliance"][rows] = stretch[: len(rows)]
+        b["compliance"][hrows] = bend
 
     def prescribe(self, result, n, released) -> None:
         """pbd: the fixed nodes; the hybrid overrides this."""

@@ -112,6 +112,7 @@ class SolverCut:
         s.hybrid = cut_hybrid(s.hybrid, result, released)
         self._carry_state(result, n, fixed)
         self.update(result, n, old_triangles, old_content, released)
+        self._reload()
         self.closed = result.closed
         self.on_cut = np.concatenate([self.on_cut, np.zeros(len(result.rest) - n, dtype=bool)])
         self.on_cut[result.cut_edges.ravel()] = True
@@ -131,6 +132,15 @@ class SolverCut:
         s.forces = forces
         s._previous = np.array(s.state.positions)
         s.fixed = fixed
+
+    def _reload(self) -> None:
+        """Contact patches are cached per node on the uncut surface: drop them and re-apply a held load, so a
+        patch that now borders the cut loses the nodes across it."""
+        s = self.solver
+        s._patches.clear()
+        s._lumped_areas = None
+        if s._load_node >= 0:
+            s.set_load(s._load_node, s._load_force.copy(), radius=s.load_radius)
 
     def _update_lumped(self, result, old_rows, old_content, n) -> None:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""

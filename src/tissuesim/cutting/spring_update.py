@@ -2,9 +2,10 @@
 
 Every edge of a changed triangle loses its stretch spring and its bending spring (across the edge's two opposite
 vertices); an edge that still exists gets a stretch spring again (rest length by eq 19–23, stiffness
-k = E h Σ A_T / l² over its new triangles), and a bending spring if it still has two triangles, so none crosses
-the cut. A retired spring joins node 0 to itself with zero stiffness (no force). The stability bound ω_max is
-recomputed from the spring arrays (one vectorised pass: the substep count follows the new, smaller springs).
+k = E β Σ A_T / l over its new triangles, the method's own formula), and a bending spring if it still has two
+triangles, so none crosses the cut. A retired spring joins node 0 to itself with zero stiffness (no force). The
+stability bound ω_max is recomputed from the spring arrays (one vectorised pass: the substep count follows the new,
+smaller springs).
 """
 
 from __future__ import annotations
@@ -57,8 +58,7 @@ class MassSpringCut(SolverCut):
         a = self.rows.arrays
         a["springs"][rows] = np.concatenate([edges, across])
         a["rest"][rows] = np.concatenate([rest, across_rest])
-        a["stiffness"][rows] = s.youngs_modulus * s.thickness * np.concatenate([area, span]) \
-            / a["rest"][rows] ** 2
+        a["stiffness"][rows] = s.youngs_modulus * s.thickness_ratio * np.concatenate([area, span]) / a["rest"][rows]
         self.stretch_row.update(zip(live, rows[: len(live)].tolist()))
         self.bend_row.update(zip(hinge_keys, rows[len(live):].tolist()))
         self._bind()
