@@ -101,13 +101,13 @@ def test_separate_duplicates_inner_vertices_of_a_path_not_its_tips():
     tris = np.array(tris, dtype=np.int64)
     path = [(index[0, 2], index[1, 2]), (index[1, 2], index[2, 2]), (index[2, 2], index[3, 2])]
     path_inner = [(index[1, 2], index[2, 2]), (index[2, 2], index[3, 2])]
-    copies, closed = separate(tris.copy(), path_inner, 16)
+    copies, closed, _ = separate(tris.copy(), path_inner, 16)
     # the inner vertex and the one on the open border split; the tip index[1, 2] stays whole ...
     assert sorted(copies.tolist()) == [index[2, 2], index[3, 2]]
     assert closed == []
-    copies, _ = separate(tris.copy(), path, 16)
+    copies, _, _ = separate(tris.copy(), path, 16)
     assert sorted(copies.tolist()) == sorted(index[:, 2].tolist())     # ... and splits once the path goes on
-    copies, closed = separate(tris.copy(), [(index[1, 1], index[1, 2])], 16)
+    copies, closed, _ = separate(tris.copy(), [(index[1, 1], index[1, 2])], 16)
     assert copies.size == 0 and closed == [(index[1, 1], index[1, 2])]     # one inner edge: nothing opens
 
 

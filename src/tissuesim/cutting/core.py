@@ -184,10 +184,11 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
         cut_edges |= cut
     extra = np.concatenate(tri_rows) if tri_rows else np.zeros((0, 3), dtype=np.int64)
     out = np.concatenate([out, extra])
-    cut_edges |= _carry_closed(closed, points)
-    cut_list = sorted(cut_edges)
-    _check_edges(out, cut_list, affected)
-    copy_of, still_closed = separate(out, cut_list, len(new_rest))
+    new_rows = np.concatenate([np.asarray(affected, dtype=np.int64), np.arange(len(triangles), len(out))])
+    _check_edges(out[new_rows], sorted(cut_edges), affected)
+    # earlier tips that are no longer edges (a later cut went through them) are ignored by separate()
+    cut_list = sorted(cut_edges | _carry_closed(closed, points))
+    copy_of, still_closed, rewritten = separate(out, cut_list, len(new_rest))
     if copy_of.size:
         new_rest = np.concatenate([new_rest, new_rest[copy_of]])
         new_pos = np.concatenate([new_pos, new_pos[copy_of]])
@@ -197,9 +198,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     copies = np.full(len(new_rest), -1, dtype=np.int64)
     copies[len(new_rest) - copy_of.size:] = copy_of
     triangle_origin = np.concatenate([np.arange(len(triangles)), np.array(origin, dtype=np.int64)])
-    changed_rows = np.flatnonzero(np.isin(out, np.flatnonzero(copies >= 0)).any(axis=1))
-    changed = np.unique(np.concatenate([np.asarray(affected, dtype=np.int64), changed_rows,
-                                        np.arange(len(triangles), len(out))]))
+    changed = np.unique(np.concatenate([new_rows, rewritten]))
     return CutResult(end_vertex=_farthest(segments, new_pos, sweep), rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
                      parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
                      changed=changed, cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
@@ -329,12 +328,11 @@ def _carry_closed(closed, points):
     return edges
 
 
-def _check_edges(triangles, cut_edges, affected) -> None:
-    """Every cut edge must be an edge of the new triangles (the subdivision guarantees it; this guards it)."""
+def _check_edges(pieces, cut_edges, affected) -> None:
+    """Every cut edge must be an edge of the new pieces (the subdivision guarantees it; this guards it)."""
     if not cut_edges:
         return
-    directed = triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2)
-    present = {_key(u, v) for u, v in directed[np.isin(directed, np.unique(cut_edges)).any(axis=1)]}
+    present = {_key(u, v) for u, v in pieces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).tolist()}
     missing = [e for e in cut_edges if e not in present]
     if missing:
         raise MeshError(f"{len(missing)} cut segments are not edges after subdivision (first: {missing[0]}, "

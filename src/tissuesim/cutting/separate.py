@@ -27,16 +27,17 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
 
     Args:
         triangles: ``(m, 3) int64`` triangles, rewritten in place where a wedge gets a copy.
-        cut_edges: iterable of ``(u, v)`` vertex pairs; each must be an edge of ``triangles``.
+        cut_edges: iterable of ``(u, v)`` vertex pairs; a pair that is not an edge of ``triangles`` is ignored.
         vertex_count: n, the number of vertices; copies are numbered n, n + 1, ...
 
     Returns:
-        ``(copy_of (c,) int64, still_closed list of (u, v))``: the vertex each new copy duplicates, and the cut
-        edges that still have two triangles (the tips of a cut, to be opened by a later cut).
+        ``(copy_of (c,) int64, still_closed list of (u, v), rewritten (r,) int64)``: the vertex each new copy
+        duplicates, the cut edges that still have two triangles (the tips of a cut, to be opened by a later cut),
+        and the rows given a copy.
     """
     cut = {_key(u, v) for u, v in cut_edges}
     if not cut:
-        return np.zeros(0, dtype=np.int64), []
+        return np.zeros(0, dtype=np.int64), [], np.zeros(0, dtype=np.int64)
     ends = np.unique(np.array(sorted(cut), dtype=np.int64).ravel())
     marked = np.zeros(vertex_count, dtype=np.bool_)
     marked[ends] = True
@@ -47,6 +48,7 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
             if int(v) in fans:
                 fans[int(v)].append(int(r))
     copies: list[int] = []
+    rewritten: list[int] = []
 
     def base(x):
         """A copy made in this call stands for the vertex it duplicates (its side of a cut edge is cut too)."""
@@ -60,7 +62,9 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
             for r in wedge:
                 row = triangles[r]
                 row[row == v] = new
-    return np.array(copies, dtype=np.int64), _still_closed(triangles, cut, fans)
+            rewritten += wedge
+    return (np.array(copies, dtype=np.int64), _still_closed(triangles, cut, fans),
+            np.unique(np.array(rewritten, dtype=np.int64)))
 
 
 def _wedges(triangles, v, fan, cut, base):

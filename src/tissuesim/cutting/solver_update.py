@@ -87,7 +87,11 @@ class SolverCut:
         self.edges = EdgeMap(triangles)
         self.closed = np.zeros((0, 2), dtype=np.int64)
         self.lumped = _lumped_area(solver.rest_positions, triangles)
-        self.on_cut = np.zeros(len(solver.rest_positions), dtype=bool)   # vertices on an earlier cut
+        # The cuts as a graph over vertex identities (a duplicate is its original): a piece can only come loose
+        # when a cut closes a cycle in it, so the O(m) component count runs only then.
+        self.identity = np.arange(len(solver.rest_positions))
+        self.cut_parent: dict[int, int] = {}
+        self.cut_seen: set[tuple[int, int]] = set()
 
     def apply(self, sweep, *, snap: float) -> tuple[CutReport, int]:
         """Cut along ``sweep`` and carry the solver over: a report of what changed, and the vertex where the cut
@@ -101,8 +105,11 @@ class SolverCut:
         n, m = len(s.rest_positions), len(s.hybrid.surface.triangles)
         released = np.intersect1d(s.hybrid.control, result.copy_of[result.copy_of >= 0])
         fixed = _fixed_after(s.fixed, result, n)
-        loose = self._loose(result, n, self.held_nodes(result, fixed, released)) if self._may_separate(result, n) \
-            else 0
+        identity = np.concatenate([self.identity, np.arange(n, len(result.rest))])
+        copies = np.flatnonzero(result.copy_of >= 0)
+        identity[copies] = identity[result.copy_of[copies]]
+        parent, seen, cycle = self._cut_graph(result, identity)
+        loose = self._loose(result, n, self.held_nodes(result, fixed, released)) if cycle else 0
         old_triangles = s.hybrid.surface.triangles
         old_rows = result.changed[result.changed < m]
         old_content = np.array(old_triangles[old_rows], dtype=np.int64)
@@ -114,9 +121,7 @@ class SolverCut:
         self.update(result, n, old_triangles, old_content, released)
         self._reload()
         self.closed = result.closed
-        self.on_cut = np.concatenate([self.on_cut, np.zeros(len(result.rest) - n, dtype=bool)])
-        self.on_cut[result.cut_edges.ravel()] = True
-        self.on_cut[np.flatnonzero(result.copy_of >= 0)] = True
+        self.identity, self.cut_parent, self.cut_seen = identity, parent, seen
         return CutReport(triangles_split=result.split_count, vertices_added=len(result.rest) - n,
                          control_released=int(released.size), loose_vertices=loose,
                          seconds=time.perf_counter() - start), result.end_vertex
@@ -152,25 +157,27 @@ class SolverCut:
         np.add.at(lumped, new_content.ravel(), np.repeat(_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
-    def _may_separate(self, result: CutResult, n: int) -> bool:
-        """A cut can only split the surface if it meets an earlier cut or closes a loop by itself."""
-        ends = result.cut_edges.ravel()
-        if np.any(self.on_cut[ends[ends < n]]):
-            return True
-        vertices = np.unique(ends)
-        parent = {int(v): int(v) for v in vertices}
+    def _cut_graph(self, result: CutResult, identity: np.ndarray):
+        """The cut graph with this cut's edges added (new copies, the caller keeps them if the cut is applied),
+        and whether one of them closed a cycle."""
+        parent, seen, cycle = dict(self.cut_parent), set(self.cut_seen), False
 
         def find(v):
+            parent.setdefault(v, v)
             while parent[v] != v:
+                parent[v] = parent[parent[v]]
                 v = parent[v]
             return v
 
-        for u, v in result.cut_edges.tolist():
+        for u, v in identity[result.cut_edges].tolist():
+            key = (u, v) if u < v else (v, u)
+            if key in seen or u == v:
+                continue
+            seen.add(key)
             ru, rv = find(u), find(v)
-            if ru == rv:
-                return True          # a cycle
+            cycle |= ru == rv
             parent[ru] = rv
-        return False
+        return parent, seen, cycle
 
     def _loose(self, result: CutResult, n: int, held_nodes: np.ndarray) -> int:
         """Vertices of pieces without a prescribed node (0 if none); refuses unless :attr:`keeps_loose`."""

@@ -115,7 +115,12 @@ def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep) -> lis
     if not np.any(normal):
         return []
     out = []
-    for t in candidate_triangles(positions, triangles, sweep):
+    near = candidate_triangles(positions, triangles, sweep)
+    p = positions[triangles[near]]
+    d = (p - sweep.origin) @ normal
+    reach = PLANE_TOLERANCE * np.abs(p - p[:, [1, 2, 0]]).sum(axis=(1, 2))
+    straddling = near[(d.min(axis=1) <= reach) & (d.max(axis=1) >= -reach)]    # the plane passes through
+    for t in straddling:
         ends = _plane_segment(positions, triangles[t], sweep.origin, normal)
         if ends is None:
             continue
