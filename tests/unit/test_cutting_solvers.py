@@ -165,3 +165,30 @@ def test_fem_refuses_and_press_far_from_the_surface_says_how_far(cube):
         scalpel.press([0.0, 0.0, 0.08 + 0.1])
     with pytest.raises(SolverError, match="not pressed"):
         scalpel.move([0.0, 0.0, 0.08])
+
+
+def _square_cut(solver, side=0.012):
+    """A closed square stroke on the cube's top: it cuts a patch out of the surface."""
+    top = solver.rest_positions[:, 2].max()
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * 0.5 * side + [0.0011, 0.0013]
+    points = [np.array([x, y, top + 0.001]) for x, y in corners]
+    scalpel = tissuesim.Scalpel(solver, depth=0.004)
+    scalpel.press(points[0], direction=[0, 0, -1])
+    reports = []
+    for a, b in zip(points, points[1:]):
+        for f in np.linspace(0, 1, 4)[1:]:
+            reports.append(scalpel.move(a + f * (b - a)))
+    return reports
+
+
+def test_a_piece_cut_loose_is_refused_by_pbd_and_kept_by_the_embedded_method(cube):
+    pbd = tissuesim.make_solver("pbd", cube)
+    with pytest.raises(SolverError, match="separate a piece of \\d+ surface vertices"):
+        _square_cut(pbd)
+    h = pbd.hybrid
+    assert check_cut_invariants(h.surface.vertices, h.surface.triangles, positions=pbd.positions) == []
+    embedded = tissuesim.make_solver("embedded", cube)
+    reports = _square_cut(embedded)
+    assert reports[-1].loose_vertices > 0
+    solver_surface = embedded.hybrid.surface
+    assert check_cut_invariants(solver_surface.vertices, solver_surface.triangles, max_genus=0) == []

@@ -46,8 +46,16 @@ def new_edge_constraints(result, old_rest, old_triangles, edge_map, keys, n):
     side = np.linalg.norm(p - p[:, [1, 2, 0]], axis=2)                  # l_AB, l_BC, l_CA
     bary = [_in_corners(result, edges[:, j], corners) for j in (0, 1)]
     rest = barycentric_distance(side, bary[0], bary[1])
-    area = np.array([_areas(result.rest, result.triangles[edge_map.of(k)]).sum() for k in keys])
-    return edges, rest, area
+    return edges, rest, adjacent_area(result, edge_map, keys)
+
+
+def adjacent_area(result, edge_map, keys) -> np.ndarray:
+    """``(k,) float64`` rest area [m²] of the (one or two) triangles around each edge of ``keys``."""
+    owners = [edge_map.of(k) for k in keys]
+    rows = np.array([r for o in owners for r in o], dtype=np.int64)
+    area = _areas(result.rest, result.triangles[rows])
+    counts = np.array([len(o) for o in owners], dtype=np.int64)
+    return np.add.reduceat(area, np.concatenate([[0], np.cumsum(counts)[:-1]])) if len(keys) else np.zeros(0)
 
 
 def new_hinges(triangles, edge_map, keys):
@@ -140,7 +148,7 @@ class SurfaceLayerCut(SolverCut):
         b["bending"][hrows] = hinges
         b["rest_angle"][hrows] = dihedral_angles(result.rest, hinges.astype(np.int32))
         b["rest_signed_angle"][hrows] = signed_bend_angles(result.rest, hinges.astype(np.int32))
-        b["hinge_area"][hrows] = [_areas(result.rest, result.triangles[self.edges.of(k)]).sum() for k in hinge_keys]
+        b["hinge_area"][hrows] = adjacent_area(result, self.edges, hinge_keys)
         self.stretch_row.update(zip(live, rows.tolist()))
         self.hinge_row.update(zip(hinge_keys, hrows.tolist()))
         if s.form == "xpbd":

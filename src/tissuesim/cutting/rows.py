@@ -2,7 +2,7 @@
 
 The step kernels sweep whole arrays, so a retired stretch row is set to the edge (0, 0) and a retired hinge to
 (0, 0, 0, 0): both are degenerate, and the kernels skip degenerate constraints (zero length, zero normal), so
-no kernel needs a mask. Capacity grows by half when the free list runs dry, so appending is amortised O(1) and a
+no kernel needs a mask. Capacity grows by 5 % (at least 64 rows) when the free list runs dry, so appending is amortised O(1) and a
 cut never rebuilds the arrays of the whole mesh.
 """
 
@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
-GROWTH = 1.5
+GROWTH = 1.05
+#: Fewest rows added when the arrays grow.
+MIN_GROWTH = 64
 
 
 class EdgeMap:
@@ -57,7 +59,7 @@ class Rows:
         grown = False
         need = count - len(rows)
         if self.used + need > self.capacity:
-            new_capacity = max(int(self.capacity * GROWTH) + 1, self.used + need)
+            new_capacity = max(int(self.capacity * GROWTH), self.capacity + MIN_GROWTH, self.used + need)
             for name, array in self.arrays.items():
                 bigger = np.empty((new_capacity,) + array.shape[1:], dtype=array.dtype)
                 bigger[: len(array)] = array

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layer_update import new_edge_constraints, new_hinges, touched_edges
+from .layer_update import adjacent_area, new_edge_constraints, new_hinges, touched_edges
 from .rows import Rows
-from .solver_update import SolverCut, _areas, lumped_masses, register_cut
+from .solver_update import SolverCut, lumped_masses, register_cut
 
 
 @register_cut("mass-spring")
@@ -52,7 +52,7 @@ class MassSpringCut(SolverCut):
                                                  self.edges, live, n)
         hinges, hinge_keys = new_hinges(result.triangles, self.edges, live)
         across = hinges[:, 2:]
-        span = np.array([_areas(result.rest, result.triangles[self.edges.of(k)]).sum() for k in hinge_keys])
+        span = adjacent_area(result, self.edges, hinge_keys)
         across_rest = np.linalg.norm(result.rest[across[:, 0]] - result.rest[across[:, 1]], axis=1)
         rows, _ = self.rows.take(len(live) + len(hinge_keys))
         a = self.rows.arrays
