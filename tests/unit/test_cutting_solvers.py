@@ -192,3 +192,24 @@ def test_a_piece_cut_loose_is_refused_by_pbd_and_kept_by_the_embedded_method(cub
     assert reports[-1].loose_vertices > 0
     solver_surface = embedded.hybrid.surface
     assert check_cut_invariants(solver_surface.vertices, solver_surface.triangles, max_genus=0) == []
+
+
+def test_new_vertices_get_the_load_map_and_the_embedding_so_a_pin_head_can_pull_them(cube):
+    solver = tissuesim.make_solver("hybrid", cube)
+    scripted_incision(solver)
+    h = solver.hybrid
+    new = np.arange(cube.surface.vertex_count, h.surface.vertex_count)
+    bary = h.coarse_barycentric[new]
+    assert np.all(bary >= -1e-12) and np.allclose(bary.sum(axis=1), 1.0)
+    corners = h.volume.points[h.volume.tets[h.embedding_tet[new]]]
+    assert np.allclose(np.einsum("ij,ijk->ik", h.embedding_barycentric[new], corners), h.surface.vertices[new],
+                       atol=1e-12)
+    assert h.embedding_barycentric[new].min() > -0.5        # the parents' best tet, not a far one
+    node = int(new[np.argmax(h.surface.vertices[new, 2])])
+    pin = tissuesim.PinHead(solver, stiffness=20.0)
+    assert pin.grab(solver.positions[node]) in (node, *np.flatnonzero(
+        np.all(h.surface.vertices == h.surface.vertices[node], axis=1)))
+    pin.drag(pin.anchor + [0.0, 0.0, 0.01])
+    for _ in range(30):
+        solver.step()
+    assert solver.positions[pin.node, 2] > h.surface.vertices[pin.node, 2] + 1e-4
