@@ -24,6 +24,7 @@ COMMANDS = {
     "build": "build",
     "experiment": "experiment",
     "calibrate": "calibrate",
+    "incise": "incise",
 }
 
 
