@@ -1,0 +1,195 @@
+"""The paper's figures, drawn offscreen: Fig 11 (deformation) and Fig 16 (incision), one PNG per model.
+
+Each panel is a polyscope render (EGL, no display needed) of M_S with its displacement magnitude colour-mapped;
+matplotlib puts the panels side by side under a title naming the model, the load and the method, with one colour
+bar [mm] shared by the panels, so colours compare across them.
+
+* ``deformation_<model>.png`` (Fig 11): at rest, under tension and under pressure, at the experiment's load node
+  (:func:`tissuesim.experiments.protocol.load_node`) and a force of :data:`FIGURE_FORCE` [N], solved quasi-statically.
+* ``incision_<model>.png`` (Fig 16): the scripted incision (:func:`scripted_incision`: a straight stroke of
+  :data:`INCISION_LENGTH` of the model's width across the top, through the load node), then the lip beside the
+  cut's middle pulled sideways by :data:`OPENING_FORCE` [N] so the gap shows. Needs ``tissuesim.Scalpel``.
+
+Choices where the paper is silent: 1 N (the smallest force of §8.3 that moves an organ-sized model visibly at
+E = 5.5 kPa; a 20 N load folds it through itself); the camera looks down at 35° from the front-left, the same for
+every panel of a figure; the cut edges are drawn red.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from ..experiments.protocol import LOAD_DIRECTIONS, load_node
+from ..recording import border_edges
+from .gl import polyscope
+
+FIGURE_FORCE = 5.0  # N
+OPENING_FORCE = 0.3  # N
+INCISION_LENGTH = 0.5  # fraction of the model's x extent
+PANEL_SIZE = (640, 560)  # pixels
+COLORMAP = "viridis"  # the same name in polyscope and matplotlib
+METHOD_LABELS = {"hybrid": "hybrid FEM + PBD", "pbd": "PBD", "mass-spring": "mass-spring", "embedded": "embedded "
+                 "surface", "fem": "fine-volume FEM"}
+
+
+def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None) -> tuple[list[np.ndarray], float]:
+    """Offscreen renders of the surface in each of ``frames``; returns (RGB images, colour-bar top [mm]).
+
+    Args:
+        rest: ``(n, 3)`` rest positions [m]. triangles: ``(m, 3)`` (a single array, or one per frame).
+        frames: list of ``(n, 3)`` positions [m]. markers: per frame, a node index to mark (the pin-head) or None.
+        edges: per frame, ``(k, 2)`` edges to draw in red (cut edges) or None.
+    """
+    ps = polyscope(headless=True)
+    _style(ps)
+    tris = triangles if isinstance(triangles, list) else [triangles] * len(frames)
+    magnitudes = [1e3 * np.linalg.norm(x - rest[: len(x)], axis=1) for x in frames]
+    vmax = vmax or max(float(max(m.max() for m in magnitudes)), 1e-3)
+    _camera(ps, np.vstack(frames))
+    images = []
+    for index, (x, t, mm) in enumerate(zip(frames, tris, magnitudes)):
+        ps.remove_all_structures()
+        mesh = ps.register_surface_mesh("M_S", x, t, smooth_shade=True, material="clay", edge_width=0.0)
+        mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap=COLORMAP, vminmax=(0.0, vmax))
+        marker = markers[index] if index < len(markers) else None
+        if marker is not None:
+            pin = ps.register_point_cloud("pin-head", x[[marker]], color=(0.85, 0.1, 0.1))
+            pin.set_radius(0.012, relative=True)
+        if edges is not None and edges[index] is not None and len(edges[index]):
+            cut = ps.register_curve_network("cut", x, edges[index], color=(0.9, 0.05, 0.05))
+            cut.set_radius(0.0025, relative=True)
+        images.append(ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3].copy())
+    ps.remove_all_structures()
+    return _crop(images), vmax
+
+
+def _crop(images, margin: int = 12) -> list[np.ndarray]:
+    """The images cut to the box holding anything but background in any of them (same box for all)."""
+    drawn = np.any([np.any(image < 250, axis=2) for image in images], axis=0)
+    rows, cols = np.flatnonzero(drawn.any(axis=1)), np.flatnonzero(drawn.any(axis=0))
+    if rows.size == 0:
+        return images
+    r0, r1 = max(rows[0] - margin, 0), rows[-1] + margin + 1
+    c0, c1 = max(cols[0] - margin, 0), cols[-1] + margin + 1
+    return [image[r0:r1, c0:c1] for image in images]
+
+
+def compose(images, captions, title: str, vmax: float, path) -> Path:
+    """Panels side by side with ``captions``, a ``title`` and a colour bar |u| [mm] from 0 to ``vmax``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    figure, axes = plt.subplots(1, len(images), figsize=(3.6 * len(images) + 0.9, 3.9), squeeze=False)
+    for ax, image, caption in zip(axes[0], images, captions):
+        ax.imshow(image)
+        ax.set_title(caption, fontsize=10)
+        ax.set_axis_off()
+    bar = figure.colorbar(ScalarMappable(Normalize(0.0, vmax), COLORMAP), ax=list(axes[0]), shrink=0.8, pad=0.02)
+    bar.set_label("displacement |u| [mm]")
+    figure.suptitle(title, fontsize=11)
+    path = Path(path)
+    figure.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(figure)
+    return path
+
+
+def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = FIGURE_FORCE) -> Path:
+    """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node)."""
+    from ..solvers.base import make_solver
+
+    surface = hybrid.surface
+    node = load_node(surface.vertices, surface.triangles)
+    solver = make_solver(method, hybrid)
+    frames = [surface.vertices] + [solver.solve_static(node, force * np.asarray(LOAD_DIRECTIONS[kind]))
+                                   for kind in ("tension", "pressure")]
+    images, vmax = render_panels(surface.vertices, surface.triangles, frames, markers=[None, node, node])
+    captions = ["at rest", f"tension {force:g} N (up)", f"pressure {force:g} N (down)"]
+    title = (f"{name}: {force:g} N on node {node} (pin-head at the top centre), "
+             f"{METHOD_LABELS.get(method, method)}, E = {solver.youngs_modulus:g} Pa, ν = {solver.poisson_ratio:g}")
+    return compose(images, captions, title, vmax, path)
+
+
+def scripted_incision(solver, *, length: float = INCISION_LENGTH, points: int = 12):
+    """Cut a straight stroke across the top, through the load node, with ``tissuesim.Scalpel``.
+
+    Returns the stroke's ``(points, 3)`` blade positions [m] and the scalpel's last report.
+    """
+    from ..mesh.hybrid import closest_on_surface
+    from .controller import scalpel_class
+
+    Scalpel = scalpel_class()
+    surface = solver.hybrid.surface
+    top = surface.vertices[load_node(surface.vertices, surface.triangles)]
+    span = np.ptp(surface.vertices[:, 0]) * length
+    line = top + np.outer(np.linspace(-0.5, 0.5, points) * span, [1.0, 0.0, 0.0])
+    tri, bary = closest_on_surface(surface, line)  # onto the surface: the blade rides on it
+    stroke = np.einsum("ij,ijk->ik", bary, surface.vertices[surface.triangles[tri]])
+    scalpel = Scalpel(solver)
+    scalpel.press(stroke[0], direction=np.array([0.0, 0.0, -1.0]))
+    for point in stroke[1:]:
+        scalpel.move(point)
+    return stroke, scalpel.release()
+
+
+def opening_node(positions, triangles, stroke) -> tuple[int, np.ndarray]:
+    """The border node nearest the cut's middle on the +side of the stroke, and the unit sideways direction."""
+    along = stroke[-1] - stroke[0]
+    side = np.cross([0.0, 0.0, 1.0], along)
+    side /= np.linalg.norm(side)
+    border = np.unique(border_edges(triangles))
+    centroids = positions[triangles].mean(axis=1)
+    # which lip a border node belongs to: the side its triangles lie on
+    owner = np.zeros(len(positions))
+    np.add.at(owner, triangles.ravel(), np.repeat((centroids - stroke.mean(axis=0)) @ side, 3))
+    lip = border[owner[border] > 0.0]
+    middle = stroke.mean(axis=0)
+    node = int(lip[np.argmin(np.linalg.norm(positions[lip] - middle, axis=1))])
+    return node, side
+
+
+def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
+    """Fig 16 for one model: the surface after the scripted incision, closed, then opened by ``force`` [N]."""
+    from ..solvers.base import make_solver
+
+    solver = make_solver(method, hybrid)
+    stroke, _ = scripted_incision(solver)
+    cut_surface = solver.hybrid.surface
+    triangles = cut_surface.triangles
+    closed = solver.positions.copy()
+    node, side = opening_node(closed, triangles, stroke)
+    opened = solver.solve_static(node, force * side, reset=False)
+    edges = border_edges(triangles)
+    images, vmax = render_panels(cut_surface.vertices, triangles, [closed, opened], markers=[None, node],
+                                 edges=[edges, edges])
+    captions = [f"after the incision ({len(edges)} cut edges)", f"opened: {force:g} N sideways on one lip"]
+    title = f"{name}: scalpel stroke across the top, {METHOD_LABELS.get(method, method)}"
+    return compose(images, captions, title, vmax, path)
+
+
+def _style(ps) -> None:
+    ps.set_window_size(*PANEL_SIZE)
+    ps.set_up_dir("z_up")
+    ps.set_front_dir("neg_y_front")
+    ps.set_ground_plane_mode("shadow_only")
+    ps.set_background_color((1.0, 1.0, 1.0))
+    ps.set_SSAA_factor(2)
+    ps.set_autocenter_structures(False)
+    ps.set_autoscale_structures(False)
+
+
+def _camera(ps, points: np.ndarray) -> None:
+    """Look at the points' bounding box from the front-left, 35° above, far enough to frame all of it."""
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+    elevation, azimuth = np.radians(35.0), np.radians(-60.0)
+    view = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+    ps.set_automatically_compute_scene_extents(False)
+    ps.set_length_scale(2.0 * radius)
+    ps.set_bounding_box(lo, hi)
+    ps.look_at(centre + 2.2 * radius * view, centre)

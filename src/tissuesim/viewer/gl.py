@@ -1,0 +1,76 @@
+"""Polyscope, imported only here and only when a window or an image is wanted.
+
+``polyscope`` is a dependency of tissuesim; where it is missing, or where no OpenGL driver can be opened at all,
+:class:`NoOpenGLError` says what to install. Headless images use polyscope's EGL backend, which runs on Mesa's
+software renderer (llvmpipe) on machines without a GPU: Debian packages ``libegl1``, ``libegl-mesa0`` and
+``libgl1-mesa-dri`` (the Makefile installs them).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import sys
+
+from ..errors import TissuesimError
+
+HEADLESS_BACKEND = "openGL3_egl"
+INSTALL_HINT = ("pip install polyscope; for headless images also the Debian packages libegl1 libegl-mesa0 "
+                "libgl1-mesa-dri")
+_state = {"backend": None}
+
+
+class NoOpenGLError(TissuesimError, RuntimeError):
+    """Polyscope or an OpenGL driver is missing, so nothing can be drawn."""
+
+
+def polyscope(*, headless: bool):
+    """The initialised ``polyscope`` module: an offscreen EGL context with ``headless``, else a window.
+
+    Polyscope has one context per process: the first call decides, and a later call asking for the other kind
+    raises NoOpenGLError.
+    """
+    try:
+        import polyscope as ps
+    except ImportError:
+        raise NoOpenGLError(f"drawing needs polyscope, which is not installed: {INSTALL_HINT}") from None
+    wanted = HEADLESS_BACKEND if headless else ""
+    if _state["backend"] is not None:
+        if _state["backend"] != wanted:
+            raise NoOpenGLError("polyscope is already running with another backend in this process; draw windows "
+                                "and headless images from separate processes")
+        return ps
+    ps.set_program_name("tissuesim")
+    ps.set_use_prefs_file(False)
+    ps.set_errors_throw_exceptions(True)
+    ps.set_allow_headless_backends(headless)
+    try:
+        with _quiet_stdout():  # polyscope prints its backend probing on stdout
+            ps.init(wanted)
+    except Exception as error:  # polyscope raises a bare RuntimeError for every backend failure
+        raise NoOpenGLError(f"no OpenGL available ({str(error).strip().splitlines()[-1]}); {INSTALL_HINT}") from None
+    _state["backend"] = wanted
+    return ps
+
+
+def opengl_available() -> bool:
+    """Whether headless drawing works here (tries once; initialises polyscope's EGL context if it does)."""
+    try:
+        polyscope(headless=True)
+    except NoOpenGLError:
+        return False
+    return True
+
+
+@contextlib.contextmanager
+def _quiet_stdout():
+    """Silence the C++ side's stdout (file descriptor 1) for the duration."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as devnull:
+            os.dup2(devnull.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
