@@ -18,6 +18,8 @@ COMMANDS = {
     "build": "build",
     "experiment": "experiment",
     "calibrate": "calibrate",
+    "view": "view",
+    "render": "render",
 }
 
 

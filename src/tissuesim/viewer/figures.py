@@ -92,7 +92,7 @@ def compose(images, captions, title: str, vmax: float, path) -> Path:
         ax.set_axis_off()
     bar = figure.colorbar(ScalarMappable(Normalize(0.0, vmax), COLORMAP), ax=list(axes[0]), shrink=0.8, pad=0.02)
     bar.set_label("displacement |u| [mm]")
-    figure.suptitle(title, fontsize=11)
+    figure.suptitle(title, fontsize=11, y=1.03)
     path = Path(path)
     figure.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(figure)
