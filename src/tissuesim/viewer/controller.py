@@ -244,8 +244,8 @@ class Controller:
                 (1.0 - SMOOTHING) * self._step_seconds + SMOOTHING * took)
             self._debt -= dt
             steps += 1
-        dropped = max(self._debt - dt, 0.0)  # keep less than one step of debt: never spiral behind
-        self._debt -= dropped
+        dropped = self._debt - self._debt % dt if self._debt >= dt else 0.0  # never owe more than one step:
+        self._debt -= dropped  # a slow frame loses simulated time instead of spiralling behind
         return FrameStats(steps, self._step_seconds, self._step_seconds > dt, dropped)
 
     # ---------------------------------------------------------------------------------------------- internals
