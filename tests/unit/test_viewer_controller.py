@@ -167,7 +167,7 @@ def test_advance_runs_the_steps_wall_time_asks_for_at_fixed_dt(hybrid):
     assert c.advance(0.035).steps == 3  # 35 ms at dt = 10 ms: 3 steps, 5 ms carried to the next frame
     assert c.advance(0.005).steps == 1
     stats = c.advance(1.0)  # a long stall: at most MAX_STEPS_PER_FRAME, the rest is dropped, not owed
-    assert stats.steps == MAX_STEPS_PER_FRAME and stats.dropped > 0.9 and not stats.behind
+    assert stats.steps == MAX_STEPS_PER_FRAME and stats.dropped > 0.7 and not stats.behind
     assert c.advance(0.0).steps == 0
 
 

@@ -22,6 +22,7 @@ from .controller import MODES, Controller
 from .gl import polyscope
 
 SURFACE = "M_S"
+WINDOW_SIZE = (1024, 720)  # pixels
 DEFAULT_RECORDING = "tissuesim_session.pvd"
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
@@ -50,6 +51,7 @@ class ViewerApp:
         self._dragging = False
         self._mouse = None
         self._last = None
+        self.headless = headless
         self.ps = polyscope(headless=headless)
         self._style()
 
@@ -83,8 +85,9 @@ class ViewerApp:
             self.render_seconds = max(elapsed - self.callback_seconds, 0.0)
             self.frame_seconds = elapsed if self.frame_seconds == 0.0 else (
                 (1.0 - FRAME_SMOOTHING) * self.frame_seconds + FRAME_SMOOTHING * elapsed)
-        self._keys(psim)
-        self._pointer(psim)
+        if not self.headless:  # headless, a script drives the controller: there is no mouse to read
+            self._keys(psim)
+            self._pointer(psim)
         self.stats = self.controller.advance(elapsed)
         self.sim_time += self.stats.steps * self.controller.settings.dt
         self.draw()
@@ -139,7 +142,7 @@ class ViewerApp:
     # ---------------------------------------------------------------------------------------------- input
     def _pointer(self, psim) -> None:
         io = psim.GetIO()
-        if io.WantCaptureMouse and not self._dragging:
+        if not psim.IsMousePosValid() or (io.WantCaptureMouse and not self._dragging):
             return
         mouse = tuple(io.MousePos)
         moved, self._mouse = mouse != self._mouse, mouse
@@ -269,7 +272,8 @@ class ViewerApp:
         ps = self.ps
         ps.set_up_dir("z_up")
         ps.set_front_dir("neg_y_front")
-        ps.set_ground_plane_mode("shadow_only")
+        ps.set_ground_plane_mode("none")  # the shadow pass costs more than all the rest with a software renderer
+        ps.set_window_size(*WINDOW_SIZE)
         ps.set_build_default_gui_panels(False)
 
 

@@ -12,8 +12,9 @@ with the wall time that passed. Everything else happens here, so it is tested wi
 * **settings** (method, E, ν, k, contact radius, iterations, dt) change live: a change that alters the solver
   (method, material, iterations) builds a new one over the current mesh and re-applies a held pin-head;
 * **time**: the simulation runs at its own fixed dt (:meth:`advance`), as many steps as the wall time asks, at most
-  :data:`MAX_STEPS_PER_FRAME` per frame so a slow method never freezes the window; when one step takes longer than
-  dt of wall time the simulation is slower than real time and :attr:`FrameStats.behind` says so.
+  :data:`MAX_STEPS_PER_FRAME` steps and :data:`STEP_BUDGET` seconds per frame so a slow method never freezes the
+  window; when one step takes longer than dt of wall time the simulation is slower than real time and
+  :attr:`FrameStats.behind` says so.
 
 Choices where the paper is silent: the default pin-head stiffness :data:`DEFAULT_STIFFNESS` [N/m] (a 2 cm drag is
 1 N, the middle of the experiments' 0.5–20 N range); a grab that misses every node within the snap radius leaves
@@ -33,7 +34,8 @@ from ..interaction import PinHead
 from ..solvers.base import available_solvers, make_solver, positive_number, solver_options
 
 DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
-MAX_STEPS_PER_FRAME = 8  # a frame never runs more steps than this, so the window stays responsive
+MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
+STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
@@ -235,8 +237,8 @@ class Controller:
         if self.paused:
             return FrameStats(0, self._step_seconds, False, 0.0)
         self._debt += max(float(elapsed), 0.0)
-        steps = 0
-        while self._debt >= dt and steps < MAX_STEPS_PER_FRAME:
+        steps, began = 0, self.clock()
+        while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
             start = self.clock()
             self.solver.step(dt)
             took = self.clock() - start
