@@ -15,6 +15,7 @@ Asserts nothing about time.   python benchmarks/bench_viewer.py [--seconds 3] [-
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
 import numpy as np
@@ -22,17 +23,18 @@ import numpy as np
 from tissuesim import HybridMesh
 from tissuesim.experiments.protocol import load_node
 from tissuesim.mesh import models
-from tissuesim.viewer.app import ViewerApp
+from tissuesim.viewer.app import WINDOW_SIZE, ViewerApp
 from tissuesim.viewer.controller import Controller
 
 DOWN = np.array([0.0, 0.0, -1.0])
 
 
-def measure(name: str, surface, seconds: float, method: str) -> dict:
+def measure(name: str, surface, seconds: float, method: str, size) -> dict:
     hybrid = HybridMesh.build(surface, fine_volume=method == "fem")
     controller = Controller(hybrid)
     controller.configure(method=method)
     app = ViewerApp(controller, headless=True)
+    app.ps.set_window_size(*size)
     top = controller.solver.positions[load_node(surface.vertices, surface.triangles)].copy()
     start = time.perf_counter()
     controller.pointer_down(top, top - DOWN, DOWN)
@@ -66,6 +68,8 @@ def main() -> None:
     parser.add_argument("--models", nargs="+", default=list(models.MODELS))
     parser.add_argument("--large", type=int, default=10000, help="vertices of the large sphere (0: skip)")
     parser.add_argument("--method", default="hybrid")
+    parser.add_argument("--window", type=int, nargs=2, default=None, metavar=("W", "H"),
+                        help="window size in pixels (default: the viewer's)")
     args = parser.parse_args()
     cases = [(name, models.model(name)) for name in args.models]
     if args.large:
@@ -73,11 +77,13 @@ def main() -> None:
     from tissuesim.viewer.gl import polyscope
 
     ps = polyscope(headless=True)
-    print(f"renderer: {ps.get_render_engine_backend_name()}, method {args.method}, {args.seconds:g} s per model")
+    size = args.window or WINDOW_SIZE
+    print(f"renderer: {ps.get_render_engine_backend_name()}, window {size[0]}x{size[1]}, method {args.method}, "
+          f"{args.seconds:g} s per model, LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}")
     print("| model | M_S vertices | step ms | draw ms | frame ms | frames/s | sim steps/s | dropped s | first grab ms |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, surface in cases:
-        r = measure(name, surface, args.seconds, args.method)
+        r = measure(name, surface, args.seconds, args.method, size)
         print(f"| {r['model']} | {r['vertices']} | {r['step_ms']:.2f} | {r['draw_ms']:.1f} | {r['frame_ms']:.1f} | "
               f"{r['fps']:.0f} | {r['steps_per_s']:.0f} | {r['dropped_s']:.2f} | {r['first_grab_ms']:.1f} |",
               flush=True)

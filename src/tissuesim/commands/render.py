@@ -37,14 +37,18 @@ def run(args: argparse.Namespace) -> int:
     from ..mesh.models import MODELS
     from ..viewer.controller import scalpel_class
     from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
-    from ..viewer.gl import opengl_available, polyscope
+    from ..viewer.gl import NoOpenGLError, polyscope
+    from ..solvers.base import solver_class
     from .view import load_hybrid
 
-    if args.if_available and not opengl_available():
-        print("tissuesim render: no OpenGL available here, figures skipped (install libegl1 libegl-mesa0 "
-              "libgl1-mesa-dri)", file=sys.stderr)
+    solver_class(args.method)  # an unknown method is refused before any work
+    try:
+        polyscope(headless=True)  # fail early, before any mesh is built
+    except NoOpenGLError as error:
+        if not args.if_available:
+            raise
+        print(f"tissuesim render: figures skipped: {error}", file=sys.stderr)
         return 0
-    polyscope(headless=True)  # fail early, before any mesh is built
     check_output_folder(args.output).mkdir(exist_ok=True)
     cutting = scalpel_class() is not None
     if not cutting:

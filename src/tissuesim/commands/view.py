@@ -40,7 +40,9 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import read_recording
     from ..viewer.app import ReplayApp, ViewerApp
     from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings
+    from ..viewer.gl import polyscope
 
+    polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     if args.replay is not None:
         frames = read_recording(args.replay)
         ReplayApp(frames, title=args.replay.name).run()

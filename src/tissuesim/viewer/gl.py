@@ -15,6 +15,11 @@ import sys
 from ..errors import TissuesimError
 
 HEADLESS_BACKEND = "openGL3_egl"
+WINDOW_BACKEND = "openGL3_glfw"
+# Mesa's software renderer rasterises on one thread per core, which then compete with the simulation's steps on
+# small machines: on 2 cores one thread gave 89 instead of 46 simulation steps/s while drawing (liver, hybrid;
+# benchmarks/bench_viewer.py). Only llvmpipe reads this; a user's own setting wins.
+SOFTWARE_RENDER_THREADS = "1"
 INSTALL_HINT = ("pip install polyscope; for headless images also the Debian packages libegl1 libegl-mesa0 "
                 "libgl1-mesa-dri")
 _state = {"backend": None}
@@ -34,12 +39,14 @@ def polyscope(*, headless: bool):
         import polyscope as ps
     except ImportError:
         raise NoOpenGLError(f"drawing needs polyscope, which is not installed: {INSTALL_HINT}") from None
-    wanted = HEADLESS_BACKEND if headless else ""
+    wanted = HEADLESS_BACKEND if headless else WINDOW_BACKEND
     if _state["backend"] is not None:
         if _state["backend"] != wanted:
             raise NoOpenGLError("polyscope is already running with another backend in this process; draw windows "
                                 "and headless images from separate processes")
         return ps
+    os.environ.setdefault("LP_NUM_THREADS", SOFTWARE_RENDER_THREADS)
+    _preflight(headless)
     ps.set_program_name("tissuesim")
     ps.set_use_prefs_file(False)
     ps.set_errors_throw_exceptions(True)
@@ -48,9 +55,22 @@ def polyscope(*, headless: bool):
         with _quiet_stdout():  # polyscope prints its backend probing on stdout
             ps.init(wanted)
     except Exception as error:  # polyscope raises a bare RuntimeError for every backend failure
+        ps.set_errors_throw_exceptions(False)  # else its exit hook raises again on the uninitialised context
         raise NoOpenGLError(f"no OpenGL available ({str(error).strip().splitlines()[-1]}); {INSTALL_HINT}") from None
     _state["backend"] = wanted
     return ps
+
+
+def _preflight(headless: bool) -> None:
+    """Refuse what is sure to fail before polyscope tries: a failed init leaves it raising again at exit."""
+    import ctypes.util
+
+    if headless and ctypes.util.find_library("EGL") is None:
+        raise NoOpenGLError(f"no EGL library (libEGL) for headless drawing; {INSTALL_HINT}")
+    if not headless and sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or
+                                                                  os.environ.get("WAYLAND_DISPLAY")):
+        raise NoOpenGLError("no display to open a window on (DISPLAY is unset); run tissuesim view on a desktop, "
+                            "or draw images headless with tissuesim render")
 
 
 def opengl_available() -> bool:
