@@ -82,7 +82,8 @@ def main() -> None:
     size = args.window or WINDOW_SIZE
     print(f"renderer: {ps.get_render_engine_backend_name()}, window {size[0]}x{size[1]}, method {args.method}, "
           f"{args.seconds:g} s per model, LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}")
-    print("| model | M_S vertices | step ms | draw ms | frame ms | frames/s | sim steps/s | dropped s | first grab ms |")
+    print("| model | M_S vertices | step ms | draw ms | frame ms | frames/s | sim steps/s | dropped s "
+          "| first grab ms |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, surface in cases:
         r = measure(name, surface, args.seconds, args.method, size)

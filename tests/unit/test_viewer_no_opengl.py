@@ -1,16 +1,23 @@
 """Without polyscope or OpenGL: one line, and `render --if-available` lets `make run` go on (exit 0)."""
 
+import os
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
+
+import tissuesim
+
+# the child imports this very tissuesim, wherever the test runs from
+ENV = {**os.environ, "PYTHONPATH": str(Path(tissuesim.__file__).resolve().parents[1])}
 
 HIDE_POLYSCOPE = "import sys; sys.modules['polyscope'] = None; from tissuesim.cli import main; sys.exit(main({}))"
 
 
 def run_cli(args, tmp_path):
     code = HIDE_POLYSCOPE.format(repr(args))
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path, env=ENV)
 
 
 @pytest.mark.parametrize("flag, status", [(["--if-available"], 0), ([], 1)])

@@ -302,7 +302,8 @@ class ReplayApp:
         self.mesh.update_vertex_positions(frame.positions)
         mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
         self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, max(mm.max(), 1.0)))
-        psim.TextUnformatted(f"{self.title}  t = {frame.time:.3f} s, force {np.linalg.norm(frame.force, axis=1).max():.3f} N")
+        force = np.linalg.norm(frame.force, axis=1).max()
+        psim.TextUnformatted(f"{self.title}  t = {frame.time:.3f} s, force {force:.3f} N")
         _, self.playing = psim.Checkbox("play", self.playing)
         changed, index = psim.SliderInt("frame", self.index, 0, len(self.frames) - 1)
         if changed:

@@ -112,8 +112,8 @@ class Controller:
         clock: seconds, monotonic (injectable for tests).
 
     Attributes:
-        solver, pin (PinHead), scalpel (or None), mode ("pin" or "scalpel"), paused, settings, notice (a line for the user
-        or ""), cursor (``(3,)`` pin-head position [m] or None), force (``(3,)`` current pin-head force [N]),
+        solver, pin (PinHead), scalpel (or None), mode ("pin" or "scalpel"), paused, settings, notice (a line for
+        the user or ""), cursor (``(3,)`` pin-head position [m] or None), force (``(3,)`` current pin-head force [N]),
         last_cut (the last report the scalpel returned, or None).
     """
 
