@@ -5,6 +5,7 @@ import pytest
 
 from tissuesim import HybridMesh, SolverError
 from tissuesim.mesh import models
+from tissuesim.viewer import controller as controller_module
 from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
 
 DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down
@@ -22,7 +23,7 @@ class FakeScalpel:
         self.solver, self.calls = solver, []
 
     def press(self, point, direction=None):
-        self.calls.append(("press", np.array(point), np.array(direction)))
+        self.calls.append(("press", np.array(point), direction))
         return {"cut": 0}
 
     def move(self, point):
@@ -102,16 +103,33 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_up()
     calls = c.scalpel.calls
     assert [call[0] for call in calls] == ["press", "move", "move", "release"]
-    assert np.array_equal(calls[0][1], top) and np.array_equal(calls[0][2], DOWN)
+    assert np.array_equal(calls[0][1], top) and calls[0][2] is None  # the blade along the surface's inward normal
     assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0])
     assert c.last_cut == {"cut": 4} and c.solver.load is None
 
 
-def test_scalpel_mode_is_refused_with_a_notice_where_no_scalpel_exists(hybrid):
-    c = Controller(hybrid, scalpel_factory=None)
-    c._scalpel_factory = None  # as on an installation without tissuesim.Scalpel
+def test_scalpel_mode_is_refused_with_a_notice_where_no_scalpel_exists(hybrid, monkeypatch):
+    monkeypatch.setattr(controller_module, "scalpel_class", lambda: None)  # an installation without Scalpel
+    c = Controller(hybrid)
     c.set_mode("scalpel")
-    assert c.mode == "pin" and "Scalpel" in c.notice
+    assert c.mode == "pin" and "Scalpel" in c.notice and not c.scalpel_available
+
+
+def test_a_method_that_cannot_be_cut_falls_back_to_the_pin_head_and_says_why(hybrid):
+    def scalpel_unless_fem(solver):
+        if solver.name == "fem":
+            raise SolverError("the fem reference cannot be cut")
+        return FakeScalpel(solver)
+
+    c = Controller(hybrid, scalpel_factory=scalpel_unless_fem)
+    c.set_mode("scalpel")
+    c.configure(method="fem")
+    assert c.mode == "pin" and not c.scalpel_available
+    c.set_mode("scalpel")
+    assert c.mode == "pin" and "cannot be cut" in c.notice
+    c.configure(method="hybrid")
+    c.set_mode("scalpel")
+    assert c.mode == "scalpel"
 
 
 def test_switching_mode_releases_a_held_pin_head(hybrid):

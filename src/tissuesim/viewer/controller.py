@@ -29,7 +29,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import SolverError
+from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead
 from ..solvers.base import available_solvers, make_solver, positive_number, solver_options
 
@@ -129,7 +129,6 @@ class Controller:
         self.last_cut = None
         self._cutting = False
         self._blade: np.ndarray | None = None
-        self._normal: np.ndarray | None = None
         self._debt = 0.0
         self._step_seconds = 0.0
         self.settings = self._checked(settings)
@@ -138,7 +137,8 @@ class Controller:
     # ---------------------------------------------------------------------------------------------- properties
     @property
     def scalpel_available(self) -> bool:
-        return self._scalpel_factory is not None
+        """Whether scalpel mode works with the current method (else :meth:`set_mode` says why not)."""
+        return self.scalpel is not None
 
     @property
     def force_newtons(self) -> float:
@@ -152,7 +152,6 @@ class Controller:
         if hit is None:
             return
         hit = np.asarray(hit, dtype=np.float64)
-        self._normal = np.asarray(ray_direction, dtype=np.float64)
         if self.mode == "pin":
             try:
                 self.pin.grab(hit)
@@ -161,7 +160,11 @@ class Controller:
                 return
             self.cursor, self.force = hit, np.zeros(3)
         else:
-            self.last_cut = self.scalpel.press(hit, direction=self._normal)
+            try:
+                self.last_cut = self.scalpel.press(hit)  # the blade along the inward normal there
+            except SolverError as error:
+                self.notice = str(error)
+                return
             self._cutting, self._blade = True, hit
 
     def pointer_move(self, hit, ray_origin, ray_direction) -> None:
@@ -201,8 +204,8 @@ class Controller:
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
             raise SolverError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
-        if mode == "scalpel" and not self.scalpel_available:
-            self.notice = "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
+        if mode == "scalpel" and self.scalpel is None:
+            self.notice = self._no_scalpel
             return
         self.pointer_up()  # never leave a load or a cut dangling across a mode switch
         self.mode = mode
@@ -278,7 +281,14 @@ class Controller:
         if self.settings.radius is not None and _accepts(PinHead, "radius"):
             pin_options["radius"] = self.settings.radius
         self.pin = PinHead(solver, **pin_options)
-        self.scalpel = self._scalpel_factory(solver) if self.scalpel_available else None
+        self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
+        if self._scalpel_factory is not None:
+            try:
+                self.scalpel = self._scalpel_factory(solver)
+            except TissuesimError as error:  # e.g. a method that cannot be cut
+                self._no_scalpel = f"no scalpel with the {solver.name} method: {error}"
+        if self.scalpel is None and self.mode == "scalpel":
+            self.mode, self._cutting = "pin", False
         self._debt = 0.0
         self._step_seconds = 0.0
         if held is not None:

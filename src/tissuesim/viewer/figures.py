@@ -6,13 +6,12 @@ bar [mm] shared by the panels, so colours compare across them.
 
 * ``deformation_<model>.png`` (Fig 11): at rest, under tension and under pressure, at the experiment's load node
   (:func:`tissuesim.experiments.protocol.load_node`) and a force of :data:`FIGURE_FORCE` [N], solved quasi-statically.
-* ``incision_<model>.png`` (Fig 16): the scripted incision (:func:`scripted_incision`: a straight stroke of
-  :data:`INCISION_LENGTH` of the model's width across the top, through the load node), then the lip beside the
-  cut's middle pulled sideways by :data:`OPENING_FORCE` [N] so the gap shows. Needs ``tissuesim.Scalpel``.
+* ``incision_<model>.png`` (Fig 16): the scripted incision of :mod:`tissuesim.cutting.wound` (a straight stroke
+  across the top), closed, then opened by that module's small sideways pull beside the cut, with the cut edges
+  drawn red. Needs ``tissuesim.Scalpel``.
 
-Choices where the paper is silent: 1 N (the smallest force of §8.3 that moves an organ-sized model visibly at
-E = 5.5 kPa; a 20 N load folds it through itself); the camera looks down at 35° from the front-left, the same for
-every panel of a figure; the cut edges are drawn red.
+Choices where the paper is silent: 5 N (1 N barely shows at organ size and E = 5.5 kPa, 20 N folds the model
+through itself); the camera looks down at 35° from the front-left, the same for every panel of a figure.
 """
 
 from __future__ import annotations
@@ -26,8 +25,6 @@ from ..recording import border_edges
 from .gl import polyscope
 
 FIGURE_FORCE = 5.0  # N
-OPENING_FORCE = 0.3  # N
-INCISION_LENGTH = 0.5  # fraction of the model's x extent
 PANEL_SIZE = (640, 560)  # pixels
 COLORMAP = "viridis"  # the same name in polyscope and matplotlib
 METHOD_LABELS = {"hybrid": "hybrid FEM + PBD", "pbd": "PBD", "mass-spring": "mass-spring", "embedded": "embedded "
@@ -115,59 +112,22 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
     return compose(images, captions, title, vmax, path)
 
 
-def scripted_incision(solver, *, length: float = INCISION_LENGTH, points: int = 12):
-    """Cut a straight stroke across the top, through the load node, with ``tissuesim.Scalpel``.
-
-    Returns the stroke's ``(points, 3)`` blade positions [m] and the scalpel's last report.
-    """
-    from ..mesh.hybrid import closest_on_surface
-    from .controller import scalpel_class
-
-    Scalpel = scalpel_class()
-    surface = solver.hybrid.surface
-    top = surface.vertices[load_node(surface.vertices, surface.triangles)]
-    span = np.ptp(surface.vertices[:, 0]) * length
-    line = top + np.outer(np.linspace(-0.5, 0.5, points) * span, [1.0, 0.0, 0.0])
-    tri, bary = closest_on_surface(surface, line)  # onto the surface: the blade rides on it
-    stroke = np.einsum("ij,ijk->ik", bary, surface.vertices[surface.triangles[tri]])
-    scalpel = Scalpel(solver)
-    scalpel.press(stroke[0], direction=np.array([0.0, 0.0, -1.0]))
-    for point in stroke[1:]:
-        scalpel.move(point)
-    return stroke, scalpel.release()
-
-
-def opening_node(positions, triangles, stroke) -> tuple[int, np.ndarray]:
-    """The border node nearest the cut's middle on the +side of the stroke, and the unit sideways direction."""
-    along = stroke[-1] - stroke[0]
-    side = np.cross([0.0, 0.0, 1.0], along)
-    side /= np.linalg.norm(side)
-    border = np.unique(border_edges(triangles))
-    centroids = positions[triangles].mean(axis=1)
-    # which lip a border node belongs to: the side its triangles lie on
-    owner = np.zeros(len(positions))
-    np.add.at(owner, triangles.ravel(), np.repeat((centroids - stroke.mean(axis=0)) @ side, 3))
-    lip = border[owner[border] > 0.0]
-    middle = stroke.mean(axis=0)
-    node = int(lip[np.argmin(np.linalg.norm(positions[lip] - middle, axis=1))])
-    return node, side
-
-
-def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
-    """Fig 16 for one model: the surface after the scripted incision, closed, then opened by ``force`` [N]."""
+def incision_figure(hybrid, name: str, path, *, method: str = "hybrid") -> Path:
+    """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open."""
+    from ..cutting.wound import PULL_FORCE, open_wound, scripted_incision, wound_gap
     from ..solvers.base import make_solver
 
     solver = make_solver(method, hybrid)
-    stroke, _ = scripted_incision(solver)
+    line = scripted_incision(solver)["line"]
     cut_surface = solver.hybrid.surface
-    triangles = cut_surface.triangles
     closed = solver.positions.copy()
-    node, side = opening_node(closed, triangles, stroke)
-    opened = solver.solve_static(node, force * side, reset=False)
-    edges = border_edges(triangles)
-    images, vmax = render_panels(cut_surface.vertices, triangles, [closed, opened], markers=[None, node],
-                                 edges=[edges, edges])
-    captions = [f"after the incision ({len(edges)} cut edges)", f"opened: {force:g} N sideways on one lip"]
+    opened = open_wound(solver, line)
+    edges = border_edges(cut_surface.triangles)
+    images, vmax = render_panels(solver.rest_positions, cut_surface.triangles, [closed, solver.positions.copy()],
+                                 markers=[None, opened["node"]], edges=[edges, edges])
+    length = 1e3 * float(np.linalg.norm(line[1] - line[0]))
+    captions = [f"after a {length:.0f} mm incision ({len(edges)} cut edges)",
+                f"opened: {PULL_FORCE:g} N sideways beside it, gap {1e3 * wound_gap(solver):.1f} mm"]
     title = f"{name}: scalpel stroke across the top, {METHOD_LABELS.get(method, method)}"
     return compose(images, captions, title, vmax, path)
 
