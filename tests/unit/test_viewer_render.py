@@ -69,3 +69,25 @@ def test_render_command_writes_the_figure_and_links_it_from_the_report(tmp_path,
     assert text.startswith("# Report") and "![deformation_cube](deformation_cube.png)" in text
     main(["render", "cube", "--resolution", "300", "--output", str(tmp_path), "--report", str(report)])
     assert report.read_text().count("## Figures") == 1  # the section is replaced, not repeated
+
+
+def test_the_incision_image_shows_the_gap(tmp_path):
+    pytest.importorskip("tissuesim.scalpel", reason="the incision figure needs tissuesim.Scalpel")
+    from tissuesim.cutting.wound import open_wound, scripted_incision
+    from tissuesim.viewer.figures import OPENING_FORCE, incision_figure, render_panels
+
+    hybrid = HybridMesh.build(models.cube(600), fine_volume=False)
+    solver = make_solver("hybrid", hybrid)
+    line = scripted_incision(solver)["line"]
+    closed = solver.positions.copy()
+    node = open_wound(solver, line, force=OPENING_FORCE)["node"]
+    middle = 0.5 * (line[0] + line[1])
+    focus = middle + np.array([[-0.01, -0.01, -0.005], [0.01, 0.01, 0.002]])  # the wound's middle, close up
+    images, _ = render_panels(solver.rest_positions, solver.hybrid.surface.triangles, [closed, solver.positions],
+                              focus=focus, elevation=55.0)
+    h, w = images[0].shape[:2]
+    centre = (slice(h // 3, 2 * h // 3), slice(w // 3, 2 * w // 3))
+    darker = images[1][centre].astype(int).sum(axis=2) < images[0][centre].astype(int).sum(axis=2) - 60
+    assert darker.mean() > 0.05  # the open wound shows its dark inside where the closed cut showed skin
+    assert incision_figure(hybrid, "cube", tmp_path / "incision_cube.png").stat().st_size > 10_000
+    assert node >= 0

@@ -7,8 +7,8 @@ bar [mm] shared by the panels, so colours compare across them.
 * ``deformation_<model>.png`` (Fig 11): at rest, under tension and under pressure, at the experiment's load node
   (:func:`tissuesim.experiments.protocol.load_node`) and a force of :data:`FIGURE_FORCE` [N], solved quasi-statically.
 * ``incision_<model>.png`` (Fig 16): the scripted incision of :mod:`tissuesim.cutting.wound` (a straight stroke
-  across the top), closed, then opened by that module's small sideways pull beside the cut, with the cut edges
-  drawn red. Needs ``tissuesim.Scalpel``.
+  across the top), closed, then opened by :data:`OPENING_FORCE` [N] sideways beside the cut's middle (that
+  module's pull), seen close up, the cut edges drawn red. Needs ``tissuesim.Scalpel``.
 
 Choices where the paper is silent: 5 N (1 N barely shows at organ size and E = 5.5 kPa, 20 N folds the model
 through itself); the camera looks down at 35° from the front-left, the same for every panel of a figure.
@@ -25,26 +25,31 @@ from ..recording import border_edges
 from .gl import polyscope
 
 FIGURE_FORCE = 5.0  # N
+# N, beside the incision's middle: the wound experiment's 0.1 N opens the liver by 0.7 mm, invisible at figure scale
+OPENING_FORCE = 0.3
 PANEL_SIZE = (640, 560)  # pixels
 COLORMAP = "viridis"  # the same name in polyscope and matplotlib
 METHOD_LABELS = {"hybrid": "hybrid FEM + PBD", "pbd": "PBD", "mass-spring": "mass-spring", "embedded": "embedded "
                  "surface", "fem": "fine-volume FEM"}
 
 
-def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None) -> tuple[list[np.ndarray], float]:
+def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None, focus=None,
+                  elevation: float = 35.0) -> tuple[list[np.ndarray], float]:
     """Offscreen renders of the surface in each of ``frames``; returns (RGB images, colour-bar top [mm]).
 
     Args:
         rest: ``(n, 3)`` rest positions [m]. triangles: ``(m, 3)`` (a single array, or one per frame).
         frames: list of ``(n, 3)`` positions [m]. markers: per frame, a node index to mark (the pin-head) or None.
         edges: per frame, ``(k, 2)`` edges to draw in red (cut edges) or None.
+        focus: ``(p, 3)`` points [m] the camera frames (default: everything); elevation: camera angle [degrees].
     """
     ps = polyscope(headless=True)
     _style(ps)
+    ps.set_ground_plane_mode("shadow_only" if focus is None else "none")  # close up, the shadow is a grey band
     tris = triangles if isinstance(triangles, list) else [triangles] * len(frames)
     magnitudes = [1e3 * np.linalg.norm(x - rest[: len(x)], axis=1) for x in frames]
     vmax = vmax or max(float(max(m.max() for m in magnitudes)), 1e-3)
-    _camera(ps, np.vstack(frames))
+    _camera(ps, np.vstack(frames) if focus is None else focus, elevation)
     images = []
     for index, (x, t, mm) in enumerate(zip(frames, tris, magnitudes)):
         ps.remove_all_structures()
@@ -55,8 +60,9 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None)
             pin = ps.register_point_cloud("pin-head", x[[marker]], color=(0.85, 0.1, 0.1))
             pin.set_radius(0.012, relative=True)
         if edges is not None and edges[index] is not None and len(edges[index]):
-            cut = ps.register_curve_network("cut", x, edges[index], color=(0.9, 0.05, 0.05))
-            cut.set_radius(0.0025, relative=True)
+            nodes, local = np.unique(edges[index], return_inverse=True)  # only the cut's own nodes are drawn
+            cut = ps.register_curve_network("cut", x[nodes], local.reshape(-1, 2), color=(0.9, 0.05, 0.05))
+            cut.set_radius(0.0015, relative=True)
         images.append(ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3].copy())
     ps.remove_all_structures()
     return _crop(images), vmax
@@ -112,23 +118,27 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
     return compose(images, captions, title, vmax, path)
 
 
-def incision_figure(hybrid, name: str, path, *, method: str = "hybrid") -> Path:
-    """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open."""
-    from ..cutting.wound import PULL_FORCE, open_wound, scripted_incision, wound_gap
+def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
+    """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open by
+    ``force`` [N] beside its middle; the camera frames the wound."""
+    from ..cutting.wound import open_wound, scripted_incision, wound_gap
     from ..solvers.base import make_solver
 
     solver = make_solver(method, hybrid)
     line = scripted_incision(solver)["line"]
     cut_surface = solver.hybrid.surface
     closed = solver.positions.copy()
-    opened = open_wound(solver, line)
+    opened = open_wound(solver, line, force=force)
     edges = border_edges(cut_surface.triangles)
+    length = float(np.linalg.norm(line[1] - line[0]))
+    middle = 0.5 * (line[0] + line[1])
+    focus = middle + np.array([[-1.0, -1.0, -0.4], [1.0, 1.0, 0.2]]) * length  # the wound and its surroundings
     images, vmax = render_panels(solver.rest_positions, cut_surface.triangles, [closed, solver.positions.copy()],
-                                 markers=[None, opened["node"]], edges=[edges, edges])
-    length = 1e3 * float(np.linalg.norm(line[1] - line[0]))
-    captions = [f"after a {length:.0f} mm incision ({len(edges)} cut edges)",
-                f"opened: {PULL_FORCE:g} N sideways beside it, gap {1e3 * wound_gap(solver):.1f} mm"]
-    title = f"{name}: scalpel stroke across the top, {METHOD_LABELS.get(method, method)}"
+                                 markers=[None, opened["node"]], edges=[edges, edges], focus=focus, elevation=55.0)
+    captions = [f"{1e3 * length:.0f} mm incision, {len(edges)} cut edges",
+                f"{force:g} N beside it: gap {1e3 * wound_gap(solver):.1f} mm"]
+    title = (f"{name}: scalpel stroke across the top, then {force:g} N sideways on node {opened['node']}, "
+             f"{METHOD_LABELS.get(method, method)}")
     return compose(images, captions, title, vmax, path)
 
 
@@ -136,18 +146,17 @@ def _style(ps) -> None:
     ps.set_window_size(*PANEL_SIZE)
     ps.set_up_dir("z_up")
     ps.set_front_dir("neg_y_front")
-    ps.set_ground_plane_mode("shadow_only")
     ps.set_background_color((1.0, 1.0, 1.0))
     ps.set_SSAA_factor(2)
     ps.set_autocenter_structures(False)
     ps.set_autoscale_structures(False)
 
 
-def _camera(ps, points: np.ndarray) -> None:
-    """Look at the points' bounding box from the front-left, 35° above, far enough to frame all of it."""
+def _camera(ps, points: np.ndarray, elevation: float) -> None:
+    """Look at the points' bounding box from the front-left, ``elevation`` degrees above, framing all of it."""
     lo, hi = points.min(axis=0), points.max(axis=0)
     centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
-    elevation, azimuth = np.radians(35.0), np.radians(-60.0)
+    elevation, azimuth = np.radians(elevation), np.radians(-60.0)
     view = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
     ps.set_automatically_compute_scene_extents(False)
     ps.set_length_scale(2.0 * radius)
