@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 
 import tissuesim
-from tissuesim.recording import Recorder, read_recording, solver_frame
+from tissuesim.recording import Recorder, border_edges, read_recording, solver_frame
 from tissuesim.viewer.controller import Controller, Settings
 
 DOWN = np.array([0.0, 0.0, -1.0])  # the camera looks straight down from CAMERA_HEIGHT above each point
@@ -29,7 +29,7 @@ def run_session(path, *, frames: int = 30, pull: float = 0.02, resolution: int |
     """Drag the top of the liver sideways by ``pull`` [m] over ``frames`` frames, release, then cut across it.
 
     Returns a dict: the recording's path and frame count, the largest pin-head force [N], the grabbed node's
-    sideways motion while held [m], and the scalpel's last report (None without a scalpel).
+    sideways motion while held [m], whether a scalpel was there, and the cut edges and vertices the cut made.
     """
     surface = tissuesim.models.liver(resolution) if resolution else tissuesim.models.liver()
     hybrid = tissuesim.HybridMesh.build(surface, fine_volume=False)
@@ -53,7 +53,6 @@ def run_session(path, *, frames: int = 30, pull: float = 0.02, resolution: int |
         controller.pointer_up()                                        # release: the force goes
         for _ in range(frames):
             frame()
-        cut = None
         if controller.scalpel_available:                               # a stroke across the top
             controller.set_mode("scalpel")
             stroke = top + np.outer(np.linspace(-0.03, 0.03, 10), [0.0, 1.0, 0.0])
@@ -62,10 +61,11 @@ def run_session(path, *, frames: int = 30, pull: float = 0.02, resolution: int |
                 controller.pointer_move(None, *_ray(point))
                 frame()
             controller.pointer_up()
-            cut = controller.last_cut
             frame()
+    surface = controller.solver.hybrid.surface
     return {"path": path, "frames": recorder.frame_count, "force_N": largest, "held_motion_m": moved,
-            "cut": cut, "scalpel": controller.scalpel_available}
+            "scalpel": controller.scalpel_available, "cut_edges": len(border_edges(surface.triangles)),
+            "vertices_added": surface.vertex_count - hybrid.surface.vertex_count}
 
 
 def main():
@@ -75,7 +75,8 @@ def main():
     result = run_session(args.output)
     print(f"recorded {result['frames']} frames to {result['path']}: pulled with up to {result['force_N']:.2f} N, "
           f"the node moved {1e3 * result['held_motion_m']:.1f} mm")
-    print(f"cut: {result['cut']}" if result["scalpel"] else "no tissuesim.Scalpel here: the cut was skipped")
+    print(f"cut: {result['cut_edges']} cut edges, {result['vertices_added']} vertices added" if result["scalpel"]
+          else "no tissuesim.Scalpel here: the cut was skipped")
     print(f"read back {len(read_recording(args.output))} frames")
 
 

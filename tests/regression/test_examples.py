@@ -33,4 +33,5 @@ def test_scripted_session_records_the_drag_and_the_cut(tmp_path):
     assert len(frames) == result["frames"] >= 40
     assert np.count_nonzero(np.any(frames[5].force, axis=1)) == 1 and not np.any(frames[-1].force)  # held, released
     if result["scalpel"]:
-        assert len(frames[-1].cut_edges) > 0 and len(frames[-1].positions) > len(frames[0].positions)
+        assert len(frames[-1].cut_edges) == result["cut_edges"] > 0
+        assert len(frames[-1].positions) == len(frames[0].positions) + result["vertices_added"] > len(frames[0].positions)
