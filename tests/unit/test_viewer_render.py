@@ -35,7 +35,8 @@ def test_the_deformed_image_differs_from_the_rest_image_near_the_load_only(hybri
     row, col = marker.astype(int)
     near = changed[max(row - 40, 0): row + 40, max(col - 40, 0): col + 40].mean()
     bottom = changed[-60:].mean()  # the fixed bottom of the model, far from the load
-    assert near > 0.2 and bottom < 0.5 * near
+    # the square around the pin-head holds the pulled spike (changed) and background above it (unchanged)
+    assert near > 0.1 and bottom < 0.25 * near
 
 
 def test_the_window_layer_runs_headless_and_records(hybrid, tmp_path):
