@@ -19,10 +19,11 @@ from ..errors import TissuesimError
 from ..recording import Recorder, border_edges, solver_frame
 from ..solvers.base import available_solvers, solver_options
 from .controller import MODES, Controller
-from .gl import polyscope
+from .gl import look_at_oblique, polyscope
 
 SURFACE = "M_S"
 WINDOW_SIZE = (1024, 720)  # pixels
+PANEL_WIDTH, PANEL_ITEM_WIDTH = 330, 150  # pixels of the panel and of one widget: the panel leaves the model in view
 DEFAULT_RECORDING = "tissuesim_session.pvd"
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
@@ -41,6 +42,7 @@ class ViewerApp:
         self.record_path = record or DEFAULT_RECORDING
         self.recorder = Recorder(record) if record else None
         self.show_wireframe, self.show_control, self.show_colours = False, False, True
+        self.colour_top = 1.0  # mm at the top of the colour map
         self.frame_seconds = 0.0  # running mean of the wall time between frames [s]
         self.render_seconds = 0.0  # last frame's time outside the callback: polyscope's drawing [s]
         self.callback_seconds = 0.0  # last frame's time inside the callback: events, steps, uploads, panel [s]
@@ -108,15 +110,15 @@ class ViewerApp:
             self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
             cut = border_edges(triangles)
             self.cut = ps.register_curve_network("cut edges", x, cut, color=(0.9, 0.05, 0.05)) if len(cut) else None
-            ps.reset_camera_to_home_view()
+            look_at_oblique(ps, x, distance=3.4)
         else:
             self.mesh.update_vertex_positions(x)
             if self.cut is not None:
                 self.cut.update_node_positions(x)
         if self.show_colours:
             mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
-            self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, max(mm.max(),
-                                                                                                          1.0)))
+            self.colour_top = max(float(mm.max()), 1.0)
+            self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, self.colour_top))
         else:
             self.mesh.remove_all_quantities()
         self._layers(x)
@@ -133,11 +135,17 @@ class ViewerApp:
             ps.register_point_cloud("control nodes", control, color=(0.95, 0.6, 0.1)).set_radius(0.004, relative=True)
         elif ps.has_point_cloud("control nodes"):
             ps.remove_point_cloud("control nodes")
-        cursor = self.controller.cursor
+        cursor, pin = self.controller.cursor, self.controller.pin
         if cursor is not None:
             ps.register_point_cloud("pin-head", cursor[None], color=(0.85, 0.1, 0.1)).set_radius(0.01, relative=True)
         elif ps.has_point_cloud("pin-head"):
             ps.remove_point_cloud("pin-head")
+        if cursor is not None and pin.grabbed:  # the spring of eq 24, from the held node to the cursor
+            spring = ps.register_curve_network("spring", np.array([x[pin.node], cursor]), np.array([[0, 1]]),
+                                               color=(0.85, 0.1, 0.1))
+            spring.set_radius(0.002, relative=True)
+        elif ps.has_curve_network("spring"):
+            ps.remove_curve_network("spring")
 
     # ---------------------------------------------------------------------------------------------- input
     def _pointer(self, psim) -> None:
@@ -162,7 +170,8 @@ class ViewerApp:
 
     def _pick(self, mouse):
         result = self.ps.pick(screen_coords=mouse)
-        hit = result.position if result.is_hit and result.structure_name == SURFACE else None
+        # every drawn structure lies on the surface (the pin-head under the cursor is hit first when hovering)
+        hit = result.position if result.is_hit else None
         return hit, self._ray(mouse)
 
     def _ray(self, mouse):
@@ -181,6 +190,7 @@ class ViewerApp:
     # ---------------------------------------------------------------------------------------------- panel
     def _panel(self, psim) -> None:
         c, s = self.controller, self.controller.settings
+        psim.PushItemWidth(PANEL_ITEM_WIDTH)
         if self.title:
             psim.TextUnformatted(self.title)
         for mode in MODES:
@@ -203,8 +213,11 @@ class ViewerApp:
         _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
         _, self.show_control = psim.Checkbox("control nodes", self.show_control)
         _, self.show_colours = psim.Checkbox("displacement colours", self.show_colours)
+        if self.show_colours:
+            psim.TextUnformatted(f"colours: |u| from 0 to {self.colour_top:.1f} mm (viridis)")
         if c.notice:
             psim.TextWrapped(c.notice)
+        psim.PopItemWidth()
 
     def _material(self, psim, s) -> None:
         enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
@@ -275,6 +288,8 @@ class ViewerApp:
         ps.set_ground_plane_mode("none")  # the shadow pass costs more than all the rest with a software renderer
         ps.set_window_size(*WINDOW_SIZE)
         ps.set_build_default_gui_panels(False)
+        ps.set_user_gui_is_on_right_side(True)
+        ps.set_right_gui_pane_width(PANEL_WIDTH)
 
 
 class ReplayApp:

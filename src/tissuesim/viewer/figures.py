@@ -22,7 +22,7 @@ import numpy as np
 
 from ..experiments.protocol import LOAD_DIRECTIONS, load_node
 from ..recording import border_edges
-from .gl import polyscope
+from .gl import look_at_oblique, polyscope
 
 FIGURE_FORCE = 5.0  # N
 # N, beside the incision's middle: the wound experiment's 0.1 N opens the liver by 0.7 mm, invisible at figure scale
@@ -49,7 +49,7 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None,
     tris = triangles if isinstance(triangles, list) else [triangles] * len(frames)
     magnitudes = [1e3 * np.linalg.norm(x - rest[: len(x)], axis=1) for x in frames]
     vmax = vmax or max(float(max(m.max() for m in magnitudes)), 1e-3)
-    _camera(ps, np.vstack(frames) if focus is None else focus, elevation)
+    look_at_oblique(ps, np.vstack(frames) if focus is None else focus, elevation=elevation)
     images = []
     for index, (x, t, mm) in enumerate(zip(frames, tris, magnitudes)):
         ps.remove_all_structures()
@@ -150,15 +150,3 @@ def _style(ps) -> None:
     ps.set_SSAA_factor(2)
     ps.set_autocenter_structures(False)
     ps.set_autoscale_structures(False)
-
-
-def _camera(ps, points: np.ndarray, elevation: float) -> None:
-    """Look at the points' bounding box from the front-left, ``elevation`` degrees above, framing all of it."""
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
-    elevation, azimuth = np.radians(elevation), np.radians(-60.0)
-    view = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
-    ps.set_automatically_compute_scene_extents(False)
-    ps.set_length_scale(2.0 * radius)
-    ps.set_bounding_box(lo, hi)
-    ps.look_at(centre + 2.2 * radius * view, centre)

@@ -94,3 +94,19 @@ def _quiet_stdout():
     finally:
         os.dup2(saved, 1)
         os.close(saved)
+
+
+def look_at_oblique(ps, points, *, elevation: float = 35.0, azimuth: float = -60.0, distance: float = 2.2) -> None:
+    """Point polyscope's camera at the bounding box of ``points`` ``(p, 3)`` [m] from ``elevation`` degrees above
+    and ``azimuth`` degrees around z (front-left), ``distance`` box half-diagonals away, so all of it is framed."""
+    import numpy as np
+
+    points = np.asarray(points, dtype=np.float64)
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    centre, radius = 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+    up, around = np.radians(elevation), np.radians(azimuth)
+    view = np.array([np.cos(up) * np.cos(around), np.cos(up) * np.sin(around), np.sin(up)])
+    ps.set_automatically_compute_scene_extents(False)
+    ps.set_length_scale(2.0 * radius)
+    ps.set_bounding_box(lo, hi)
+    ps.look_at(centre + distance * radius * view, centre)
