@@ -252,8 +252,8 @@ class ViewerApp:
         psim.TextUnformatted(f"simulated {self.sim_time:.2f} s")
         psim.TextUnformatted(f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else ""))
         if st and (st.behind or st.dropped > 0.0):
-            psim.TextColored(BEHIND, "slower than real time: a step takes longer than dt" if st.behind else
-                             "slower than real time: drawing leaves too little time for the steps")
+            psim.TextColored(BEHIND, "slower than real time (a step > dt)" if st.behind else
+                             "slower than real time (drawing)")
         if c.paused:
             psim.TextColored(BEHIND, "paused (space)")
 
