@@ -55,7 +55,7 @@ class ViewerApp:
         self._last = None
         self.headless = headless
         self.ps = polyscope(headless=headless)
-        self._style()
+        style_window(self.ps)
 
     # ------------------------------------------------------------------------------------------------ running
     def run(self) -> None:
@@ -281,15 +281,16 @@ class ViewerApp:
             self.close()
             self.controller.notice = f"recorded to {self.record_path}"
 
-    def _style(self) -> None:
-        ps = self.ps
-        ps.set_up_dir("z_up")
-        ps.set_front_dir("neg_y_front")
-        ps.set_ground_plane_mode("none")  # the shadow pass costs more than all the rest with a software renderer
-        ps.set_window_size(*WINDOW_SIZE)
-        ps.set_build_default_gui_panels(False)
-        ps.set_user_gui_is_on_right_side(True)
-        ps.set_right_gui_pane_width(PANEL_WIDTH)
+
+def style_window(ps) -> None:
+    """z up, no ground shadow (its pass costs more than the rest of a software-rendered frame), our panel only."""
+    ps.set_up_dir("z_up")
+    ps.set_front_dir("neg_y_front")
+    ps.set_ground_plane_mode("none")
+    ps.set_window_size(*WINDOW_SIZE)
+    ps.set_build_default_gui_panels(False)
+    ps.set_user_gui_is_on_right_side(True)
+    ps.set_right_gui_pane_width(PANEL_WIDTH)
 
 
 class ReplayApp:
@@ -301,6 +302,7 @@ class ReplayApp:
         self.frames, self.title = frames, title
         self.index, self.playing, self._topology = 0, True, None
         self.ps = polyscope(headless=headless)
+        style_window(self.ps)
 
     def run(self) -> None:
         self.ps.set_user_callback(self.frame)
@@ -313,7 +315,10 @@ class ReplayApp:
         if self._topology is not frame.triangles:
             self._topology = frame.triangles
             self.ps.remove_all_structures()
-            self.mesh = self.ps.register_surface_mesh(SURFACE, frame.positions, frame.triangles, smooth_shade=True)
+            self.mesh = self.ps.register_surface_mesh(SURFACE, frame.positions, frame.triangles, smooth_shade=True,
+                                                      material="clay")
+            if self.index == 0:
+                look_at_oblique(self.ps, frame.positions, distance=3.4)
         self.mesh.update_vertex_positions(frame.positions)
         mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
         self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, max(mm.max(), 1.0)))
