@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tissuesim import HybridMesh, SolverError
+from tissuesim import HybridMesh, PinHead, SolverError
 from tissuesim.mesh import models
 from tissuesim.viewer import controller as controller_module
 from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
@@ -201,3 +201,12 @@ def test_pause_stops_time(hybrid):
     assert c.advance(0.1).steps == 0
     c.key("space")
     assert c.advance(0.01).steps == 1
+
+
+@pytest.mark.skipif("radius" not in __import__("inspect").signature(PinHead).parameters,
+                    reason="PinHead has no contact radius in this version")
+def test_the_contact_radius_reaches_the_pin_head(hybrid):
+    c = Controller(hybrid, settings=Settings(radius=0.01))
+    assert c.pin.radius == 0.01
+    c.configure(radius=0.005)
+    assert c.pin.radius == 0.005

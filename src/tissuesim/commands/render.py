@@ -24,6 +24,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--method", default="hybrid", help="solver drawn (default: hybrid)")
     parser.add_argument("--force", type=float, default=None, metavar="N",
                         help="load of the deformation figure in newtons (default: 5)")
+    parser.add_argument("--radius", type=float, default=None, metavar="MM",
+                        help="spread the load over a pin-head contact patch of this radius in mm (default: one node, "
+                             "as the experiments)")
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of the built-in models")
     parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
     parser.add_argument("--report", type=Path, default=None, metavar="FILE.md",
@@ -58,7 +61,8 @@ def run(args: argparse.Namespace) -> int:
     for spec in args.models or MODELS:
         hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, progress=False)
         written.append(deformation_figure(hybrid, name, args.output / f"deformation_{name}.png", method=args.method,
-                                          force=args.force or FIGURE_FORCE))
+                                          force=args.force or FIGURE_FORCE,
+                                          radius=None if args.radius is None else 1e-3 * args.radius))
         if cutting:
             written.append(incision_figure(hybrid, name, args.output / f"incision_{name}.png", method=args.method))
         print(f"rendered {name}", file=sys.stderr)

@@ -102,18 +102,21 @@ def compose(images, captions, title: str, vmax: float, path) -> Path:
     return path
 
 
-def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = FIGURE_FORCE) -> Path:
-    """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node)."""
+def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = FIGURE_FORCE,
+                       radius: float | None = None) -> Path:
+    """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
+    or spread over a contact patch of ``radius`` [m] around it)."""
     from ..solvers.base import make_solver
 
     surface = hybrid.surface
     node = load_node(surface.vertices, surface.triangles)
     solver = make_solver(method, hybrid)
-    frames = [surface.vertices] + [solver.solve_static(node, force * np.asarray(LOAD_DIRECTIONS[kind]))
+    frames = [surface.vertices] + [solver.solve_static(node, force * np.asarray(LOAD_DIRECTIONS[kind]), radius=radius)
                                    for kind in ("tension", "pressure")]
     images, vmax = render_panels(surface.vertices, surface.triangles, frames, markers=[None, node, node])
     captions = ["at rest", f"tension {force:g} N (up)", f"pressure {force:g} N (down)"]
-    title = (f"{name}: {force:g} N on node {node} (pin-head at the top centre), "
+    where = f"on node {node}" if radius is None else f"over {1e3 * radius:g} mm around node {node}"
+    title = (f"{name}: {force:g} N {where} (pin-head at the top centre), "
              f"{METHOD_LABELS.get(method, method)}, E = {solver.youngs_modulus:g} Pa, ν = {solver.poisson_ratio:g}")
     return compose(images, captions, title, vmax, path)
 
