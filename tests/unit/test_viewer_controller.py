@@ -210,3 +210,15 @@ def test_the_contact_radius_reaches_the_pin_head(hybrid):
     assert c.pin.radius == 0.01
     c.configure(radius=0.005)
     assert c.pin.radius == 0.005
+
+
+def test_a_bundle_opens_as_saved_and_the_fem_method_says_what_it_lacks(tmp_path):
+    from tissuesim.commands.view import load_hybrid
+
+    HybridMesh.build(models.cube(resolution=150), fine_volume=False).save(tmp_path / "cube.npz")
+    hybrid, name = load_hybrid(str(tmp_path / "cube.npz"))
+    assert name == "cube" and hybrid.fine_volume is None
+    c = Controller(hybrid)
+    with pytest.raises(SolverError, match="fine volume"):
+        c.configure(method="fem")
+    assert c.solver.name == "hybrid"
