@@ -4,7 +4,7 @@ Drives the real window layer (:class:`tissuesim.viewer.app.ViewerApp`) in polysc
 machine without GPU that is Mesa's software renderer (llvmpipe), the worst case — with a scripted pin-head drag,
 for ``--seconds`` of wall time per model, the simulation at its real-time fixed dt (10 ms). Prints per model:
 
-* step: mean wall time of one simulation step [ms]; draw: mean time polyscope spends rendering a frame [ms];
+* step alone: one simulation step with nothing drawn [ms]; step: the same while drawing; draw: mean time polyscope spends rendering a frame [ms];
   frame: mean wall time per frame [ms] and frames/s;
 * sim steps/s while drawing (target ≥ 100 = real time at dt = 10 ms) and the simulated time lost to slow frames;
 * first grab: wall time of grabbing, first dragging and the first step under a node never loaded before (any
@@ -44,6 +44,10 @@ def measure(name: str, surface, seconds: float, method: str, size) -> dict:
     first_grab = time.perf_counter() - start
     for _ in range(5):  # warm up: shaders, first uploads, Numba dispatch
         app.tick()
+    start = time.perf_counter()
+    for _ in range(20):
+        controller.solver.step()
+    alone = (time.perf_counter() - start) / 20
     steps = frames = 0
     draw = dropped = 0.0
     start = time.perf_counter()
@@ -59,7 +63,8 @@ def measure(name: str, surface, seconds: float, method: str, size) -> dict:
     wall = time.perf_counter() - start
     controller.pointer_up()
     app.ps.remove_all_structures()
-    return {"model": name, "vertices": surface.vertex_count, "step_ms": 1e3 * app.stats.step_seconds,
+    return {"model": name, "vertices": surface.vertex_count, "alone_ms": 1e3 * alone,
+            "step_ms": 1e3 * app.stats.step_seconds,
             "draw_ms": 1e3 * draw / max(frames - 1, 1), "frame_ms": 1e3 * wall / frames, "fps": frames / wall,
             "steps_per_s": steps / wall, "dropped_s": dropped, "first_grab_ms": 1e3 * first_grab}
 
@@ -82,12 +87,12 @@ def main() -> None:
     size = args.window or WINDOW_SIZE
     print(f"renderer: {ps.get_render_engine_backend_name()}, window {size[0]}x{size[1]}, method {args.method}, "
           f"{args.seconds:g} s per model, LP_NUM_THREADS={os.environ.get('LP_NUM_THREADS')}")
-    print("| model | M_S vertices | step ms | draw ms | frame ms | frames/s | sim steps/s | dropped s "
+    print("| model | M_S vertices | step alone ms | step ms | draw ms | frame ms | frames/s | sim steps/s | dropped s "
           "| first grab ms |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name, surface in cases:
         r = measure(name, surface, args.seconds, args.method, size)
-        print(f"| {r['model']} | {r['vertices']} | {r['step_ms']:.2f} | {r['draw_ms']:.1f} | {r['frame_ms']:.1f} | "
+        print(f"| {r['model']} | {r['vertices']} | {r['alone_ms']:.2f} | {r['step_ms']:.2f} | {r['draw_ms']:.1f} | {r['frame_ms']:.1f} | "
               f"{r['fps']:.0f} | {r['steps_per_s']:.0f} | {r['dropped_s']:.2f} | {r['first_grab_ms']:.1f} |",
               flush=True)
 
