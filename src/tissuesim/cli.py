@@ -25,6 +25,8 @@ COMMANDS = {
     "experiment": "experiment",
     "calibrate": "calibrate",
     "incise": "incise",
+    "view": "view",
+    "render": "render",
 }
 
 
