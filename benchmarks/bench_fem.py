@@ -12,7 +12,7 @@ import scipy.sparse.linalg as spla
 import tetgen
 
 from tissuesim.fem.assembly import assemble_stiffness
-from tissuesim.fem.linear import LinearFEM, _factorise
+from tissuesim.fem.linear import LinearFEM, factorise_spd
 from tissuesim.fem.material import Material
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes
@@ -55,7 +55,7 @@ def assembly_vs_skfem(mesh: TetMesh, large: bool):
     t_skfem, (k_ref, basis) = best(theirs, repeat=1 if large else 3)
     fixed = bottom_nodes(mesh.points)
     t_fem, fem = best(lambda: LinearFEM(mesh, fixed=fixed), repeat=1)
-    t_factor, _ = best(lambda: _factorise(fem.reduced_stiffness, fem.free_dofs // 3), repeat=1)
+    t_factor, _ = best(lambda: factorise_spd(fem.reduced_stiffness, fem.free_dofs // 3), repeat=1)
     t_solve, _ = best(lambda: fem.solve(np.tile([0.0, 0.0, -1e-4], (mesh.node_count, 1))))
     line = (
         f"{mesh.element_count:>8} tets {mesh.node_count:>7} nodes {fem.free_dofs.size:>7} dofs | assembly ours "

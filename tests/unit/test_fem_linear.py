@@ -137,7 +137,7 @@ def test_every_factorisation_route_matches_a_plain_sparse_solve(box, route, monk
     optional package is missing: all give the plain sparse solve, multi-RHS included, and refuse a non-SPD K_ff."""
     import scipy.sparse.linalg as spla
 
-    from tissuesim.fem.linear import _factorise
+    from tissuesim.fem.linear import factorise_spd
 
     solver, ordering = route.split("+")
     if solver == "cholmod":
@@ -154,8 +154,8 @@ def test_every_factorisation_route_matches_a_plain_sparse_solve(box, route, monk
     u = fem.solve(forces)
     assert np.abs(u.ravel()[fem.free_dofs] - expected).max() <= 1e-12 * np.abs(expected).max()
     rhs = RNG.normal(size=(fem.free_dofs.size, 4))
-    factor = _factorise(fem.reduced_stiffness, fem.free_dofs // 3)
+    factor = factorise_spd(fem.reduced_stiffness, fem.free_dofs // 3)
     expected = spla.spsolve(fem.reduced_stiffness, rhs)
     assert np.abs(factor.solve(rhs) - expected).max() <= 1e-12 * np.abs(expected).max()
     with pytest.raises(SolverError, match="not positive definite"):
-        _factorise(-fem.reduced_stiffness, fem.free_dofs // 3)
+        factorise_spd(-fem.reduced_stiffness, fem.free_dofs // 3)

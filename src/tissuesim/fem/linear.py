@@ -91,7 +91,7 @@ class LinearFEM:
         self.free_dofs = np.flatnonzero(~mask.ravel())
         self.stiffness = assemble_stiffness(mesh, self.material)
         self.reduced_stiffness = self.stiffness[self.free_dofs][:, self.free_dofs].tocsc()
-        self._lu = _factorise(self.reduced_stiffness, self.free_dofs // 3)
+        self._lu = factorise_spd(self.reduced_stiffness, self.free_dofs // 3)
         self._columns: dict[int, np.ndarray] = {}
 
     @property
@@ -382,7 +382,7 @@ class _PermutedLU:
         return x
 
 
-def _factorise(reduced: sp.csc_matrix, dof_node: np.ndarray):
+def factorise_spd(reduced: sp.csc_matrix, dof_node: np.ndarray):
     """Factorise the SPD K_ff once (see the module docstring); ``dof_node`` ``(f,)`` is the node of each free dof.
 
     Returns an object whose ``solve(b)`` takes ``(f,)`` or ``(f, m)``. Raises SolverError if K_ff is not positive

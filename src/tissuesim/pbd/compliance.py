@@ -35,12 +35,12 @@ DEFAULT_POISSON_RATIO = 0.3
 DEFAULT_DENSITY = 1000.0  # kg/m³, soft tissue ≈ water
 
 
-def _check(youngs_modulus: float, poisson_ratio: float, thickness: float) -> None:
+def _check(youngs_modulus: float, poisson_ratio: float, thickness) -> None:
     if not (np.isfinite(youngs_modulus) and youngs_modulus > 0.0):
         raise MaterialError(f"Young's modulus must be a positive finite number of pascals, got {youngs_modulus!r}")
     if not (np.isfinite(poisson_ratio) and -1.0 < poisson_ratio < 0.5):
         raise MaterialError(f"Poisson ratio must lie in (-1, 0.5), got {poisson_ratio!r}")
-    if not (np.isfinite(thickness) and thickness > 0.0):
+    if not np.all(np.isfinite(thickness) & (np.asarray(thickness) > 0.0)):
         raise MaterialError(f"surface layer thickness must be a positive finite number of metres, got {thickness!r}")
 
 
@@ -67,6 +67,24 @@ def shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float =
     k_e = membrane_stiffness(constraints, youngs_modulus=youngs_modulus, thickness=thickness)
     k_b = hinge_stiffness(constraints, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                           thickness=thickness)
+    return 1.0 / k_e, 1.0 / k_b
+
+
+def relative_shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                              poisson_ratio: float = DEFAULT_POISSON_RATIO,
+                              thickness_ratio: float) -> tuple[np.ndarray, np.ndarray]:
+    """XPBD compliances of a layer whose thickness follows the mesh: h = β × the constraint's rest edge length.
+
+    ``thickness_ratio`` β is dimensionless, so one calibrated value carries over between meshes of different
+    resolution and between models of different size; the stiffness still scales with E (and the hinges with
+    1/(1 − ν²)). Returns ``(stretch (e,) [m/N], bending (b,) [1/(N·m)])``.
+    """
+    _check(youngs_modulus, poisson_ratio, thickness_ratio)
+    stretch_thickness = thickness_ratio * constraints.rest_length
+    hinge_thickness = thickness_ratio * constraints.rest_length[constraints.hinge_edge]
+    k_e = youngs_modulus * stretch_thickness * constraints.edge_area / constraints.rest_length ** 2
+    k_b = hinge_stiffness(constraints, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                          thickness=hinge_thickness)
     return 1.0 / k_e, 1.0 / k_b
 
 

@@ -21,7 +21,9 @@ Two forms share this flow:
   iteration as Müller's ``k' = 1 − (1 − k)^(1/iterations)`` so the stiffness after all sweeps does not depend on
   the iteration count.
 * :func:`xpbd_step`: XPBD (Macklin et al. 2016) with per-constraint compliance α (stretch [m/N], bending
-  [1/(N·m)]), ``α̃ = α/dt²``, multipliers λ accumulated across sweeps and reset at the start of each step.
+  [1/(N·m)]), ``α̃ = α/dt²``, multipliers λ accumulated across sweeps and reset at the start of each step. Its
+  resting state approaches the layer's static equilibrium as the sweeps converge; the exact equilibrium is
+  :mod:`tissuesim.pbd.static`'s.
 
 The constraints are the NumPy reference's (:mod:`tissuesim.pbd.constraints`: angles by atan2, degenerate
 constraints skipped, the same thresholds), equal to it up to round-off; the bending projection gets θ and its gradient
@@ -85,6 +87,72 @@ def _project_stretch(x, w, i, j, rest, scale, alpha, lam):
 
 
 @njit(cache=True, inline="always")
+def _bend_gradient(x, i1, i2, i3, i4):
+    """Eq 10's θ on hinge (P1, P2 | P3, P4) of ``x`` and its gradient ∇θ per node, in closed form.
+
+    Returns ``(valid, θ, |P2 − P1|, ∇_1θ, ∇_2θ, ∇_3θ, ∇_4θ)`` (each gradient as 3 floats); ``valid`` is False for a
+    degenerate hinge (the caller skips it). See :func:`_project_bend` for the expressions.
+    """
+    ox = x[i1, 0]
+    oy = x[i1, 1]
+    oz = x[i1, 2]
+    px2 = x[i2, 0]
+    py2 = x[i2, 1]
+    pz2 = x[i2, 2]
+    px3 = x[i3, 0]
+    py3 = x[i3, 1]
+    pz3 = x[i3, 2]
+    px4 = x[i4, 0]
+    py4 = x[i4, 1]
+    pz4 = x[i4, 2]
+    ax = px2 - ox
+    ay = py2 - oy
+    az = pz2 - oz
+    bx = px3 - ox
+    by = py3 - oy
+    bz = pz3 - oz
+    cx = px4 - ox
+    cy = py4 - oy
+    cz = pz4 - oz
+    # n1 ∥ a×b, n2 ∥ a×c
+    c1x = ay * bz - az * by
+    c1y = az * bx - ax * bz
+    c1z = ax * by - ay * bx
+    c2x = ay * cz - az * cy
+    c2y = az * cx - ax * cz
+    c2z = ax * cy - ay * cx
+    det = c1x * cx + c1y * cy + c1z * cz
+    length2 = ax * ax + ay * ay + az * az
+    length = math.sqrt(length2)
+    theta = math.atan2(length * abs(det), c1x * c2x + c1y * c2y + c1z * c2z)
+    l1sq = c1x * c1x + c1y * c1y + c1z * c1z
+    l2sq = c2x * c2x + c2y * c2y + c2z * c2z
+    # Degenerate: |a×b| or |a×c| ≤ TINY_LENGTH (squared, TINY_LENGTH² underflows to 0: the same test), or
+    # sinθ = |a| |det| / (|a×b| |a×c|) ≤ TINY_SINE (squared, no root).
+    if (l1sq <= TINY_LENGTH * TINY_LENGTH or l2sq <= TINY_LENGTH * TINY_LENGTH
+            or length2 * (det * det) <= (TINY_SINE * TINY_SINE) * (l1sq * l2sq)):
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    f3 = -math.copysign(length, det) / l1sq
+    f4 = math.copysign(length, det) / l2sq
+    g3x = f3 * c1x
+    g3y = f3 * c1y
+    g3z = f3 * c1z
+    g4x = f4 * c2x
+    g4y = f4 * c2y
+    g4z = f4 * c2z
+    inv_length2 = 1.0 / length2
+    ta = (bx * ax + by * ay + bz * az) * inv_length2
+    tb = (cx * ax + cy * ay + cz * az) * inv_length2
+    g2x = -ta * g3x - tb * g4x
+    g2y = -ta * g3y - tb * g4y
+    g2z = -ta * g3z - tb * g4z
+    g1x = -g2x - g3x - g4x
+    g1y = -g2y - g3y - g4y
+    g1z = -g2z - g3z - g4z
+    return True, theta, length, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z
+
+
+@njit(cache=True, inline="always")
 def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     """One bending constraint (eq 10) on hinge (P1, P2 | P3, P4), in place. Returns the multiplier increment.
 
@@ -112,54 +180,14 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     px4 = x[i4, 0]
     py4 = x[i4, 1]
     pz4 = x[i4, 2]
-    ax = px2 - ox
-    ay = py2 - oy
-    az = pz2 - oz
-    bx = px3 - ox
-    by = py3 - oy
-    bz = pz3 - oz
-    cx = px4 - ox
-    cy = py4 - oy
-    cz = pz4 - oz
+    valid, theta, length, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient(
+        x, i1, i2, i3, i4)
+    if not valid:
+        return 0.0
     w1 = w[i1]
     w2 = w[i2]
     w3 = w[i3]
     w4 = w[i4]
-    # n1 ∥ a×b, n2 ∥ a×c
-    c1x = ay * bz - az * by
-    c1y = az * bx - ax * bz
-    c1z = ax * by - ay * bx
-    c2x = ay * cz - az * cy
-    c2y = az * cx - ax * cz
-    c2z = ax * cy - ay * cx
-    det = c1x * cx + c1y * cy + c1z * cz
-    length2 = ax * ax + ay * ay + az * az
-    length = math.sqrt(length2)
-    theta = math.atan2(length * abs(det), c1x * c2x + c1y * c2y + c1z * c2z)
-    l1sq = c1x * c1x + c1y * c1y + c1z * c1z
-    l2sq = c2x * c2x + c2y * c2y + c2z * c2z
-    # Degenerate: |a×b| or |a×c| ≤ TINY_LENGTH (squared, TINY_LENGTH² underflows to 0: the same test), or
-    # sinθ = |a| |det| / (|a×b| |a×c|) ≤ TINY_SINE (squared, no root).
-    if (l1sq <= TINY_LENGTH * TINY_LENGTH or l2sq <= TINY_LENGTH * TINY_LENGTH
-            or length2 * (det * det) <= (TINY_SINE * TINY_SINE) * (l1sq * l2sq)):
-        return 0.0
-    f3 = -math.copysign(length, det) / l1sq
-    f4 = math.copysign(length, det) / l2sq
-    g3x = f3 * c1x
-    g3y = f3 * c1y
-    g3z = f3 * c1z
-    g4x = f4 * c2x
-    g4y = f4 * c2y
-    g4z = f4 * c2z
-    inv_length2 = 1.0 / length2
-    ta = (bx * ax + by * ay + bz * az) * inv_length2
-    tb = (cx * ax + cy * ay + cz * az) * inv_length2
-    g2x = -ta * g3x - tb * g4x
-    g2y = -ta * g3y - tb * g4y
-    g2z = -ta * g3z - tb * g4z
-    g1x = -g2x - g3x - g4x
-    g1y = -g2y - g3y - g4y
-    g1z = -g2z - g3z - g4z
     m1 = w1 * (g1x * g1x + g1y * g1y + g1z * g1z)
     m2 = w2 * (g2x * g2x + g2y * g2y + g2z * g2z)
     m3 = w3 * (g3x * g3x + g3y * g3y + g3z * g3z)
@@ -190,11 +218,11 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
 
 
 @njit(cache=True, inline="always")
-def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
-    """One signed bending constraint ``C = β − β0`` (beyond the paper, see :func:`constraints.signed_bend_angle`).
+def _bend_gradient_signed(x, i1, i2, i3, i4):
+    """The signed angle β on hinge (P1, P2 | P3, P4) of ``x`` and its gradient per node, in closed form.
 
-    Gradient in closed form (``constraints.signed_bend_gradient``): no division by sin β, so it is exact and smooth
-    at flat hinges, where eq 10's unsigned angle has a cusp. Same PBD/XPBD update as :func:`_project_bend`.
+    Returns ``(valid, β, ∇_1β, ∇_2β, ∇_3β, ∇_4β)`` (each gradient as 3 floats); ``valid`` is False for a degenerate
+    hinge. See :func:`_project_bend_signed`.
     """
     ox = x[i1, 0]
     oy = x[i1, 1]
@@ -217,10 +245,6 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     cx = px4 - ox
     cy = py4 - oy
     cz = pz4 - oz
-    w1 = w[i1]
-    w2 = w[i2]
-    w3 = w[i3]
-    w4 = w[i4]
     # N_A = a×b, N_B = c×a (outward normals of (P1, P2, P3) and (P2, P1, P4))
     nax = ay * bz - az * by
     nay = az * bx - ax * bz
@@ -232,7 +256,7 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     lb2 = nbx * nbx + nby * nby + nbz * nbz
     length2 = ax * ax + ay * ay + az * az
     if la2 <= TINY_LENGTH or lb2 <= TINY_LENGTH or length2 <= TINY_LENGTH:
-        return 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     length = math.sqrt(length2)
     # β = atan2((N_A × N_B)·a/|a|, N_A·N_B)
     crx = nay * nbz - naz * nby
@@ -255,6 +279,36 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     g1x = -g2x - g3x - g4x
     g1y = -g2y - g3y - g4y
     g1z = -g2z - g3z - g4z
+    return True, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z
+
+
+@njit(cache=True, inline="always")
+def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
+    """One signed bending constraint ``C = β − β0`` (beyond the paper, see :func:`constraints.signed_bend_angle`).
+
+    Gradient in closed form (``constraints.signed_bend_gradient``): no division by sin β, so it is exact and smooth
+    at flat hinges, where eq 10's unsigned angle has a cusp. Same PBD/XPBD update as :func:`_project_bend`.
+    """
+    ox = x[i1, 0]
+    oy = x[i1, 1]
+    oz = x[i1, 2]
+    px2 = x[i2, 0]
+    py2 = x[i2, 1]
+    pz2 = x[i2, 2]
+    px3 = x[i3, 0]
+    py3 = x[i3, 1]
+    pz3 = x[i3, 2]
+    px4 = x[i4, 0]
+    py4 = x[i4, 1]
+    pz4 = x[i4, 2]
+    valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
+        x, i1, i2, i3, i4)
+    if not valid:
+        return 0.0
+    w1 = w[i1]
+    w2 = w[i2]
+    w3 = w[i3]
+    w4 = w[i4]
     denom = (w1 * (g1x * g1x + g1y * g1y + g1z * g1z) + w2 * (g2x * g2x + g2y * g2y + g2z * g2z)
              + w3 * (g3x * g3x + g3y * g3y + g3z * g3z) + w4 * (g4x * g4x + g4y * g4y + g4z * g4z)) + alpha
     if denom <= 0.0:

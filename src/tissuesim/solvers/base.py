@@ -1,14 +1,16 @@
 """The solver protocol shared by every method, its mutable state, and the name → class registry.
 
 A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
-owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load on one M_S node (the
-pin-head of §8.2 loads one node at a time). Every method exposes the same calls, so the experiments compare like
+owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load: a pin-head's force on
+one M_S node (§8.2), or spread over the nodes under a tip of radius R (:mod:`tissuesim.loads`). Every method exposes the same calls, so the experiments compare like
 with like:
 
 * ``step(dt)`` advances one time step [s];
-* ``set_load(node, force)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node;
+* ``set_load(node, force, radius=None)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node,
+  or on the contact patch of radius R [m] around it;
 * ``reset()`` returns to rest, at zero velocity and without load;
-* ``solve_static(node, force)`` steps with damping until the surface stops moving and returns the M_S positions.
+* ``solve_static(node, force, radius=None)`` steps with damping until the surface settles and returns the M_S
+  positions.
 
 Common options (keyword-only, the same for every method):
 
@@ -41,7 +43,9 @@ DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
 DEFAULT_DENSITY = 1000.0  # kg/m³
 DEFAULT_DT = 0.01  # s
-DEFAULT_TOLERANCE = 1e-6  # m of motion per step at which a quasi-static solve counts as settled (1 µm)
+#: Relative accuracy of a quasi-static solve: its remaining error over the largest displacement (stepped methods),
+#: or its force residual over the largest nodal load (static solvers).
+DEFAULT_RTOL = 1e-5
 DEFAULT_MAX_STEPS = 20000
 
 
@@ -84,17 +88,29 @@ class SolveReport:
 
 
 @njit(cache=True)
-def max_motion_and_copy(previous: np.ndarray, current: np.ndarray) -> float:
-    """Largest |current − previous| component [m] over ``(n, 3)`` arrays; then copy current into previous."""
-    largest = 0.0
+def motion_and_displacement(previous: np.ndarray, current: np.ndarray, rest: np.ndarray) -> tuple[float, float]:
+    """``(largest |current − previous|, largest |current − rest|)`` components [m] over ``(n, 3)`` arrays; then
+    copy current into previous."""
+    motion = 0.0
+    displacement = 0.0
     for i in range(previous.shape[0]):
         for k in range(3):
             c = current[i, k]
-            d = abs(c - previous[i, k])
-            if d > largest:
-                largest = d
+            motion = max(motion, abs(c - previous[i, k]))
+            displacement = max(displacement, abs(c - rest[i, k]))
             previous[i, k] = c
-    return largest
+    return motion, displacement
+
+
+def _remaining_error(motions: list[float], window: int = 5) -> float:
+    """Distance [m] still to go, extrapolated from the last per-step motions ``motions`` as a geometric series
+    (ratio ρ over ``window`` steps: error ≈ motion ρ/(1 − ρ)); inf while they do not shrink."""
+    if len(motions) <= window or motions[-1] == 0.0:
+        return 0.0 if motions and motions[-1] == 0.0 else np.inf
+    ratio = (motions[-1] / motions[-1 - window]) ** (1.0 / window) if motions[-1 - window] > 0 else 1.0
+    if not ratio < 1.0:
+        return np.inf
+    return motions[-1] * ratio / (1.0 - ratio)
 
 
 class Solver(ABC):
@@ -153,9 +169,17 @@ class Solver(ABC):
             self.fixed = _node_set("fixed", fixed, n)
         self.forces = np.zeros((n, 3))
         self._load_node = -1
+        self._load_force = np.zeros(3)
+        self.load_radius: float | None = None
+        self.load_nodes = np.zeros(0, dtype=np.int64)
+        self.load_shares = np.zeros(0)
+        self._patches: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
+        self._lumped_areas: np.ndarray | None = None
         self.state = State.at_rest(self.rest_positions)
         self._previous = np.array(self.rest_positions)  # workspace of the quasi-static loop
         self.last_solve: SolveReport | None = None
+        #: Quasi-static solves whose static solver stalled (far beyond small strain) and were finished by stepping.
+        self.static_fallbacks = 0
 
     # ----------------------------------------------------------------------------------------------- state access
     @property
@@ -180,28 +204,72 @@ class Solver(ABC):
 
     @property
     def load(self) -> tuple[int, np.ndarray] | None:
-        """``(node, force (3,) N)`` of the current load, or None."""
+        """``(node, total force (3,) N)`` of the current load, or None."""
         if self._load_node < 0:
             return None
-        return self._load_node, self.forces[self._load_node].copy()
+        return self._load_node, self._load_force.copy()
 
     # ------------------------------------------------------------------------------------------------------ loads
-    def set_load(self, node: int, force) -> None:
-        """Apply ``force`` ``(3,)`` [N] on M_S vertex ``node``, replacing any previous load."""
+    def set_load(self, node: int, force, *, radius: float | None = None) -> None:
+        """Apply ``force`` ``(3,)`` [N] at M_S vertex ``node``, replacing any previous load.
+
+        ``radius`` None (default) loads that node alone; a radius R [m] spreads the force area-weighted over the M_S
+        nodes within R of it at rest (:func:`tissuesim.loads.contact_patch`): the same nodal forces for every
+        method. The nodes carrying the load are :attr:`load_nodes`, their shares :attr:`load_shares`. A patch that
+        reaches the fixed region is refused (part of the force would vanish into the support).
+        """
         node = self._check_node(node)
         force = _check_force(force)
-        if self._load_node >= 0:
-            self.forces[self._load_node] = 0.0
-        self.forces[node] = force
+        nodes, shares = self.contact_patch(node, radius)
+        self._withdraw_load()
+        self.forces[nodes] = shares[:, None] * force[None, :]
         self._load_node = node
+        self._load_force[:] = force
+        self.load_radius = None if radius is None else float(radius)
+        self.load_nodes, self.load_shares = nodes, shares
         self._on_load_changed()
 
     def clear_load(self) -> None:
         """Withdraw the external load."""
         if self._load_node >= 0:
-            self.forces[self._load_node] = 0.0
-            self._load_node = -1
+            self._withdraw_load()
             self._on_load_changed()
+
+    def contact_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
+        """``(nodes (k,) int64, shares (k,) float64)`` that a load at ``node`` with tip ``radius`` [m] goes to.
+
+        Cached per (node, radius), so an interactive drag that re-sets the load every frame costs nothing here.
+        Raises SolverError if the radius is not positive and finite, or if the patch reaches the fixed region.
+        """
+        from ..loads import contact_patch, contact_radius, lumped_areas
+
+        key = (int(node), None if radius is None else contact_radius(radius))
+        patch = self._patches.get(key)
+        if patch is None:
+            if self._lumped_areas is None:
+                self._lumped_areas = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
+            patch = contact_patch(self.rest_positions, self.hybrid.surface.triangles, key[0], key[1],
+                                  areas=self._lumped_areas)
+            if key[1] is not None:
+                pinned = np.intersect1d(patch[0], self.fixed)
+                if pinned.size:
+                    raise SolverError(
+                        f"the contact patch of radius {key[1]:g} m around node {node} reaches the fixed region "
+                        f"({pinned.size} of its {patch[0].size} nodes are held, first: {first_indices(pinned)}); "
+                        "use a smaller radius or load a node farther from the support"
+                    )
+            if len(self._patches) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
+                self._patches.clear()
+            self._patches[key] = patch
+        return patch
+
+    def _withdraw_load(self) -> None:
+        if self._load_node >= 0:
+            self.forces[self.load_nodes] = 0.0
+            self._load_node = -1
+            self._load_force[:] = 0.0
+            self.load_radius = None
+            self.load_nodes, self.load_shares = np.zeros(0, dtype=np.int64), np.zeros(0)
 
     # -------------------------------------------------------------------------------------------------- stepping
     def step(self, dt: float | None = None) -> None:
@@ -210,9 +278,7 @@ class Solver(ABC):
 
     def reset(self) -> None:
         """Back to rest: rest positions, zero velocities, no load."""
-        if self._load_node >= 0:
-            self.forces[self._load_node] = 0.0
-            self._load_node = -1
+        self._withdraw_load()
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
         self._on_load_changed()
@@ -223,18 +289,25 @@ class Solver(ABC):
         node: int,
         force,
         *,
-        tolerance: float = DEFAULT_TOLERANCE,
+        radius: float | None = None,
+        tolerance: float | None = None,
+        rtol: float = DEFAULT_RTOL,
         max_steps: int = DEFAULT_MAX_STEPS,
         dt: float | None = None,
         reset: bool = True,
     ) -> np.ndarray:
-        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` on ``node``.
+        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``.
 
-        Steps (with the solver's damping) until no node moves more than ``tolerance`` [m] in one step; the load
+        ``radius`` spreads the force over a contact patch (:meth:`set_load`). Methods with a static solver of their
+        own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.pbd.static`) solve the equilibrium
+        directly, to a force residual of ``rtol`` × the largest nodal load. The others step (with the solver's
+        damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
+        ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
-        The steps taken are in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
+        What was done is in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
         """
-        tolerance = positive_number("tolerance", tolerance, "m")
+        tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
+        rtol = positive_number("rtol", rtol, "1")
         if int(max_steps) < 1:
             raise SolverError(f"max_steps must be at least 1, got {max_steps}")
         dt = self._check_dt(dt)
@@ -242,28 +315,32 @@ class Solver(ABC):
         force = _check_force(force)
         if reset:
             self.reset()
-        self.set_load(node, force)
+        self.set_load(node, force, radius=radius)
         start = time.perf_counter()
+        iterations = self._static_solve(rtol)
+        if iterations is not None:
+            self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start)
+            return self.state.positions.copy()
         previous = self._previous
         previous[:] = self.state.positions
-        steps, motion = 0, np.inf
-        while steps < int(max_steps):
+        steps, motion, settled = 0, np.inf, False
+        history = []
+        while steps < int(max_steps) and not settled:
             self._step(dt)
             steps += 1
-            motion = max_motion_and_copy(previous, self.state.positions)
-            if motion < tolerance or (self.static and steps >= 1):
-                break
-        converged = bool(motion < tolerance or self.static)
-        self.last_solve = SolveReport(steps, converged, float(motion), tolerance, time.perf_counter() - start)
+            motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)
+            history.append(motion)
+            settled = motion <= tolerance or _remaining_error(history) <= rtol * largest or self.static
+        self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start)
         if not np.all(np.isfinite(self.state.positions)):
             raise SolverError(
                 f"{self.name} solver diverged under {np.linalg.norm(force):g} N on node {node} (non-finite "
                 "positions); lower dt or raise damping"
             )
-        if not converged:
+        if not settled:
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
-                f"{motion:.3g} m > tolerance {tolerance:g} m); raise max_steps or damping, or loosen tolerance"
+                f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"
             )
         return self.state.positions.copy()
 
@@ -274,6 +351,11 @@ class Solver(ABC):
 
     def _on_load_changed(self) -> None:
         """Called after the load changed (set, cleared, reset)."""
+
+    def _static_solve(self, rtol: float) -> int | None:
+        """Put ``self.state`` at the static equilibrium under the current load and return the iterations taken,
+        or None where the method has no static solver (``solve_static`` then steps to equilibrium)."""
+        return None
 
     def _on_reset(self) -> None:
         """Called after :meth:`reset` restored rest positions and zero velocities."""

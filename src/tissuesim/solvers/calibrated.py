@@ -9,15 +9,15 @@ NaN was not calibrated (a provisional value; the xpbd forms, see docs/solvers.md
 # method -> form -> (option name, value, calibration RMSE [m], reference RMS displacement [m])
 CALIBRATED = {
     'hybrid': {
-        'xpbd': ('thickness', 0.010857459216687569, 0.00344739589528514, 0.006356496460080796),
+        'xpbd': ('thickness_ratio', 1.0, float('nan'), float('nan')),
         'pbd': ('stiffness', 0.7846353417495806, 0.0029940996196070524, 0.006356496460080796),
     },
     'pbd': {
-        'xpbd': ('thickness', 0.0445807042774081, 0.16166632149484222, 0.006356496460080796),
+        'xpbd': ('thickness_ratio', 4.0, float('nan'), float('nan')),
         'pbd': ('mass_scale', 142.98011876119094, 0.0040085301029780755, 0.006356496460080796),
     },
     'mass-spring': {
-        'springs': ('thickness', 2.4349545871417684, 0.003996886701671008, 0.006356496460080796),
+        'springs': ('thickness_ratio', 300.0, float('nan'), float('nan')),
     },
 }
 

@@ -56,8 +56,6 @@ class EmbeddedSolver(Solver):
         self.node_slot[self.carrier_nodes] = np.arange(self.carrier_nodes.size)
         self._u = np.zeros((self.carrier_nodes.size, 3))
         self._tets = tets.astype(np.int64)
-        self._load_nodes = np.zeros(4, dtype=np.int64)
-        self._load_forces = np.zeros((4, 3))
         self._dirty = False
 
     def _on_load_changed(self) -> None:
@@ -68,10 +66,11 @@ class EmbeddedSolver(Solver):
         if node < 0:
             self._u[:] = 0.0
         else:
-            self._load_nodes[:] = self._tets[self.tet_of[node]]
-            self._load_forces[:] = self.weights[node][:, None] * self.forces[node][None, :]
-            self.fem.point_load_response(self._load_nodes, self._load_forces, output_nodes=self.carrier_nodes,
-                                         out=self._u)
+            # Each loaded M_S node's force goes to its tet's nodes by its barycentric weights.
+            patch = self.load_nodes
+            volume_nodes = self._tets[self.tet_of[patch]].ravel()
+            forces = (self.weights[patch][:, :, None] * self.forces[patch][:, None, :]).reshape(-1, 3)
+            self.fem.point_load_response(volume_nodes, forces, output_nodes=self.carrier_nodes, out=self._u)
 
     def _step(self, dt: float) -> None:
         state = self.state

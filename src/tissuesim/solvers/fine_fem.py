@@ -39,11 +39,7 @@ class FineFEMSolver(Solver):
 
     def _step(self, dt: float) -> None:
         state = self.state
-        node = self._load_node
-        self._volume_forces[:] = 0.0
-        if node >= 0:
-            self._volume_forces[self.surface_nodes[node]] = self.forces[node]
-        u = self.fem.solve(self._volume_forces)  # the full solve is what this method costs per step
+        u = self.displacement_field()  # the full solve is what this method costs per step
         state.velocities[:] = state.positions
         np.add(self.rest_positions, u[self.surface_nodes], out=state.positions)
         np.subtract(state.positions, state.velocities, out=state.velocities)
@@ -52,6 +48,5 @@ class FineFEMSolver(Solver):
     def displacement_field(self) -> np.ndarray:
         """``(N, 3) float64`` fine-volume displacement [m] under the current load (one full solve)."""
         self._volume_forces[:] = 0.0
-        if self._load_node >= 0:
-            self._volume_forces[self.surface_nodes[self._load_node]] = self.forces[self._load_node]
+        self._volume_forces[self.surface_nodes[self.load_nodes]] = self.forces[self.load_nodes]
         return self.fem.solve(self._volume_forces)

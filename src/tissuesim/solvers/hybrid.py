@@ -87,8 +87,6 @@ class HybridSolver(SurfaceLayerSolver):
         self._slot[self.output_nodes] = np.arange(self.output_nodes.size)
         self._u = np.zeros((self.output_nodes.size, 3))
         self.control_displacement = self._u[: self.control_count]  # a view: updated with _u
-        self._load_nodes = np.zeros(3, dtype=np.int64)
-        self._load_forces = np.zeros((3, 3))
         self._embedded = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
         self._embedded_new = np.array(self.rest_positions)
         self._delta = np.zeros_like(self._embedded)
@@ -107,10 +105,12 @@ class HybridSolver(SurfaceLayerSolver):
         if node < 0:
             self._u[:] = 0.0
         else:
-            self._load_nodes[:] = self.load_volume_nodes[node]
-            np.multiply(self.load_weights[node][:, None], self.forces[node][None, :], out=self._load_forces)
-            self.fem.point_load_response(self._load_nodes, self._load_forces, output_nodes=self.output_nodes,
-                                         out=self._u)
+            # §6.1 for each node carrying a share of the load: its share split over its coarse triangle.
+            patch = self.load_nodes
+            volume_nodes = self.load_volume_nodes[patch].ravel()
+            shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
+            self.fem.point_load_response(volume_nodes, shares[:, None] * self._load_force[None, :],
+                                         output_nodes=self.output_nodes, out=self._u)
         c = self.control_count
         np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
         if self.warm_start:
@@ -123,7 +123,10 @@ class HybridSolver(SurfaceLayerSolver):
             self._embedded[:] = self._embedded_new
         self._dirty = False
 
-    def _step(self, dt: float) -> None:
+    def _prepare_static(self) -> None:
         if self._dirty:
             self._update_fem()
+
+    def _step(self, dt: float) -> None:
+        self._prepare_static()
         super()._step(dt)

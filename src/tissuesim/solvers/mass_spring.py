@@ -14,8 +14,14 @@ thickness h triangulated into springs is best matched by
 
 summing over the (one or two) triangles T adjacent to the spring. We give the bending spring across P3 P4 the same
 formula over the hinge's two triangles (the spring is the diagonal of the quad they form), so both kinds scale with
-E h and the method has one free scalar: the thickness-like h [m], calibrated against the fine FEM (see
-:mod:`tissuesim.solvers.calibrated`). Spring forces are f = k (|d| − l0) d/|d| (Hooke along the spring).
+E h. The thickness follows the mesh, h = β |ij| with the dimensionless ``thickness_ratio`` β the method's one free
+scalar, calibrated against the fine FEM (see :mod:`tissuesim.solvers.calibrated`). Spring forces are
+f = k (|d| − l0) d/|d| (Hooke along the spring).
+
+Quasi-static solves step until the remaining motion is negligible (:meth:`Solver.solve_static`): the state where
+symplectic Euler stops is where the spring forces balance the load exactly, whatever dt, the masses or the damping.
+(A static Newton solve, as the xpbd layer has, does not work here: springs alone have no stiffness normal to a flat
+patch, so its matrix is singular.)
 
 Masses: the body's mass (density × enclosed volume) spread over the surface nodes in proportion to their lumped
 area (1/3 of each adjacent triangle's area): the surface stands for the whole body, as in the paper's MSM.
@@ -36,6 +42,10 @@ from numba import njit
 
 from ..errors import SolverError
 from .base import Solver, positive_number, register
+
+#: Most substeps one step may take: beyond it the step is refused (a stiff material at a large dt would otherwise
+#: run for hours: 5.7e7 substeps at E = 1e15 Pa).
+MAX_SUBSTEPS = 10000
 
 #: Fraction of the explicit stability limit 2/ω_max used as substep (ω_max is already an upper bound: measured
 #: 1.6x the true highest frequency on the sphere at rest, tests/unit/test_solvers_mass_spring.py).
@@ -140,19 +150,20 @@ class MassSpringSolver(Solver):
     """Mass-spring model on M_S (see the module docstring).
 
     Options (besides the common ones of :class:`~tissuesim.solvers.base.Solver`):
-        thickness: h [m] of the spring-stiffness formula k = E h Σ A_T / l²; default the calibrated value
-            :data:`tissuesim.solvers.calibrated.MASS_SPRING_THICKNESS`.
+        thickness_ratio: β, the dimensionless thickness h = β l of the spring-stiffness formula
+            k = E h Σ A_T / l²; default the calibrated value :data:`tissuesim.solvers.calibrated.MASS_SPRING_THICKNESS`.
         damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
     """
 
-    def __init__(self, hybrid_mesh, *, thickness: float | None = None, damping: float = DEFAULT_DAMPING, **common):
+    def __init__(self, hybrid_mesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
+                 **common):
         super().__init__(hybrid_mesh, damping=damping, **common)
-        if thickness is None:
-            from .calibrated import MASS_SPRING_THICKNESS as thickness
-        self.thickness = positive_number("thickness", thickness, "m")
+        if thickness_ratio is None:
+            from .calibrated import MASS_SPRING_THICKNESS as thickness_ratio
+        self.thickness_ratio = positive_number("thickness_ratio", thickness_ratio, "1")
         surface = hybrid_mesh.surface
         self.springs, self.rest_lengths, span = spring_network(surface)
-        self.stiffness = self.youngs_modulus * self.thickness * span / self.rest_lengths**2
+        self.stiffness = self.youngs_modulus * self.thickness_ratio * span / self.rest_lengths
         self.mass = surface_lumped_mass(surface, self.density)
         self.inv_mass = 1.0 / self.mass
         self.inv_mass[self.fixed] = 0.0
@@ -160,10 +171,17 @@ class MassSpringSolver(Solver):
         self._accel = np.zeros_like(self.state.positions)
 
     def substeps(self, dt: float) -> int:
-        """Substeps per step of ``dt`` [s] that keep symplectic Euler stable."""
+        """Substeps per step of ``dt`` [s] that keep symplectic Euler stable; SolverError beyond MAX_SUBSTEPS."""
         if self.omega_max == 0.0:
             return 1
-        return max(1, math.ceil(dt / (SAFETY * 2.0 / self.omega_max)))
+        count = max(1, math.ceil(dt / (SAFETY * 2.0 / self.omega_max)))
+        if count > MAX_SUBSTEPS:
+            raise SolverError(
+                f"the explicit mass-spring step would need {count} substeps at dt = {dt:g} s with E = "
+                f"{self.youngs_modulus:g} Pa (stable substep {SAFETY * 2.0 / self.omega_max:.3g} s; at most "
+                f"{MAX_SUBSTEPS} allowed); lower dt or E, or use the hybrid method"
+            )
+        return count
 
     def _step(self, dt: float) -> None:
         substeps = self.substeps(dt)

@@ -1,24 +1,24 @@
 """Position-based surface methods: the shared surface layer, and the ``pbd`` method (the paper's PBD baseline).
 
 The surface layer is M_S with a stretch constraint per edge (eq 8–9) and a bending constraint per interior edge
-(eq 10–12), stepped by one Numba call per time step (:mod:`tissuesim.pbd.kernels`: eq 15, 16, prescribed nodes
-as eq 17's first case, Gauss–Seidel projection, eq 18). Two forms (option ``form``):
+(eq 10–12), stepped by one Numba call per time step (eq 15, 16, prescribed nodes as eq 17's first case,
+Gauss–Seidel projection, eq 18). Two forms (option ``form``):
 
-* ``"xpbd"``: XPBD compliance from the material, the layer being a membrane + shell of thickness h
-  (:mod:`tissuesim.pbd.compliance`); the one free scalar is ``thickness`` h [m]. Its equilibrium is that of a
-  physical elastic layer and does not depend on dt (in the converged limit of the iterations);
-* ``"pbd"`` (default): the paper's stiffness coefficients ``stiffness`` k in (0, 1], used for both stretch and
-  bending (Müller's per-iteration correction makes it independent of the iteration count, not of dt).
+* ``"xpbd"`` (default): a physical elastic layer. Compliance from the material (:mod:`tissuesim.pbd.compliance`):
+  a membrane + shell of Young's modulus E, Poisson ratio ν and a thickness that is ``thickness_ratio`` β times the
+  constraint's own rest edge length, so the layer is as thick as the mesh is fine, and β is dimensionless. The step
+  is XPBD with multipliers warm-started across steps (:mod:`tissuesim.pbd.xpbd`): its equilibrium is the layer's
+  static equilibrium, the same for every dt, node mass, density and sweep count, proportional to 1/E and
+  responding to ν (through the plate rigidity E h³/(12(1 − ν²))). β is the one free scalar, calibrated once.
+* ``"pbd"``: the paper's stiffness coefficients ``stiffness`` k in (0, 1] for stretch and bending (Müller's
+  per-iteration correction makes them independent of the iteration count). **Its equilibrium depends on dt and the
+  node masses, and not on E**: a load's push per step is f dt²/m against a projection of strength k, so the
+  effective stiffness is k m/dt² (measured on the cube, 1 N on the top node: 11.6 / 21.9 / 46.8 mm for
+  dt = 5 / 10 / 20 ms). Kept to reproduce the paper; ``mass_scale`` (a factor on the masses) is its calibrated scalar
+  for the ``pbd`` method.
 
 Masses: the body's mass (density × enclosed volume) spread over the surface nodes by lumped area
-(:func:`~tissuesim.solvers.mass_spring.surface_lumped_mass`), times ``mass_scale`` (default 1). The load enters by
-eq 15 (v += f dt w) on the loaded node, so in the PBD form a load's effect per step is f dt² / m against a
-projection of strength k ≤ 1: with physical masses and dt = 10 ms a 1 N load moves the loaded node ~0.2 m per
-step, more than any k pulls back (the cube's top collapses: RMSE 186 mm at k → 1). The PBD form's effective
-stiffness is therefore set by the mass scale, not by k.
-
-The free scalar of each method and form (calibrated, :mod:`tissuesim.solvers.calibrated`):
-pbd form: ``stiffness`` for hybrid (masses physical), ``mass_scale`` for pbd (with k = :data:`DEFAULT_STIFFNESS`); xpbd form: ``thickness``.
+(:func:`~tissuesim.solvers.mass_spring.surface_lumped_mass`). In the xpbd form they set the dynamics only.
 
 ``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
 """
@@ -33,7 +33,7 @@ from .base import Solver, positive_number, register
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
-DEFAULT_FORM = "pbd"
+DEFAULT_FORM = "xpbd"
 DEFAULT_ITERATIONS = 10
 #: PBD-form stiffness where it is not the calibrated scalar: just below 1, because a full projection (k' = 1 in every
 #: sweep) of a folded hinge diverges (measured: 20 N of pressure on the cube, positions ~1e77 m within 1000 steps).
@@ -49,71 +49,118 @@ class SurfaceLayerSolver(Solver):
     """A :class:`Solver` whose M_S is projected by the PBD/XPBD kernels; subclasses choose the prescribed nodes.
 
     Options (besides the common ones):
-        form: ``"xpbd"`` or ``"pbd"``.
-        iterations: Gauss–Seidel sweeps per step (≥ 1).
-        thickness: XPBD layer thickness h [m]; default: the calibrated value of this method.
-        stiffness: PBD stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or
+        form: ``"xpbd"`` (default, physical) or ``"pbd"`` (the paper's, dt- and mass-dependent).
+        iterations: Gauss–Seidel sweeps per step (≥ 1); in the xpbd form they shape the path, not the equilibrium.
+        thickness_ratio: xpbd form: layer thickness over the local rest edge length β (dimensionless); default: the
+            calibrated value of this method.
+        stiffness: pbd form: stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or
             :data:`DEFAULT_STIFFNESS`.
-        mass_scale: factor on the lumped node masses (> 0); default: the calibrated value of this method, or 1.
-        signed_bending: use the PBD kernels' signed bending angle (smooth at flat hinges, beyond the paper) instead
-            of eq 10's unsigned one; default False (the paper's; see docs/solvers.md for the measurement).
+        mass_scale: pbd form: factor on the lumped node masses (> 0); default: the calibrated value of this
+            method, or 1.
+        signed_bending: use the signed bending angle (smooth at flat hinges, beyond the paper) instead of eq 10's
+            unsigned one. Default: True in the xpbd form (its energy must be smooth for the static solver: eq 10's
+            angle has a cusp at flat hinges, where its gradient is undefined), False in the paper's pbd form.
 
     Attributes:
         prescribed: ``(k,) int64`` M_S nodes set to ``targets`` each step (inverse mass 0).
         targets: ``(k, 3) float64`` their positions [m].
+        mass: ``(n,) float64`` lumped node masses [kg].
+        stretch_compliance, bend_compliance: xpbd form: ``(e,)`` [m/N] and ``(b,)`` [1/(N·m)] compliances.
     """
 
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
-                 thickness: float | None = None, stiffness: float | None = None, mass_scale: float | None = None,
-                 signed_bending: bool = False,
+                 thickness_ratio: float | None = None, stiffness: float | None = None,
+                 mass_scale: float | None = None, signed_bending: bool | None = None,
                  damping: float = DEFAULT_DAMPING, **common):
         super().__init__(hybrid_mesh, damping=damping, **common)
-        from ..pbd.compliance import shell_compliance
         from ..pbd.topology import SurfaceConstraints
+        from . import calibrated as frozen
 
         if form not in FORMS:
             raise SolverError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
-        if int(iterations) != iterations or int(iterations) < 1:
+        if isinstance(iterations, bool) or int(iterations) != iterations or int(iterations) < 1:
             raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
         self.form = form
         self.iterations = int(iterations)
         self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
-        self.signed_bending = bool(signed_bending)
+        self.signed_bending = (form == "xpbd") if signed_bending is None else bool(signed_bending)
         self._rest_angle = (self.constraints.rest_signed_angle if self.signed_bending
                             else self.constraints.rest_angle)
-        from . import calibrated as frozen
-
         option, value = frozen.option(self.name, form)
-        defaults = {"thickness": None, "stiffness": DEFAULT_STIFFNESS, "mass_scale": 1.0, option: value}
-        thickness = defaults["thickness"] if thickness is None else thickness
-        stiffness_default, stiffness = stiffness is None, defaults["stiffness"] if stiffness is None else stiffness
-        mass_scale = defaults["mass_scale"] if mass_scale is None else mass_scale
-        self.mass_scale = positive_number("mass_scale", mass_scale, "1")
+        given = {"thickness_ratio": thickness_ratio, "stiffness": stiffness, "mass_scale": mass_scale}
+        allowed = {"xpbd": ("thickness_ratio",), "pbd": ("stiffness", "mass_scale")}[form]
+        for name, number in given.items():
+            if number is not None and name not in allowed:
+                raise SolverError(f"{name} is not a parameter of the {form} form (it takes "
+                                  f"{' and '.join(allowed)}); pick the form that has it")
+        self.mass = surface_lumped_mass(hybrid_mesh.surface, self.density)
+        self.thickness_ratio = self.stiffness = None
+        self.mass_scale = 1.0
         if form == "xpbd":
-            if not stiffness_default:
-                raise SolverError("stiffness is the pbd form's parameter; the xpbd form takes thickness [m]")
-            self.thickness = positive_number("thickness", thickness, "m")
-            self.stiffness = None
-            self.stretch_compliance, self.bend_compliance = shell_compliance(
-                self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                thickness=self.thickness)
+            self._init_xpbd(value if thickness_ratio is None else thickness_ratio)
         else:
-            if thickness is not None:
-                raise SolverError("thickness is the xpbd form's parameter; the pbd form takes stiffness in (0, 1]")
-            if not (np.isfinite(stiffness) and 0.0 < stiffness <= 1.0):
-                raise SolverError(f"stiffness must lie in (0, 1], got {stiffness!r}")
-            self.stiffness = float(stiffness)
-            self.thickness = None
-        self.mass = self.mass_scale * surface_lumped_mass(hybrid_mesh.surface, self.density)
+            defaults = {"stiffness": DEFAULT_STIFFNESS, "mass_scale": 1.0, option: value}
+            self._init_pbd(defaults["stiffness"] if stiffness is None else stiffness,
+                           defaults["mass_scale"] if mass_scale is None else mass_scale)
         self.inv_mass = 1.0 / self.mass
         self.prescribed = np.zeros(0, dtype=np.int64)
         self.targets = np.zeros((0, 3))
+        self._statics = None
         self._predicted = np.zeros_like(self.state.positions)
+        # XPBD multipliers, reset each step (kernels.xpbd_step).
         self._lambda_stretch = np.zeros(self.constraints.stretch_count)
         self._lambda_bend = np.zeros(self.constraints.bending_count)
 
+    def _init_xpbd(self, thickness_ratio) -> None:
+        from ..pbd.compliance import relative_shell_compliance
+
+        self.thickness_ratio = positive_number("thickness_ratio", thickness_ratio, "1")
+        self.stretch_compliance, self.bend_compliance = relative_shell_compliance(
+            self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+            thickness_ratio=self.thickness_ratio)
+
+    def _init_pbd(self, stiffness, mass_scale) -> None:
+        if not (np.isfinite(stiffness) and 0.0 < stiffness <= 1.0):
+            raise SolverError(f"stiffness must lie in (0, 1], got {stiffness!r}")
+        self.stiffness = float(stiffness)
+        self.mass_scale = positive_number("mass_scale", mass_scale, "1")
+        self.mass = self.mass * self.mass_scale
+
+    def _static_solve(self, rtol: float) -> int | None:
+        """xpbd form: the layer's exact static equilibrium (:mod:`tissuesim.pbd.static`); pbd form: None (its
+        equilibrium is only defined by its time stepping)."""
+        if self.form != "xpbd":
+            return None
+        from ..pbd.static import LayerStatics
+
+        self._prepare_static()
+        if self._statics is None:
+            c = self.constraints
+            self._statics = LayerStatics(self.node_count, edges=c.edges, rest_length=c.rest_length,
+                                         stretch_compliance=self.stretch_compliance, hinges=c.bending,
+                                         rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
+                                         prescribed=self.prescribed, signed_bending=self.signed_bending)
+        positions = self.state.positions
+        start = positions.copy()
+        positions[self.prescribed] = self.targets
+        try:
+            report = self._statics.solve(positions, self.forces, rtol=rtol)
+        except SolverError:
+            # Far beyond small strain (a large load folding the layer) Gauss–Newton can stall; time stepping, whose
+            # bending safeguard keeps a folded layer finite, then finds a resting state instead (not the exact
+            # static one: see docs/solvers.md).
+            positions[:] = start
+            self.static_fallbacks += 1
+            return None
+        self.state.velocities[:] = 0.0
+        return report.iterations
+
+    def _prepare_static(self) -> None:
+        """Bring the prescribed nodes' ``targets`` up to date with the load (the hybrid's FEM part)."""
+
     def _set_prescribed(self, nodes: np.ndarray) -> None:
         """Prescribe ``nodes`` (M_S indices), at rest until the subclass moves ``targets``."""
+        self._statics = None
         self.prescribed = np.ascontiguousarray(nodes, dtype=np.int64)
         self.targets = np.array(self.rest_positions[self.prescribed])
         self.inv_mass = 1.0 / self.mass

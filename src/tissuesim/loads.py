@@ -1,0 +1,75 @@
+"""Contact loads: a pin-head's force spread over the surface nodes under its tip.
+
+A force on one node is a point load, and in 3-D linear elasticity a point load has a singular displacement: a
+reference FEM's value at the loaded node grows as 1/h under refinement and never converges (docs/experiments.md
+measures it). A real pin-head or instrument tip has a contact patch of radius R, so tissuesim can spread the force
+as a uniform traction over the M_S nodes within R of the snapped node.
+
+The nodal shares are area-weighted: node i's share is its lumped area (a third of each adjacent triangle's area,
+at rest) over the patch's total, i.e. the consistent nodal forces of a uniform traction on the patch for linear
+triangles with a lumped load vector. Every method gets the same nodal forces; each maps them onto its own
+unknowns (the hybrid splits each node's share over its coarse triangle, §6.1).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import SolverError
+
+
+def lumped_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(n,) float64`` a third of the area of every triangle around each vertex [m²].
+
+    Args:
+        vertices: ``(n, 3) float64`` positions [m].
+        triangles: ``(m, 3) int`` vertex indices.
+    """
+    triangles = np.asarray(triangles, dtype=np.int64)
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
+    return np.bincount(triangles.ravel(), weights=np.repeat(areas / 3.0, 3), minlength=len(vertices))
+
+
+def contact_patch(rest_positions: np.ndarray, triangles: np.ndarray, node: int,
+                  radius: float | None, *, areas: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The M_S nodes under a pin-head tip of ``radius`` centred on ``node``, and their shares of the force.
+
+    Args:
+        rest_positions: ``(n, 3) float64`` M_S rest positions [m].
+        triangles: ``(m, 3) int`` M_S triangles.
+        node: the snapped M_S vertex (the patch's centre).
+        radius: tip radius R [m], positive and finite; None is a single-node load.
+        areas: ``(n,) float64`` :func:`lumped_areas` [m²], if already known (saves one pass over the mesh).
+
+    Returns:
+        ``(nodes (k,) int64, weights (k,) float64)``: the vertices within R of ``node`` at rest (Euclidean
+        distance, ``node`` first) and their area-weighted shares, summing to 1.
+    """
+    if radius is None:
+        return np.array([node], dtype=np.int64), np.ones(1)
+    radius = contact_radius(radius)
+    distance = np.linalg.norm(rest_positions - rest_positions[node], axis=1)
+    nodes = np.flatnonzero(distance <= radius)
+    nodes = np.concatenate([[node], nodes[nodes != node]]).astype(np.int64)
+    if areas is None:
+        areas = lumped_areas(rest_positions, triangles)
+    weights = areas[nodes]
+    total = weights.sum()
+    if not total > 0.0:
+        return np.array([node], dtype=np.int64), np.ones(1)
+    return nodes, weights / total
+
+
+def contact_radius(radius) -> float:
+    """``radius`` as a float [m], or a :class:`SolverError` unless positive and finite."""
+    try:
+        value = float(radius)
+    except (TypeError, ValueError):
+        raise SolverError(f"contact radius must be a number of metres or None, got {radius!r}") from None
+    if not np.isfinite(value) or value <= 0.0:
+        raise SolverError(
+            f"contact radius must be a positive finite number of metres (or None for a single-node load), got "
+            f"{radius!r}"
+        )
+    return value
