@@ -15,7 +15,8 @@ from pathlib import Path
 
 from ..errors import SolverError
 
-HELP = "recompute the calibrated free scalar of hybrid, pbd and mass-spring against the fine FEM (cube, 1 N)"
+HELP = ("recompute the calibrated free scalar of hybrid, pbd and mass-spring against the refined FEM reference "
+        "(cube, 1 N, contact radius 4 mm)")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
