@@ -24,6 +24,9 @@ COMMANDS = {
     "build": "build",
     "experiment": "experiment",
     "calibrate": "calibrate",
+    "incise": "incise",
+    "view": "view",
+    "render": "render",
 }
 
 

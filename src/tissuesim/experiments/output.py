@@ -61,15 +61,36 @@ def check_output_folder(folder) -> Path:
 def write_outputs(data: dict, folder, *, plots: bool = True) -> list[Path]:
     """Write the results folder for the results document ``data``; return the paths written."""
     check_results(data)
-    folder = check_output_folder(folder)
-    target = folder.resolve()
-    staging = _make_staging(target)
-    try:
+
+    def fill(staging: Path) -> None:
         (staging / "results.json").write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
         (staging / "tables.md").write_text(tables_markdown(data))
         if plots:
             write_radar_plots(data, staging)
         (staging / "report.md").write_text(report_markdown(data))
+
+    return write_staged(folder, fill)
+
+
+def write_contact_outputs(data: dict, folder) -> list[Path]:
+    """Write the contact protocol's folder: ``results.json`` and ``report.md``; return the paths written."""
+    from .contact_report import contact_report_markdown
+
+    def fill(staging: Path) -> None:
+        (staging / "results.json").write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
+        (staging / "report.md").write_text(contact_report_markdown(data))
+
+    return write_staged(folder, fill)
+
+
+def write_staged(folder, fill) -> list[Path]:
+    """Call ``fill(staging folder)``, then move what it wrote into ``folder`` as a whole (all or nothing: files of
+    an earlier run that this one did not write are removed)."""
+    folder = check_output_folder(folder)
+    target = folder.resolve()
+    staging = _make_staging(target)
+    try:
+        fill(staging)
         names = sorted(p.name for p in staging.iterdir())
         if not target.exists():
             staging.rename(target)  # atomic on one file system

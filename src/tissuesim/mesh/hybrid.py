@@ -71,6 +71,9 @@ class HybridMesh:
         fine_surface_nodes: ``(n_s,) int32`` fine-volume node index of every M_S vertex (identical coordinates), or
             None with ``fine_volume``.
         info: build report (simplification rounds, collapses skipped, TetGen switches, timings).
+        coarse_volume: ``(c0,) int32`` M_V node of each M'_S vertex once a cut (§7) has released control nodes
+            (then ``control``/``control_volume`` list only the control nodes still prescribed), else None: see
+            :attr:`coarse_volume_nodes`.
     """
 
     surface: SurfaceMesh
@@ -85,6 +88,12 @@ class HybridMesh:
     fine_volume: TetMesh | None = None
     fine_surface_nodes: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    coarse_volume: np.ndarray | None = None
+
+    @property
+    def coarse_volume_nodes(self) -> np.ndarray:
+        """``(c0,) int32`` the M_V node of each M'_S vertex (M_V is never cut, so neither is M'_S)."""
+        return self.control_volume if self.coarse_volume is None else self.coarse_volume
 
     # -- construction ------------------------------------------------------------------------------------------
 
@@ -181,6 +190,8 @@ class HybridMesh:
             "coarse_triangle": self.coarse_triangle, "coarse_barycentric": self.coarse_barycentric,
             "embedding_tet": self.embedding_tet, "embedding_barycentric": self.embedding_barycentric,
         }
+        if self.coarse_volume is not None:
+            arrays["coarse_volume"] = self.coarse_volume
         if self.fine_volume is not None:
             arrays.update(fine_points=self.fine_volume.points, fine_tets=self.fine_volume.tets,
                           fine_surface_nodes=self.fine_surface_nodes)
@@ -232,8 +243,10 @@ class HybridMesh:
         try:
             surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
             control = arrays["control"]
-            coarse = SurfaceMesh(surface.vertices[control], arrays["coarse_triangles"])
             volume = TetMesh(arrays["volume_points"], arrays["volume_tets"])
+            coarse_volume = arrays.get("coarse_volume")
+            coarse = SurfaceMesh(surface.vertices[control] if coarse_volume is None else
+                                 volume.points[coarse_volume], arrays["coarse_triangles"])
             fine = fine_nodes = None
             if fine_volume:
                 fine = TetMesh(arrays["fine_points"], arrays["fine_tets"])
@@ -244,7 +257,7 @@ class HybridMesh:
                    control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
                    coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
                    embedding_barycentric=arrays["embedding_barycentric"], fine_volume=fine,
-                   fine_surface_nodes=fine_nodes, info=header.get("info", {}))
+                   fine_surface_nodes=fine_nodes, info=header.get("info", {}), coarse_volume=coarse_volume)
 
     # -- reporting ---------------------------------------------------------------------------------------------
 
