@@ -157,7 +157,8 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     snap = check_snap(snap)
     triangles = np.asarray(triangles, dtype=np.int64)
     n = len(rest)
-    found = crossings(positions, triangles, sweep)
+    near = candidate_triangles(positions, triangles, sweep)
+    found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
     points = _Points(n=n, snap=snap)
@@ -172,7 +173,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
             segments[crossing.triangle] = (a, b)
     if not points.parents and not segments:
         return None
-    affected = _affected(positions, triangles, sweep, segments, points)
+    affected = _affected(positions, triangles, sweep, segments, points, near)
     new_rest, new_pos, new_vel, parents, weights = _new_vertices(rest, positions, velocities, points)
     tri_rows, origin, cut_edges = [], [], set()
     out = triangles.copy()
@@ -213,20 +214,33 @@ def _farthest(segments, positions, sweep) -> int:
     return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
 
 
-def _affected(positions, triangles, sweep, segments, points) -> list[int]:
-    """Triangles with a segment, or with an edge point on a side (searched near the sweep only)."""
+def _affected(positions, triangles, sweep, segments, points, near) -> list[int]:
+    """Triangles with a segment, or with an edge point on a side. Searched among the sweep's candidates ``near``;
+    only when an edge point's edge shows fewer than two triangles there (a point snapped just outside the sweep's
+    box, or an edge on an opening) is the search widened by the longest edge of the cut triangles."""
     affected = set(segments)
-    if points.edge:
+    if not points.edge:
+        return sorted(affected)
+    owners = _edge_owners(triangles, near, points.edge)
+    if any(len(owners.get(key, ())) < 2 for key in points.edge):
         t = np.array(sorted(affected | set(points.facet)) or [0])
         p = positions[triangles[t]]
         reach = float(np.linalg.norm(p - p[:, [1, 2, 0]], axis=2).max())
-        near = candidate_triangles(positions, triangles, sweep, pad=reach)
-        for r in near:
-            a, b, c = (int(x) for x in triangles[r])
-            for u, v in ((a, b), (b, c), (c, a)):
-                if (min(u, v), max(u, v)) in points.edge:
-                    affected.add(int(r))
+        owners = _edge_owners(triangles, candidate_triangles(positions, triangles, sweep, pad=reach), points.edge)
+    for rows in owners.values():
+        affected |= set(rows)
     return sorted(affected)
+
+
+def _edge_owners(triangles, rows, edges) -> dict:
+    """Among ``rows``, the triangles having each of ``edges`` (sorted vertex pairs)."""
+    owners: dict = {}
+    for r, (a, b, c) in zip(rows.tolist(), triangles[rows].tolist()):
+        for u, v in ((a, b), (b, c), (c, a)):
+            key = (u, v) if u < v else (v, u)
+            if key in edges:
+                owners.setdefault(key, []).append(r)
+    return owners
 
 
 def _new_vertices(rest, positions, velocities, points):

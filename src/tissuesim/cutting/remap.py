@@ -51,7 +51,7 @@ def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray) -> H
     parents = result.parents[points]
     coarse_tri, coarse_bary = _load_map(hybrid, rest, parents)
     tet, tet_bary = _embedding(hybrid, rest, parents)
-    keep = ~np.isin(hybrid.control, released)
+    keep = ~np.isin(hybrid.control, released, kind="table") if released.size else np.ones(len(hybrid.control), bool)
     info = dict(hybrid.info)
     info["cuts"] = int(info.get("cuts", 0)) + 1
     return dataclasses.replace(
