@@ -155,7 +155,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
             triangle); the inputs are unchanged.
     """
     snap = check_snap(snap)
-    triangles = np.asarray(triangles, dtype=np.int64)
+    triangles = np.asarray(triangles, dtype=np.int32)      # no copy for a SurfaceMesh's triangles
     n = len(rest)
     near = candidate_triangles(positions, triangles, sweep)
     found = crossings(positions, triangles, sweep, near=near)
@@ -183,7 +183,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
         tri_rows.append(pieces[1:])
         origin += [t] * (len(pieces) - 1)
         cut_edges |= cut
-    extra = np.concatenate(tri_rows) if tri_rows else np.zeros((0, 3), dtype=np.int64)
+    extra = np.concatenate(tri_rows).astype(np.int32) if tri_rows else np.zeros((0, 3), dtype=np.int32)
     out = np.concatenate([out, extra])
     new_rows = np.concatenate([np.asarray(affected, dtype=np.int64), np.arange(len(triangles), len(out))])
     _check_edges(out[new_rows], sorted(cut_edges), affected)
@@ -200,8 +200,8 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     copies[len(new_rest) - copy_of.size:] = copy_of
     triangle_origin = np.concatenate([np.arange(len(triangles)), np.array(origin, dtype=np.int64)])
     changed = np.unique(np.concatenate([new_rows, rewritten]))
-    return CutResult(end_vertex=_farthest(segments, new_pos, sweep), rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
-                     parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
+    return CutResult(rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out,
+                     end_vertex=_farthest(segments, new_pos, sweep), parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
                      changed=changed, cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
                      closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
 
