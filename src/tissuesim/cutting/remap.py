@@ -28,8 +28,7 @@ def new_vertex_order(result: CutResult, old_count: int) -> tuple[np.ndarray, np.
 
 def interpolate(values: np.ndarray, result: CutResult, old_count: int) -> np.ndarray:
     """``values`` ``(n, ...)`` per old vertex extended to the cut mesh by the parents' barycentric weights."""
-    new = np.arange(old_count, len(result.rest))
-    extra = np.einsum("ij,ij...->i...", result.weights[new], values[result.parents[new]])
+    extra = np.einsum("ij,ij...->i...", result.weights, values[result.parents])
     return np.concatenate([values, extra])
 
 
@@ -48,7 +47,7 @@ def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray) -> H
     n = hybrid.surface.vertex_count
     points, _ = new_vertex_order(result, n)
     rest = result.rest[points]
-    parents = result.parents[points]
+    parents = result.parents[points - n]
     coarse_tri, coarse_bary = _load_map(hybrid, rest, parents)
     tet, tet_bary = _embedding(hybrid, rest, parents)
     keep = ~np.isin(hybrid.control, released, kind="table") if released.size else np.ones(len(hybrid.control), bool)
