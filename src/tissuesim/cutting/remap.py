@@ -69,7 +69,8 @@ def _load_map(hybrid, rest, parents):
         return np.zeros(0, dtype=np.int32), np.zeros((0, 3))
     candidates = np.unique(hybrid.coarse_triangle[parents])
     coarse = hybrid.coarse_surface
-    local = SurfaceMesh(coarse.vertices, coarse.triangles[candidates])
+    corners, local_triangles = np.unique(coarse.triangles[candidates], return_inverse=True)
+    local = SurfaceMesh(coarse.vertices[corners], local_triangles.reshape(-1, 3))   # a few triangles, renumbered
     tri, bary = closest_on_surface(local, rest)
     return candidates[tri].astype(np.int32), bary
 
