@@ -6,7 +6,7 @@ import pytest
 from tissuesim import HybridMesh, PinHead, SolverError
 from tissuesim.mesh import models
 from tissuesim.viewer import controller as controller_module
-from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
+from tissuesim.viewer.controller import BLADE_LIFT, MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
 
 DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down
 
@@ -18,6 +18,8 @@ def hybrid():
 
 class FakeScalpel:
     """Records the calls the controller makes; stands in for tissuesim.Scalpel's press / move / release."""
+
+    depth = 0.01  # blade length [m]
 
     def __init__(self, solver):
         self.solver, self.calls = solver, []
@@ -102,9 +104,11 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)  # off the surface: the camera-plane point
     c.pointer_up()
     calls = c.scalpel.calls
+    lift = np.array([0.0, 0.0, BLADE_LIFT * FakeScalpel.depth])  # the tip above the picked point, toward the camera
     assert [call[0] for call in calls] == ["press", "move", "move", "release"]
-    assert np.array_equal(calls[0][1], top) and calls[0][2] is None  # the blade along the surface's inward normal
-    assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0])
+    assert np.allclose(calls[0][1], top + lift) and calls[0][2] is None  # the blade along the inward normal
+    assert np.allclose(calls[1][1], top + [0.005, 0.0, 0.0] + lift)
+    assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0] + lift)  # off the surface: the plane through the tip
     assert c.last_cut == {"cut": 4} and c.solver.load is None
 
 

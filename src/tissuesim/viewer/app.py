@@ -50,6 +50,7 @@ class ViewerApp:
         self.sim_time = 0.0  # simulated seconds since the start [s]
         self._pending = {}  # slider values not yet applied (see _apply_on_release)
         self._topology = None
+        self._home_view = True
         self._dragging = False
         self._mouse = None
         self._last = None
@@ -109,12 +110,18 @@ class ViewerApp:
             ps.remove_all_structures()
             self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
             cut = border_edges(triangles)
-            self.cut = ps.register_curve_network("cut edges", x, cut, color=(0.9, 0.05, 0.05)) if len(cut) else None
-            look_at_oblique(ps, x, distance=3.4)
+            self.cut = None
+            if len(cut):  # only the cut's own nodes: a network over every vertex would dot the whole surface
+                self._cut_nodes, local = np.unique(cut, return_inverse=True)
+                self.cut = ps.register_curve_network("cut edges", x[self._cut_nodes], local.reshape(-1, 2),
+                                                     color=(0.9, 0.05, 0.05))
+            if self._home_view:  # first frame and reset only: a cut or a method change keeps the user's camera
+                look_at_oblique(ps, x, distance=3.4)
+                self._home_view = False
         else:
             self.mesh.update_vertex_positions(x)
             if self.cut is not None:
-                self.cut.update_node_positions(x)
+                self.cut.update_node_positions(x[self._cut_nodes])
         if self.show_colours:
             mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
             self.colour_top = max(float(mm.max()), 1.0)
@@ -185,7 +192,7 @@ class ViewerApp:
             if psim.IsKeyPressed(key, False):
                 self.controller.key(name)
                 if name == "r":
-                    self._topology = None
+                    self._topology, self._home_view = None, True
 
     # ---------------------------------------------------------------------------------------------- panel
     def _panel(self, psim) -> None:
@@ -206,7 +213,7 @@ class ViewerApp:
         self._timing(psim)
         if psim.Button("reset (R)"):
             c.reset()
-            self._topology = None
+            self._topology, self._home_view = None, True
         psim.SameLine()
         if psim.Button("stop recording" if self.recorder else "record"):
             self._toggle_recording()
