@@ -6,7 +6,8 @@ import sys
 import time
 from pathlib import Path
 
-HELP = "reproduce the paper's experiments (§8.3, Tables 1-5, Figs 12-15) into a results folder"
+HELP = ("reproduce the paper's experiments (§8.3, Tables 1-5, Figs 12-15), or run the contact protocol against a "
+        "converged reference, into a results folder")
 
 
 def add_arguments(parser) -> None:
@@ -14,6 +15,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("models", nargs="*", metavar="MODEL",
                         help="built-in model (cube, sphere, liver, steak), surface file or saved hybrid bundle; "
                              "default: the four built-in models")
+    parser.add_argument("--protocol", default="paper", metavar="NAME",
+                        help="paper: the paper's single-node load (Tables 1-5); contact: a pin-head patch of radius "
+                             "R against a reference refined until it converges (default: paper)")
+    parser.add_argument("--radii", nargs="+", metavar="MM",
+                        help="contact protocol: patch radii in millimetres (default: 4 8)")
+    parser.add_argument("--cache", metavar="DIR", help="contact protocol: folder caching the converged references "
+                        "(default: $TISSUESIM_CACHE or the user cache folder)")
+    parser.add_argument("--no-cache", action="store_true", help="contact protocol: recompute every reference")
+    parser.add_argument("--levels", metavar="COUNT",
+                        help="contact protocol: last refinement level of the reference (default: 4; quick: 2)")
     parser.add_argument("--output", "-o", default="results", metavar="DIR",
                         help="results folder, created if absent (default: results)")
     parser.add_argument("--quick", action="store_true",
@@ -42,6 +53,10 @@ def run(args) -> int:
     from ..mesh.models import MODELS
 
     output = check_output_folder(args.output)  # refuse a bad target before minutes of work
+    if args.protocol not in PROTOCOLS:
+        raise SolverError(f"unknown protocol {args.protocol!r}; choose one of {', '.join(PROTOCOLS)}")
+    if args.protocol == "contact":
+        return _run_contact(args, output)
     models = tuple(args.models) or tuple(MODELS)
     for spec in models:
         if spec not in MODELS and not Path(spec).is_file():
@@ -68,6 +83,54 @@ def run(args) -> int:
     start = time.perf_counter()
     data = run_experiment(config, progress=not args.quiet)
     paths = write_outputs(data, output, plots=not args.no_plots)
+    print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
+          f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
+    return 0
+
+
+PROTOCOLS = ("paper", "contact")
+
+
+def _run_contact(args, output) -> int:
+    from dataclasses import replace
+
+    from ..errors import SolverError
+    from ..experiments import contact
+    from ..experiments.output import write_contact_outputs
+    from ..experiments.reference import default_cache_dir
+    from ..mesh.models import MODELS
+
+    for spec in args.models:
+        if spec not in MODELS and not Path(spec).is_file():
+            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(MODELS)}) nor an existing "
+                              "file; name one of those or give a mesh path")
+    options = dict(contact.QUICK) if args.quick else {}
+    if args.models:
+        scale = _number(args.scale, "--scale", "factor")
+        options["models"] = tuple(args.models)
+        options["scales"] = {spec: scale for spec in args.models if spec not in MODELS}
+    elif not args.quick:
+        livers = contact.shared_livers()
+        options["models"] = tuple(MODELS) + tuple(livers)
+        options["scales"] = livers
+    if args.forces:
+        options["forces"] = tuple(_number(value, "--forces", "newtons") for value in args.forces)
+    if args.loads:
+        options["loads"] = tuple(args.loads)
+    if args.radii:
+        options["radii_mm"] = tuple(_number(value, "--radii", "millimetres") for value in args.radii)
+    if args.methods:
+        options["methods"] = tuple(dict.fromkeys(args.methods))
+    if args.resolution is not None:
+        options["resolution"] = int(_number(args.resolution, "--resolution", "vertices", integer=True))
+    if args.levels is not None:
+        settings = options.get("settings", contact.ContactConfig().settings)
+        options["settings"] = replace(settings, max_levels=int(_number(args.levels, "--levels", "levels",
+                                                                       integer=True)))
+    options["cache_dir"] = None if args.no_cache else str(args.cache or default_cache_dir())
+    start = time.perf_counter()
+    data = contact.run_contact(contact.ContactConfig(**options), progress=not args.quiet)
+    paths = write_contact_outputs(data, output)
     print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
           f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0

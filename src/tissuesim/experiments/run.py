@@ -62,6 +62,8 @@ class ExperimentConfig:
             has not settled by then is recorded with its last positions and ``converged: false`` rather than
             stopping the whole sweep; the report lists such cases.
         solver_options: per-method keyword options for ``make_solver`` (default: the calibrated defaults).
+        point_load_levels: refinement levels of the single-node load's reference measured per model to show that
+            it diverges (:func:`.reference.point_load_divergence`); 0 skips it.
     """
 
     models: tuple = tuple(builtin_models.MODELS)
@@ -76,6 +78,7 @@ class ExperimentConfig:
     timing_steps: int = 30
     max_steps: int = 1000
     solver_options: dict = field(default_factory=dict)
+    point_load_levels: int = 3
 
     def __post_init__(self):
         if not self.models:
@@ -105,7 +108,7 @@ class ExperimentConfig:
     def quick(cls, **overrides) -> "ExperimentConfig":
         """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps, at most 500 steps a solve."""
         settings = dict(resolution=QUICK_RESOLUTION, forces=QUICK_FORCES_N, warmup_steps=2, timing_steps=5,
-                        max_steps=QUICK_MAX_STEPS)
+                        max_steps=QUICK_MAX_STEPS, point_load_levels=2)
         settings.update(overrides)
         return cls(**settings)
 
@@ -175,6 +178,12 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
             plot_nodes = protocol.sample_nodes(rest, node, min(protocol.PLOT_SAMPLES, len(rest)))
             rmse_nodes = protocol.sample_nodes(rest, node, min(protocol.RMSE_SAMPLES, len(rest)))
             model_info[name] = _mesh_info(hybrid, spec, node, plot_nodes, rmse_nodes, build_s)
+            if config.point_load_levels:
+                from .reference import point_load_divergence
+
+                bar.set_postfix_str(f"{name}: point-load refinement")
+                model_info[name]["point_load_refinement"] = point_load_divergence(
+                    hybrid, node, levels=config.point_load_levels)
             reference = {}
             for method in methods:
                 bar.set_postfix_str(f"{name}: {method}")
@@ -193,6 +202,7 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
                         "equilibrium_steps": record["equilibrium_steps"], "converged": record["converged"],
                         "displacements_mm": [float(d) for d in 1e3 * protocol.displacements(positions, rest,
                                                                                             plot_nodes)],
+                        "max_displacement_mm": float(1e3 * np.linalg.norm(positions - rest, axis=1).max()),
                     })
                     bar.update(1)
                 model_info[name].setdefault("solver_parameters", {})[method] = _solver_parameters(method, solver)
@@ -278,6 +288,7 @@ def _mesh_info(hybrid, spec, node, plot_nodes, rmse_nodes, build_s) -> dict:
         "plot_samples": [int(i) for i in plot_nodes],
         "rmse_samples": [int(i) for i in rmse_nodes],
         "rmse_sample_radius_mm": float(1e3 * np.linalg.norm(rest[rmse_nodes] - rest[node], axis=1).max()),
+        "size_m": float(np.linalg.norm(np.ptp(rest, axis=0))),
         "build_s": round(build_s, 3),
     }
 
@@ -330,7 +341,7 @@ REFERENCE_FORCES_N = (1.0, 10.0)
 def reference_config() -> ExperimentConfig:
     """The regression sweep: one small model, both loads, two forces, every method, few timed steps."""
     return ExperimentConfig(models=(REFERENCE_MODEL,), resolution=REFERENCE_RESOLUTION, forces=REFERENCE_FORCES_N,
-                            warmup_steps=1, timing_steps=2)
+                            warmup_steps=1, timing_steps=2, point_load_levels=0)
 
 
 def reference_numbers(results: dict) -> dict:

@@ -1,0 +1,199 @@
+"""The contact protocol: every method against a reference that converges, with metrics that cannot hide.
+
+The paper's protocol loads one node, whose reference displacement diverges under refinement (a point load in 3-D
+elasticity), so its RMSE is set by that one node and means little. Here the pin-head has a tip of radius R: the force
+is spread over the M_S nodes within R of the load node (:func:`tissuesim.loads.contact_patch`), the same nodal forces
+for every method (``solve_static(node, force, radius=R)``), and the reference is linear FEM refined near the contact
+until the sample displacements stop changing (:mod:`.reference`).
+
+Cases: tension (+z) and pressure (−z) at :data:`FORCES_N`, R in :data:`RADII_MM`, on the built-in models and the
+two clean shared livers (cm, scaled to m). Load node and samples as the paper protocol (:mod:`.protocol`).
+
+Metrics, each absolute [mm] and relative to the reference's RMS displacement over all samples:
+
+* ``rmse``: eq 26 over all samples (50);
+* ``rmse_outside``: eq 26 over the samples outside the contact patch (the patch taken on M_S at R);
+* ``contact_error``: the error of the patch's mean displacement, |Σ w_i (x_i − x_ref,i)| over the patch nodes with
+  their load shares w_i: how far the tip's footprint is from where it should be.
+
+The free scalars of hybrid, pbd and mass-spring are calibrated on one case, :data:`CALIBRATION_CASE` (cube, pressure,
+1 N, R = 4 mm); its row is labelled ``calibration`` and every other row ``held out``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import SolverError
+from ..mesh import models as builtin_models
+from . import protocol
+from .reference import RefinementSettings, contact_references, default_cache_dir
+
+FORCES_N = (0.5, 1.0, 2.0, 5.0, 10.0)
+RADII_MM = (4.0, 8.0)
+# The clean public livers of the shared mesh folder (path inside it, factor to metres).
+SHARED_LIVERS = (("sofa/liver2.obj", 0.01), ("softbodyliver/liver.obj", 0.01))
+# (model, load, force [N], R [mm]) on which the solvers' free scalars are fitted.
+CALIBRATION_CASE = ("cube", "pressure", 1.0, 4.0)
+SCHEMA = "tissuesim-contact/1"
+# The reduced run of --quick: the coarse cube, one R, two forces, two reference levels.
+QUICK = dict(models=("cube",), resolution=400, forces=(1.0, 10.0), radii_mm=(8.0,), max_steps=500,
+             settings=RefinementSettings(max_levels=2))
+
+METRICS = ("rmse", "rmse_outside", "contact_error")
+
+
+@dataclass(frozen=True)
+class ContactConfig:
+    """What the contact protocol runs (keyword-only; defaults are the full protocol).
+
+    Attributes:
+        models: built-in names, or surface files / bundles; a file's factor to metres is in ``scales``.
+        scales: ``{spec: factor to metres}`` for surface files (default 1).
+        forces: magnitudes [N]. loads: from :data:`protocol.LOADS`. radii_mm: patch radii R [mm].
+        methods: solver names (default: every registered solver).
+        resolution: vertices of the built-in models (None: Table-1 size).
+        max_steps: cap on one quasi-static solve's steps (unsettled solves are recorded, not fatal).
+        settings: the reference's refinement settings.
+        cache_dir: where converged references are cached (None: no cache).
+    """
+
+    models: tuple = tuple(builtin_models.MODELS)
+    scales: dict = field(default_factory=dict)
+    forces: tuple = FORCES_N
+    loads: tuple = protocol.LOADS
+    radii_mm: tuple = RADII_MM
+    methods: tuple | None = None
+    resolution: int | None = None
+    max_steps: int = 1000
+    settings: RefinementSettings = field(default_factory=RefinementSettings)
+    cache_dir: str | None = None
+
+    def __post_init__(self):
+        protocol.load_cases(self.forces, self.loads)  # validates forces and loads
+        if not self.radii_mm or not all(np.isfinite(r) and r > 0 for r in self.radii_mm):
+            raise SolverError(f"contact radii must be positive numbers of millimetres, got {self.radii_mm}")
+
+
+def shared_livers(folder=None) -> dict:
+    """``{path: scale}`` of the shared livers found in ``folder`` (default ``$TISSUESIM_SHARED/data/meshes``, else
+    ``../shared/data/meshes`` from the working directory); missing ones are left out."""
+    root = Path(folder) if folder else Path(os.environ.get("TISSUESIM_SHARED", "../shared")) / "data" / "meshes"
+    return {str(root / rel): scale for rel, scale in SHARED_LIVERS if (root / rel).is_file()}
+
+
+def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
+    """Run the contact protocol; return its results document (JSON-ready)."""
+    from ..solvers import available_solvers, make_solver
+    from .run import ExperimentConfig, load_model, model_name
+
+    config = config or ContactConfig()
+    start = time.perf_counter()
+    methods = tuple(config.methods or available_solvers())
+    say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
+    records, info = [], {}
+    for spec in config.models:
+        name = model_name(spec)
+        hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
+                                                   scale=config.scales.get(spec, 1.0)))
+        rest = np.array(hybrid.surface.vertices, dtype=np.float64)
+        node = protocol.load_node(rest, hybrid.surface.triangles)
+        radii = [1e-3 * r for r in config.radii_mm]
+        say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in config.radii_mm)} mm")
+        refs = contact_references(hybrid, node, radii, settings=config.settings, cache_dir=config.cache_dir,
+                                  progress=lambda line: say(f"  {name} {line}"))
+        info[name] = _model_info(spec, hybrid, node, refs, config.radii_mm)
+        solvers = {m: make_solver(m, hybrid) for m in methods}
+        for radius_mm, ref in zip(config.radii_mm, refs):
+            patch = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
+            for case in protocol.load_cases(config.forces, config.loads):
+                reference = rest + ref.displacements(case.vector)
+                for method in methods:
+                    positions, solve = _equilibrium(solvers[method], node, case.vector, 1e-3 * radius_mm,
+                                                    config.max_steps)
+                    metrics = contact_metrics(positions, reference, rest, ref.samples, *patch)
+                    records.append({"model": name, "load": case.load, "force_N": case.force_N,
+                                    "radius_mm": float(radius_mm), "method": method,
+                                    "role": role(name, case.load, case.force_N, radius_mm), **metrics, **solve,
+                                    "reference_converged": ref.converged})
+            say(f"{name}: R = {radius_mm:g} mm done")
+    return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
+            "records": records}
+
+
+def role(model: str, load: str, force_N: float, radius_mm: float) -> str:
+    """``"calibration"`` for :data:`CALIBRATION_CASE`, else ``"held out"``."""
+    return "calibration" if (model, load, float(force_N), float(radius_mm)) == CALIBRATION_CASE else "held out"
+
+
+def contact_metrics(positions, reference, rest, samples, patch_nodes, patch_weights) -> dict:
+    """The three errors of one solve, absolute [mm] and relative to the reference's RMS displacement.
+
+    Args:
+        positions, reference, rest: ``(n, 3) float64`` a method's, the reference's and the rest M_S positions [m].
+        samples: ``(k,) int`` the sample nodes. patch_nodes, patch_weights: the contact patch and its load shares.
+
+    Returns:
+        ``rmse_mm, rmse_outside_mm, contact_error_mm, reference_rms_mm`` and ``relative_*`` of the three errors;
+        ``rmse_outside*`` is None when the patch covers every sample.
+    """
+    samples = np.asarray(samples, dtype=np.int64)
+    patch_nodes = np.asarray(patch_nodes, dtype=np.int64)
+    outside = samples[~np.isin(samples, patch_nodes)]
+    scale = protocol.rms_displacement(reference, rest, samples)
+    error = np.asarray(positions)[patch_nodes] - np.asarray(reference)[patch_nodes]
+    values = {"rmse": protocol.rmse(positions, reference, samples),
+              "rmse_outside": protocol.rmse(positions, reference, outside) if outside.size else None,
+              "contact_error": float(np.linalg.norm(np.asarray(patch_weights) @ error))}
+    out = {f"{key}_mm": None if value is None else 1e3 * value for key, value in values.items()}
+    out.update({f"relative_{key}": None if value is None or scale == 0 else value / scale
+                for key, value in values.items()})
+    out["reference_rms_mm"] = 1e3 * scale
+    return out
+
+
+def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, dict]:
+    """Quasi-static positions of one solver, with its wall time; an unsettled solve keeps its last positions."""
+    solver.reset()
+    solver.last_solve = None
+    start = time.perf_counter()
+    try:
+        positions = np.array(solver.solve_static(node, force, radius=radius, max_steps=max_steps))
+    except SolverError:
+        report = solver.last_solve
+        if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
+            raise
+        positions = np.array(solver.positions)
+    elapsed = 1e3 * (time.perf_counter() - start)
+    report = solver.last_solve
+    solver.reset()
+    return positions, {"equilibrium_ms": elapsed, "converged": True if report is None else bool(report.converged)}
+
+
+def _model_info(spec, hybrid, node, refs, radii_mm) -> dict:
+    rest = hybrid.surface.vertices
+    samples = refs[0].samples
+    return {
+        "source": spec, "surface_nodes": int(len(rest)), "load_node": int(node),
+        "samples": [int(i) for i in samples],
+        "sample_radius_mm": float(1e3 * np.linalg.norm(rest[samples] - rest[node], axis=1).max()),
+        "references": {f"{r:g}": {"converged": ref.converged, "levels": [asdict(row) for row in ref.levels]}
+                       for r, ref in zip(radii_mm, refs)},
+    }
+
+
+def _metadata(config, methods, info, wall_s) -> dict:
+    from .. import __version__
+
+    return {"tissuesim": __version__, "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+            "cpus": os.cpu_count(), "wall_s": round(wall_s, 1), "methods": list(methods),
+            "forces_N": [float(f) for f in config.forces], "loads": list(config.loads),
+            "radii_mm": [float(r) for r in config.radii_mm], "calibration_case": list(CALIBRATION_CASE),
+            "refinement": asdict(config.settings), "models": info}

@@ -1,0 +1,118 @@
+"""``report.md`` of the contact protocol: the references' convergence tables, then per-method and per-case errors.
+
+Print the per-method table of a finished run with::
+
+    python -m tissuesim.experiments.contact_report results/contact/results.json
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .tables import LABELS, fmt, markdown_table
+
+METRIC_LABELS = {"rmse": "RMSE (all samples)", "rmse_outside": "RMSE (outside patch)",
+                 "contact_error": "error at contact"}
+
+
+def method_table(data: dict, *, role: str = "held out") -> str:
+    """Markdown: per method, the median and largest relative error of each metric over the rows of ``role``."""
+    rows = []
+    for method in data["metadata"]["methods"]:
+        records = [r for r in data["records"] if r["method"] == method and r["role"] == role]
+        if not records:
+            continue
+        row = [LABELS.get(method, method), str(len(records))]
+        for metric in ("rmse", "rmse_outside", "contact_error"):
+            values = [r[f"relative_{metric}"] for r in records if r[f"relative_{metric}"] is not None]
+            row.append(f"{fmt(float(np.median(values)), 3)} / {fmt(max(values), 3)}" if values else "–")
+        row.append(fmt(float(np.median([r["rmse_mm"] for r in records])), 3))
+        rows.append(row)
+    headers = ["Method", "Rows"] + [f"{METRIC_LABELS[m]}, median / max (rel.)" for m in METRIC_LABELS]
+    return markdown_table(headers + ["RMSE median (mm)"], rows)
+
+
+def case_table(data: dict) -> str:
+    """Markdown: one row per model × R × load × force × method with the six figures and the row's role."""
+    rows = []
+    for r in data["records"]:
+        rows.append([r["model"], f"{r['radius_mm']:g}", r["load"], f"{r['force_N']:g}",
+                     LABELS.get(r["method"], r["method"]), r["role"],
+                     *(f"{fmt(r[f'{m}_mm'], 3)} ({fmt(r[f'relative_{m}'], 3)})" for m in METRIC_LABELS),
+                     "" if r["converged"] else "unsettled"])
+    return markdown_table(["Model", "R (mm)", "Load", "Force (N)", "Method", "Row"]
+                          + [f"{METRIC_LABELS[m]}, mm (rel.)" for m in METRIC_LABELS] + ["Note"], rows)
+
+
+def convergence_table(levels: list) -> str:
+    """Markdown of one reference's refinement: level, tets, local size, sample RMS, contact value, change."""
+    rows = [[str(row["level"]), str(row["tets"]), fmt(row["contact_size_mm"], 3),
+             "–" if row["grading"] is None else fmt(row["grading"], 3), fmt(row["sample_rms_mm"], 4),
+             fmt(row["contact_mm"], 4), "–" if row["change"] is None else f"{100 * row['change']:.2f} %"]
+            for row in levels]
+    return markdown_table(["Level", "Tets", "h_c at contact (mm)", "Grading", "Sample RMS (mm/N)",
+                           "Contact node (mm/N)", "Change"], rows)
+
+
+def contact_report_markdown(data: dict) -> str:
+    """The text of the contact protocol's ``report.md``."""
+    meta = data["metadata"]
+    settings = meta["refinement"]
+    calibration = meta["calibration_case"]
+    parts = [
+        "# Contact protocol report",
+        "",
+        f"Models: {', '.join(meta['models'])}. Loads: {' and '.join(meta['loads'])} at "
+        f"{', '.join(f'{f:g}' for f in meta['forces_N'])} N, contact radius R = "
+        f"{', '.join(f'{r:g}' for r in meta['radii_mm'])} mm. Methods: "
+        f"{', '.join(LABELS.get(m, m) for m in meta['methods'])}. {meta['wall_s']:.0f} s on {meta['cpus']} CPUs, "
+        f"{meta['date']}.",
+        "",
+        f"Calibration row: {calibration[0]}, {calibration[1]}, {calibration[2]:g} N, R = {calibration[3]:g} mm; "
+        "every other row is held out. Errors are relative to the reference's RMS displacement over the "
+        f"{settings['samples']} samples.",
+        "",
+        "## Errors per method (held-out rows)",
+        "",
+        method_table(data),
+        "",
+    ]
+    if any(r["role"] == "calibration" for r in data["records"]):
+        parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
+    parts += ["## References", "",
+              f"Refined until the sample displacements change by less than {100 * settings['tolerance']:g} % "
+              f"between levels (at most level {settings['max_levels']}); per unit force along −z.", ""]
+    for model, info in meta["models"].items():
+        for radius, ref in info["references"].items():
+            status = "converged" if ref["converged"] else (
+                f"**not converged** (last change {100 * ref['levels'][-1]['change']:.2f} %)"
+                if ref["levels"][-1]["change"] is not None else "**not converged**")
+            parts += [f"### {model}, R = {radius} mm: {status}", "", convergence_table(ref["levels"]), ""]
+    unsettled = [r for r in data["records"] if not r["converged"]]
+    if unsettled:
+        parts += [f"{len(unsettled)} solves did not settle within the step cap and are measured at their last "
+                  "positions (marked in the table).", ""]
+    parts += ["## Every case", "", case_table(data), ""]
+    return "\n".join(parts)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if len(argv) != 1:
+        print("usage: python -m tissuesim.experiments.contact_report RESULTS.json", file=sys.stderr)
+        return 2
+    try:
+        data = json.loads(Path(argv[0]).read_text())
+    except (OSError, ValueError) as error:
+        print(f"error: cannot read {argv[0]}: {error}", file=sys.stderr)
+        return 1
+    print(method_table(data))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,97 @@
+"""Local refinement of a closed triangle surface by conforming longest-edge bisection, geometry unchanged.
+
+Used by the contact reference (:mod:`tissuesim.experiments.reference`): the fine FEM reference needs a mesh much
+finer than M_S near the contact, yet every M_S vertex must stay a node so the sampled displacements are nodal values.
+Each pass marks the triangles whose longest edge exceeds a target size at its midpoint, splits those longest edges
+at their midpoints, and closes the marking (a triangle with any split edge has its longest edge split too), so every
+subdivided triangle is bisected through its longest edge first. That is Rivara's rule, which keeps the smallest angle
+bounded below by a fixed fraction of the input's, and it leaves no hanging vertex: the result is again a closed,
+consistently oriented manifold. New vertices lie on the midpoints of existing edges, so the surface is the same set
+of points; input vertices keep their indices and coordinates bit for bit (new ones are appended).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from ..errors import MeshError
+from .surface import SurfaceMesh
+
+# A pass can at most halve an edge; this many passes shrink any edge by 2**-MAX_PASSES, far below any sensible size.
+MAX_PASSES = 40
+
+__all__ = ["refine_surface"]
+
+
+def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray]) -> SurfaceMesh:
+    """The surface refined until no triangle's longest edge exceeds ``size`` at that edge's midpoint.
+
+    Args:
+        surface: a closed surface (every edge shared by exactly two triangles).
+        size: target edge length [m] as a function of points ``(k, 3)`` [m] → ``(k,)`` positive lengths.
+
+    Returns:
+        A new :class:`SurfaceMesh` whose first ``surface.vertex_count`` vertices are ``surface.vertices`` unchanged.
+    """
+    vertices = np.array(surface.vertices, dtype=np.float64)
+    triangles = np.array(surface.triangles, dtype=np.int64)
+    for _ in range(MAX_PASSES):
+        edges, tri_edges = _edges(triangles)
+        lengths = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
+        longest = np.argmax(lengths[tri_edges], axis=1)  # local index 0..2 of each triangle's longest edge
+        longest_edge = tri_edges[np.arange(len(triangles)), longest]
+        midpoints = 0.5 * (vertices[edges[:, 0]] + vertices[edges[:, 1]])
+        target = np.asarray(size(midpoints[longest_edge]), dtype=np.float64)
+        if target.shape != (len(triangles),) or not np.all(target > 0):
+            raise MeshError("refine_surface: size() must return one positive length per point")
+        split = np.zeros(len(edges), dtype=bool)
+        split[longest_edge[lengths[longest_edge] > target]] = True
+        if not split.any():
+            return SurfaceMesh(vertices, triangles.astype(np.int32))
+        _close_marking(split, tri_edges, longest_edge)
+        new_index = np.full(len(edges), -1, dtype=np.int64)
+        new_index[split] = len(vertices) + np.arange(int(split.sum()))
+        vertices = np.concatenate([vertices, midpoints[split]])
+        triangles = _subdivide(triangles, tri_edges, longest, new_index)
+    raise MeshError(f"refine_surface did not reach the target size in {MAX_PASSES} passes; is size() too small?")
+
+
+def _edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unique edges ``(e, 2)`` and each triangle's edge ids ``(m, 3)``; local edge j joins corners j and j+1."""
+    pairs = np.stack([triangles, np.roll(triangles, -1, axis=1)], axis=2).reshape(-1, 2)
+    edges, inverse = np.unique(np.sort(pairs, axis=1), axis=0, return_inverse=True)
+    return edges, inverse.reshape(-1, 3)
+
+
+def _close_marking(split: np.ndarray, tri_edges: np.ndarray, longest_edge: np.ndarray) -> None:
+    """Mark the longest edge of every triangle that has a marked edge, until nothing changes (in place)."""
+    while True:
+        touched = split[tri_edges].any(axis=1)
+        missing = touched & ~split[longest_edge]
+        if not missing.any():
+            return
+        split[longest_edge[missing]] = True
+
+
+def _subdivide(triangles, tri_edges, longest, new_index) -> np.ndarray:
+    """Split each triangle by its marked edges, longest first, keeping the orientation."""
+    m = len(triangles)
+    rows = np.arange(m)[:, None]
+    order = (longest[:, None] + np.arange(3)) % 3  # rotate so the longest edge is local edge 0 (corners a, b)
+    a, b, c = (triangles[rows, order][:, k] for k in range(3))
+    e = tri_edges[rows, order]
+    m_ab, m_bc, m_ca = new_index[e[:, 0]], new_index[e[:, 1]], new_index[e[:, 2]]
+    s_ab, s_bc, s_ca = m_ab >= 0, m_bc >= 0, m_ca >= 0
+    pieces = [np.stack([a, b, c], axis=1)[~s_ab]]
+    one = s_ab & ~s_bc & ~s_ca
+    pieces += [np.stack([a, m_ab, c], 1)[one], np.stack([m_ab, b, c], 1)[one]]
+    bc = s_ab & s_bc & ~s_ca
+    pieces += [np.stack([a, m_ab, c], 1)[bc], np.stack([m_ab, b, m_bc], 1)[bc], np.stack([m_ab, m_bc, c], 1)[bc]]
+    ca = s_ab & ~s_bc & s_ca
+    pieces += [np.stack([a, m_ab, m_ca], 1)[ca], np.stack([m_ca, m_ab, c], 1)[ca], np.stack([m_ab, b, c], 1)[ca]]
+    red = s_ab & s_bc & s_ca
+    pieces += [np.stack([a, m_ab, m_ca], 1)[red], np.stack([m_ab, b, m_bc], 1)[red],
+               np.stack([m_ca, m_bc, c], 1)[red], np.stack([m_ab, m_bc, m_ca], 1)[red]]
+    return np.concatenate(pieces)
