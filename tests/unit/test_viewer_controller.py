@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tissuesim import HybridMesh, PinHead, SolverError
+from tissuesim import HybridMesh, SolverError
 from tissuesim.mesh import models
 from tissuesim.viewer import controller as controller_module
 from tissuesim.viewer.controller import BLADE_LIFT, MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
@@ -207,13 +207,18 @@ def test_pause_stops_time(hybrid):
     assert c.advance(0.01).steps == 1
 
 
-@pytest.mark.skipif("radius" not in __import__("inspect").signature(PinHead).parameters,
-                    reason="PinHead has no contact radius in this version")
-def test_the_contact_radius_reaches_the_pin_head(hybrid):
-    c = Controller(hybrid, settings=Settings(radius=0.01))
-    assert c.pin.radius == 0.01
-    c.configure(radius=0.005)
-    assert c.pin.radius == 0.005
+def test_the_contact_radius_spreads_the_held_load_and_a_bad_one_changes_nothing(hybrid):
+    c = Controller(hybrid, settings=Settings(radius=0.03))  # 3 cm on a 10 cm sphere of ~2 cm edges
+    assert c.pin.radius == 0.03
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)
+    spread = np.count_nonzero(np.any(c.solver.forces, axis=1))
+    c.configure(radius=None)
+    assert c.pin.radius is None and np.count_nonzero(np.any(c.solver.forces, axis=1)) == 1 < spread
+    with pytest.raises(SolverError):
+        c.configure(radius=1.0)  # a 1 m tip reaches the fixed bottom
+    assert c.settings.radius is None and c.pin.radius is None and c.pin.grabbed
 
 
 def test_a_bundle_opens_as_saved_and_the_fem_method_says_what_it_lacks(tmp_path):

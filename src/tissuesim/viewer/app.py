@@ -237,11 +237,10 @@ class ViewerApp:
         changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
         if changed:
             self._configure(stiffness=k)
-        if hasattr(self.controller.pin, "radius"):
-            radius_mm = 1e3 * (s.radius or 0.0)
-            changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
-            if changed:
-                self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
+        radius_mm = 1e3 * (s.radius or 0.0)  # 0: one node
+        changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
+        if changed:
+            self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
         if "iterations" in solver_options(s.method):
             current = s.iterations or solver_options(s.method)["iterations"]
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),

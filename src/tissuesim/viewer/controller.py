@@ -24,7 +24,6 @@ the pin-head free and says why in :attr:`Controller.notice`, instead of raising 
 
 from __future__ import annotations
 
-import inspect
 import time
 from dataclasses import dataclass, replace
 
@@ -53,7 +52,7 @@ class Settings:
         method: solver name (``tissuesim.available_solvers()``).
         youngs_modulus: E [Pa]. poisson_ratio: ν [-].
         stiffness: pin-head k of eq 24 [N/m].
-        radius: pin-head contact radius [m], or None for a point load (only where PinHead takes one).
+        radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
         iterations: PBD iterations per step, or None where the method has none (or keeps its default).
         dt: simulation time step [s].
     """
@@ -227,18 +226,26 @@ class Controller:
 
     def configure(self, **changes) -> None:
         """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
-        settings = self._checked(replace(self.settings, **changes))
-        rebuild = any(getattr(settings, name) != getattr(self.settings, name) for name in _REBUILD)
+        settings, old = self._checked(replace(self.settings, **changes)), self.settings
+        rebuild = any(getattr(settings, name) != getattr(old, name) for name in _REBUILD)
         self.settings = settings
-        if rebuild:
-            self._build(self.solver.hybrid, carry=True)
-        else:
-            self.solver.dt = settings.dt
-            self.pin.stiffness = settings.stiffness
-            if self.pin.grabbed and self.cursor is not None:
-                self.force = self.pin.drag(self.cursor)
-            if _accepts(PinHead, "radius"):
-                self.pin.radius = settings.radius
+        try:
+            if rebuild:
+                self._build(self.solver.hybrid, carry=True)
+            else:
+                self._apply_live()
+        except TissuesimError:  # e.g. a contact radius reaching the fixed region
+            self.settings = old
+            if not rebuild:
+                self._apply_live()
+            raise
+
+    def _apply_live(self) -> None:
+        """The settings that need no new solver: dt, k, the contact radius (re-applied to a held pin-head)."""
+        self.solver.dt = self.settings.dt
+        self.pin.stiffness, self.pin.radius = self.settings.stiffness, self.settings.radius
+        if self.pin.grabbed and self.cursor is not None:
+            self.force = self.pin.drag(self.cursor)
 
     # ---------------------------------------------------------------------------------------------- time
     def advance(self, elapsed: float) -> FrameStats:
@@ -289,10 +296,7 @@ class Controller:
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
         solver = make_solver(self.settings.method, hybrid, **self._solver_options())  # raises before any change
         self.solver = solver
-        pin_options = {"stiffness": self.settings.stiffness}
-        if self.settings.radius is not None and _accepts(PinHead, "radius"):
-            pin_options["radius"] = self.settings.radius
-        self.pin = PinHead(solver, **pin_options)
+        self.pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
         if self._scalpel_factory is not None:
             try:
@@ -310,7 +314,3 @@ class Controller:
             self.force = np.zeros(3)
             if self.mode == "pin":
                 self.cursor = None
-
-
-def _accepts(cls, name: str) -> bool:
-    return name in inspect.signature(cls).parameters
