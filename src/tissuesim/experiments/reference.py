@@ -68,6 +68,7 @@ class RefinementSettings:
             converged (0.01 = 1 %).
         max_levels: the last level tried (level 0 is the default fine volume).
         min_levels: the first level at which convergence may be declared (≥ 1: a change needs two levels).
+            Fewer than that many levels (max_levels < min_levels) is never converged.
         samples: how many M_S nodes nearest the contact are compared (:func:`protocol.sample_nodes`).
     """
 
@@ -84,8 +85,8 @@ class RefinementSettings:
         if not (self.grading > 0 and all(0 < r <= 1 for r in ratios) and self.tolerance > 0):
             raise SolverError(f"refinement settings need grading > 0, ratios in (0, 1] and tolerance > 0, got "
                               f"{self.grading}, {ratios}, {self.tolerance}")
-        if not 1 <= self.min_levels <= self.max_levels:
-            raise SolverError(f"need 1 ≤ min_levels ≤ max_levels, got {self.min_levels} and {self.max_levels}")
+        if self.min_levels < 1 or self.max_levels < 0:
+            raise SolverError(f"need min_levels ≥ 1 and max_levels ≥ 0, got {self.min_levels} and {self.max_levels}")
 
 
 @dataclass(frozen=True)
@@ -204,7 +205,7 @@ def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, you
     """Levels 0..``levels`` computed whatever the change (no stop, no cache): to show how a load *diverges*."""
     surface = getattr(mesh, "surface", mesh)
     settings = settings or RefinementSettings()
-    settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels), "min_levels": int(levels)})
+    settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels)})
     return _compute(surface, int(node), [radius], youngs_modulus, poisson_ratio, settings, progress, stop=False)[0]
 
 
