@@ -8,7 +8,12 @@ STAMP  := $(VENV)/.installed
 
 .PHONY: run test setup clean
 
+# Headless OpenGL (EGL on Mesa's software renderer) for the figures; installed where apt-get can, else skipped.
+GL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
+
 $(STAMP): pyproject.toml
+	-@dpkg -s $(GL_PACKAGES) >/dev/null 2>&1 || { apt-get update -qq && apt-get install -y -qq $(GL_PACKAGES); } >/dev/null 2>&1 \
+		|| echo "note: could not install $(GL_PACKAGES); figures need OpenGL"
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/pip install --quiet --upgrade pip
 	$(BIN)/pip install --quiet -e ".[test,fast]"
@@ -18,6 +23,7 @@ setup: $(STAMP)
 
 run: $(STAMP)
 	$(BIN)/tissuesim experiment --output results
+	$(BIN)/tissuesim render --output results --report results/report.md --if-available
 	$(BIN)/tissuesim experiment --protocol contact --output results/contact
 
 test: $(STAMP)

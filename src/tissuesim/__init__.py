@@ -28,6 +28,7 @@ _EXPORTS = {
     "register": "tissuesim.solvers",
     "Solver": "tissuesim.solvers",
     "PinHead": "tissuesim.interaction",
+    "Scalpel": "tissuesim.scalpel",
     "TissuesimError": "tissuesim.errors",
     "MeshError": "tissuesim.errors",
     "MaterialError": "tissuesim.errors",

@@ -1,23 +1,32 @@
 """The ``tissuesim`` command: one sub-command per job, each in its own module under :mod:`tissuesim.commands`.
 
 User mistakes (any :class:`~tissuesim.errors.TissuesimError`, a missing file) print one line and exit 1; only
-genuine bugs show a traceback.
+genuine bugs show a traceback. SIGTERM, like Ctrl-C, unwinds the command (so half-written outputs are cleaned up)
+and exits with 128 + the signal number.
 """
 
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
 from importlib import import_module
 
 from . import __version__
 from .errors import TissuesimError
+
+DESCRIPTION = ("Soft-tissue surface deformation with the hybrid FEM + PBD method: build hybrid meshes, run the "
+               "paper's experiments, calibrate the free scalars.")
 
 # sub-command name -> module under tissuesim.commands
 COMMANDS = {
     "build": "build",
     "experiment": "experiment",
     "calibrate": "calibrate",
+    "incise": "incise",
+    "view": "view",
+    "render": "render",
 }
 
 
@@ -31,7 +40,7 @@ def _available_commands():
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="tissuesim", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="tissuesim", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"tissuesim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name, module in _available_commands():
@@ -41,8 +50,18 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(BaseException):
+    """Raised in the main thread on SIGTERM, so ``finally`` blocks run (as for Ctrl-C)."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    in_main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
         return int(args.run(args) or 0)
     except (TissuesimError, FileNotFoundError, IsADirectoryError, PermissionError) as error:
@@ -51,6 +70,12 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"tissuesim {args.command}: interrupted", file=sys.stderr)
         return 130
+    except Terminated:
+        print(f"tissuesim {args.command}: terminated", file=sys.stderr)
+        return 128 + signal.SIGTERM
+    finally:
+        if in_main_thread:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 if __name__ == "__main__":

@@ -29,6 +29,10 @@ class BundleError(TissuesimError, ValueError):
     """A saved hybrid-mesh bundle is unreadable or was written by an incompatible version."""
 
 
+class TissuesimWarning(UserWarning):
+    """A result this package computed is outside the range where its model is trustworthy (e.g. locking)."""
+
+
 def first_indices(indices, limit: int = 5) -> str:
     """Format the first few indices of a defect for an error message, e.g. ``"3, 17, 42 (and 9 more)"``."""
     indices = [int(i) for i in indices]

@@ -33,13 +33,15 @@ class PinHead:
         stiffness: k of eq 24 [N/m], positive.
         snap_radius: largest distance [m] from the grab point to the node it snaps to; default
             ``SNAP_RADIUS_EDGES`` × the mean rest edge length of M_S.
+        radius: the tip's contact radius R [m]: the force is spread, area-weighted, over the M_S nodes within R of
+            the grabbed node (:meth:`Solver.set_load`); None (default) loads the grabbed node alone.
 
     Attributes:
         node: the grabbed M_S vertex index, or None.
         anchor: ``(3,) float64`` x0 of eq 24 [m] (cursor at grab time), or None.
     """
 
-    def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None):
+    def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None, radius: float | None = None):
         for needed in ("positions", "set_load", "clear_load"):
             if not hasattr(solver, needed):
                 raise SolverError(f"PinHead needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
@@ -51,6 +53,7 @@ class PinHead:
             lengths = np.linalg.norm(surface.vertices[edges[:, 0]] - surface.vertices[edges[:, 1]], axis=1)
             snap_radius = SNAP_RADIUS_EDGES * float(lengths.mean())
         self.snap_radius = positive_number("snap radius", snap_radius, "m")
+        self.radius = None if radius is None else positive_number("contact radius", radius, "m")
         self.node: int | None = None
         self.anchor: np.ndarray | None = None
 
@@ -69,9 +72,11 @@ class PinHead:
                 f"farther than the snap radius {self.snap_radius:.4g} m; move the point onto the surface or pass "
                 "a larger snap_radius"
             )
+        if self.radius is not None:
+            self.solver.contact_patch(node, self.radius)  # refuse a tip that reaches the fixed region now
         if self.node is not None:
             self.solver.clear_load()
-        self.node, self.anchor = node, point
+        self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
         return node
 
     def force(self, point) -> np.ndarray:
@@ -83,7 +88,7 @@ class PinHead:
     def drag(self, point) -> np.ndarray:
         """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
         force = self.force(point)
-        self.solver.set_load(self.node, force)
+        self.solver.set_load(self.node, force, radius=self.radius)
         return force
 
     def release(self) -> None:

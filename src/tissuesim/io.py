@@ -42,6 +42,13 @@ SURFACE_EXTENSIONS = (".obj", *_MESHIO_FORMATS)
 _VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27", "wedge15")
 
 
+def check_scale(scale) -> float:
+    """``scale`` (factor from a file's unit to metres) as a float, or a MeshError unless positive and finite."""
+    if isinstance(scale, bool) or not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
+        raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
+    return float(scale)
+
+
 def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
     """Read a closed triangle surface from ``path`` (OBJ, STL, PLY, OFF, VTK, VTU) and validate it.
 
@@ -59,8 +66,7 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
         MeshError: unknown extension, unreadable file, no triangles, or a defect that validation finds (and, with
             ``repair=True``, that repair could not fix).
     """
-    if not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
-        raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
+    check_scale(scale)
     vertices, polygons = read_polygons(Path(path))
     surface = surface_from_polygons(vertices * float(scale), polygons, source=str(path))
     from .mesh.validate import validate_surface
@@ -171,6 +177,10 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
         printed = chatter.getvalue().strip().splitlines()
         reason = (printed[0] if printed else "") if isinstance(exc, SystemExit) else str(exc)
         reason = " ".join(reason.split()) or type(exc).__name__
+        if ext == ".stl":
+            # meshio's ASCII STL reader refuses valid files it did not write (e.g. trimesh's blank line before
+            # 'endsolid'); trimesh reads those.
+            return _read_stl_with_trimesh(path, reason)
         raise MeshError(f"cannot read {path} as {ext[1:].upper()}: {reason}") from None
     points = np.asarray(mesh.points, dtype=np.float64)
     if points.ndim == 2 and points.shape[1] == 2:
@@ -186,6 +196,23 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
         found = f" (found {', '.join(volume)} cells: a volume mesh)" if volume else ""
         raise MeshError(f"{path}: no triangle or polygon faces{found}; read_surface needs a surface mesh")
     return points, blocks
+
+
+def _read_stl_with_trimesh(path: Path, meshio_reason: str) -> tuple[np.ndarray, list[np.ndarray]]:
+    """An STL file meshio could not read, read by trimesh (unprocessed: one vertex per corner, merged later)."""
+    import trimesh
+
+    try:
+        mesh = trimesh.load_mesh(path, file_type="stl", process=False)
+        vertices = np.asarray(mesh.vertices, dtype=np.float64)
+        faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
+        trimesh_reason = "" if len(faces) else "no triangle faces"
+    except Exception as exc:  # trimesh raises many kinds on a malformed file
+        trimesh_reason = " ".join(str(exc).split()) or type(exc).__name__
+    if trimesh_reason:
+        raise MeshError(f"cannot read {path} as STL: {meshio_reason} (meshio); {trimesh_reason} (trimesh); check "
+                        "that the file is a complete ASCII or binary STL with its faces")
+    return vertices, [faces]
 
 
 def _read_obj(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:

@@ -58,3 +58,22 @@ def test_drag_without_grab_and_bad_arguments_are_refused(hybrid):
         PinHead(hybrid, stiffness=1.0)
     with pytest.raises(SolverError, match="3 finite coordinates"):
         PinHead(solver, stiffness=1.0).grab([0.0, np.nan, 0.0])
+
+
+def test_contact_radius_spreads_the_drag_force_over_the_patch(hybrid):
+    solver = make_solver("embedded", hybrid)
+    pin = PinHead(solver, stiffness=10.0, radius=0.012)
+    top_node = int(np.argmax(hybrid.surface.vertices[:, 2]))
+    cursor = solver.positions[top_node].copy()
+    pin.grab(cursor)
+    pin.drag(cursor + [0.0, 0.0, 0.01])
+    assert solver.load_nodes.size > 1 and solver.load_nodes[0] == top_node
+    np.testing.assert_allclose(solver.forces.sum(axis=0), [0.0, 0.0, 0.1], atol=1e-12)
+    np.testing.assert_allclose(solver.load_shares.sum(), 1.0)
+
+
+def test_contact_radius_reaching_the_support_is_refused_at_grab(hybrid):
+    solver = make_solver("embedded", hybrid)
+    pin = PinHead(solver, stiffness=10.0, radius=1.0)
+    with pytest.raises(SolverError, match="fixed region"):
+        pin.grab(solver.positions[int(np.argmax(solver.positions[:, 2]))])

@@ -1,8 +1,17 @@
 """Writing a results folder: results.json, tables.md, radar_<model>.png, report.md — all or nothing.
 
-Everything is first written into a fresh temporary folder beside the target (same file system), then moved in:
-a run that fails, or is interrupted, while writing leaves the target as it was. A target that exists as a file is
-refused; an existing folder is kept and its files of the same names are replaced.
+Everything is first written into a fresh staging folder beside the target (same file system), then moved in: a run
+that fails, or is interrupted, while writing leaves the target as it was. Rules:
+
+* before any work, :func:`check_output_folder` creates and removes a staging folder where the results will be
+  staged, so an unwritable place is refused before minutes of computation, not after;
+* a target that exists as a file, or an empty path, is refused;
+* an existing folder is kept, and its results are replaced as a whole: every file of ours (``results.json``,
+  ``tables.md``, ``report.md``, ``radar_*.png``) that the new run did not write is removed, so a one-model run into a
+  four-model folder leaves no other model's plot behind; other files in the folder are left alone;
+* the folder and its files follow the umask (the staging folder is created private, then opened up);
+* a staging folder is named ``.<target>.partial-<pid>-*``; one whose process is gone (killed while writing) is
+  removed by the next write to the same target. SIGTERM is turned into a clean exit by the CLI, which removes it.
 """
 
 from __future__ import annotations
@@ -19,21 +28,33 @@ from .report import report_markdown
 from .schema import check_results
 from .tables import tables_markdown
 
+#: File-name patterns of the files a results folder holds: replaced as a whole by each write.
+OUTPUT_PATTERNS = ("results.json", "tables.md", "report.md", "radar_*.png")
+
 
 class OutputError(TissuesimError, OSError):
     """The results folder cannot be written where asked."""
 
 
 def check_output_folder(folder) -> Path:
-    """The target folder as a Path, or :class:`OutputError` if it is a file or its parent cannot hold it."""
+    """The target folder as a Path, or :class:`OutputError` if it cannot be written there.
+
+    Refused: an empty path, an existing file, a missing parent, and a place where the staging folder cannot be
+    created (tried for real, then removed). Abandoned staging folders of this target are cleaned up.
+    """
+    if not str(folder).strip():
+        raise OutputError("the output path is empty; give a folder path, e.g. --output results")
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise OutputError(f"output path {str(folder)!r} is a file, not a folder; give a folder path (it is created)")
-    parent = folder.resolve().parent
-    if not parent.is_dir():
-        raise OutputError(f"cannot create output folder {str(folder)!r}: its parent {str(parent)!r} does not exist")
-    if not os.access(parent if not folder.exists() else folder, os.W_OK):
+    target = folder.resolve()
+    if not target.parent.is_dir():
+        raise OutputError(f"cannot create output folder {str(folder)!r}: its parent {str(target.parent)!r} does not "
+                          "exist")
+    if folder.exists() and not os.access(folder, os.W_OK):
         raise OutputError(f"output folder {str(folder)!r} is not writable; choose another --output")
+    _remove_abandoned_staging(target)
+    shutil.rmtree(_make_staging(target))
     return folder
 
 
@@ -63,20 +84,64 @@ def write_contact_outputs(data: dict, folder) -> list[Path]:
 
 
 def write_staged(folder, fill) -> list[Path]:
-    """Call ``fill(staging folder)``, then move what it wrote into ``folder`` (all or nothing)."""
+    """Call ``fill(staging folder)``, then move what it wrote into ``folder`` as a whole (all or nothing: files of
+    an earlier run that this one did not write are removed)."""
     folder = check_output_folder(folder)
-    parent = folder.resolve().parent
-    staging = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=parent))
+    target = folder.resolve()
+    staging = _make_staging(target)
     try:
         fill(staging)
         names = sorted(p.name for p in staging.iterdir())
-        if not folder.exists():
-            staging.rename(folder)  # atomic on one file system
+        if not target.exists():
+            staging.rename(target)  # atomic on one file system
             staging = None
         else:
             for name in names:
-                os.replace(staging / name, folder / name)
+                os.replace(staging / name, target / name)
+            for stale in _our_files(target) - set(names):
+                (target / stale).unlink(missing_ok=True)
         return [folder / name for name in names]
     finally:
         if staging is not None:
             shutil.rmtree(staging, ignore_errors=True)
+
+
+def _staging_prefix(target: Path) -> str:
+    return f".{target.name}.partial-"
+
+
+def _make_staging(target: Path) -> Path:
+    """A fresh staging folder beside ``target``, with the permissions the umask gives a new folder."""
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f"{_staging_prefix(target)}{os.getpid()}-", dir=target.parent))
+    except OSError as error:
+        raise OutputError(f"cannot write the results beside {str(target)!r}: creating a staging folder in "
+                          f"{str(target.parent)!r} failed ({error.strerror or error}); choose another --output or "
+                          "make that folder writable") from None
+    umask = os.umask(0)
+    os.umask(umask)
+    os.chmod(staging, 0o777 & ~umask)        # mkdtemp makes it private; results are ordinary files
+    return staging
+
+
+def _remove_abandoned_staging(target: Path) -> None:
+    """Remove staging folders of ``target`` whose writing process no longer runs (it was killed)."""
+    prefix = _staging_prefix(target)
+    for path in target.parent.glob(prefix + "*"):
+        pid = path.name[len(prefix):].split("-", 1)[0]
+        if pid.isdigit() and int(pid) not in (0, os.getpid()) and not _running(int(pid)) and path.is_dir():
+            shutil.rmtree(path, ignore_errors=True)
+
+
+def _running(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True                         # another user's process
+    return True
+
+
+def _our_files(folder: Path) -> set[str]:
+    return {p.name for pattern in OUTPUT_PATTERNS for p in folder.glob(pattern) if p.is_file()}

@@ -6,6 +6,8 @@ known, structural ones (listed in :data:`STRUCTURAL_DIFFERENCES`), stated as suc
 
 from __future__ import annotations
 
+import math
+
 from . import paper
 from .protocol import REFERENCE
 from .tables import LABELS, RATIOS, cases_of, fmt, index, markdown_table, methods_of, models_of, ratio_summary
@@ -73,6 +75,7 @@ def report_markdown(data: dict) -> str:
     parts += ["", "## Where our figures differ from the paper's, and why", ""]
     parts += [f"- {line}" for line in _differences(data)]
     parts += [f"- {line}" for line in STRUCTURAL_DIFFERENCES]
+    parts += ["", "## Validity of linear elasticity", ""] + [f"- {line}" for line in _validity(data)]
     parts += ["", "## Defects of the published tables", ""] + [f"- {note}" for note in paper.NOTES]
     parts += ["", "Full tables: `tables.md`; radar plots: `radar_<model>.png`; raw figures: `results.json`.", ""]
     return "\n".join(parts)
@@ -183,6 +186,33 @@ def _differences(data: dict) -> list[str]:
     if linear:
         lines.append("RMSE per newton of the linear methods (largest / smallest over forces, 1 = exactly linear): "
                      + ", ".join(f"{LABELS[m]} on {model} {ratio:.4g}" for (model, m), ratio in linear.items()) + ".")
+    return lines
+
+
+def _validity(data: dict) -> list[str]:
+    """Per model, the load cases where the fine FEM reference moves a node beyond the validity of linear elasticity."""
+    from ..solvers.base import LINEAR_VALIDITY_FRACTION
+
+    lines = []
+    for model in models_of(data):
+        size_mm = 1e3 * data["metadata"]["models"].get(model, {}).get("size_m", math.nan)
+        cases = [(r["load"], r["force_N"], r["max_displacement_mm"]) for r in data["records"]
+                 if r["model"] == model and r["method"] == REFERENCE and "max_displacement_mm" in r]
+        if not cases or not size_mm > 0:
+            continue
+        beyond = [c for c in cases if c[2] > LINEAR_VALIDITY_FRACTION * size_mm]
+        if not beyond:
+            lines.append(f"{model}: the reference moves no node more than {LINEAR_VALIDITY_FRACTION:g} of the "
+                         f"model's size ({size_mm:.0f} mm) in any case: linear elasticity holds.")
+            continue
+        worst = max(beyond, key=lambda c: c[2])
+        loads = dict.fromkeys(load for load, _, _ in beyond)
+        onset = ", ".join(f"{load} from {min(f for l, f, _ in beyond if l == load):g} N" for load in loads)
+        lines.append(f"{model}: linear elasticity is not valid in {len(beyond)} of {len(cases)} cases, where the "
+                     f"reference moves a node more than {LINEAR_VALIDITY_FRACTION:g} of the model's size "
+                     f"({size_mm:.0f} mm): {onset} (worst: {worst[2] / size_mm:.2g} sizes, {worst[0]} "
+                     f"{worst[1]:g} N). There the methods are compared with a linear reference, not with what "
+                     "tissue would do.")
     return lines
 
 

@@ -202,6 +202,7 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
                         "equilibrium_steps": record["equilibrium_steps"], "converged": record["converged"],
                         "displacements_mm": [float(d) for d in 1e3 * protocol.displacements(positions, rest,
                                                                                             plot_nodes)],
+                        "max_displacement_mm": float(1e3 * np.linalg.norm(positions - rest, axis=1).max()),
                     })
                     bar.update(1)
                 model_info[name].setdefault("solver_parameters", {})[method] = _solver_parameters(method, solver)
@@ -287,6 +288,7 @@ def _mesh_info(hybrid, spec, node, plot_nodes, rmse_nodes, build_s) -> dict:
         "plot_samples": [int(i) for i in plot_nodes],
         "rmse_samples": [int(i) for i in rmse_nodes],
         "rmse_sample_radius_mm": float(1e3 * np.linalg.norm(rest[rmse_nodes] - rest[node], axis=1).max()),
+        "size_m": float(np.linalg.norm(np.ptp(rest, axis=0))),
         "build_s": round(build_s, 3),
     }
 

@@ -13,7 +13,9 @@
 RMS displacement over the same nodes (null when that is zero); ``step_ms`` is the median time of one ``step(dt)``
 with the load set [ms]; ``equilibrium_ms`` is the wall time of ``solve_static`` [ms]; ``displacements_mm`` is eq 25
 for the 10 plot sample nodes, nearest first [mm]. Optional extras: ``equilibrium_steps`` (steps the quasi-static
-solve took) and ``converged`` (false when it hit the step cap; its last positions are what is measured).
+solve took), ``converged`` (false when it hit the step cap; its last positions are what is measured) and
+``max_displacement_mm`` (the largest M_S node displacement, compared with the model's ``size_m`` in the metadata to
+say where linear elasticity stops being valid).
 """
 
 from __future__ import annotations

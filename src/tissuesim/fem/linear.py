@@ -50,7 +50,7 @@ class LinearFEM:
     Args:
         mesh: the tet mesh (positively oriented tets; :class:`TetMesh` checks that).
         youngs_modulus: E [Pa] (paper: 5500).
-        poisson_ratio: ν [-] in (-1, 0.5) (paper: 0.3).
+        poisson_ratio: ν [-] in (-1, 0.49] (paper: 0.3; above 0.45 linear tets lock, see Material).
         fixed: the zero-displacement constraints, one of
             * ``(k,)`` int array of node indices (e.g. from :func:`tissuesim.mesh.regions.nodes_below`): all three
               dofs of those nodes are fixed;

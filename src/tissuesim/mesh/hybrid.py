@@ -12,8 +12,10 @@ Both searches use a k-d tree on element centroids, so the cost is about O(n log 
 
 Bundle (:meth:`HybridMesh.save` / :meth:`HybridMesh.load`): one ``.npz`` file of plain arrays (no pickle) plus a JSON
 header carrying the bundle format version and the tissuesim version that wrote it. Loading a bundle of another
-format version or an unreadable one raises :class:`BundleError`; saving writes a temporary file beside the target
-and renames it, so a bundle is never half-written. Arrays survive bit for bit; M'_S is stored as triangles only (its
+format version, an unreadable one, or one whose arrays fail the checks of :mod:`.bundle_check` (dtype, shape,
+finiteness, index range, consistency between the meshes) raises :class:`BundleError` naming the array. Saving writes
+a temporary file beside the target and renames it, so a bundle is never half-written; a target that exists and is
+not a regular file is refused. Arrays survive bit for bit; M'_S is stored as triangles only (its
 vertices are ``surface.vertices[control]``).
 
 Table 1 (:func:`table1_row`): nodes, elements and size of M_S, M_V and the fine volume. *Size* is the byte count of
@@ -35,6 +37,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import BundleError, MeshError
+from .bundle_check import check_arrays, check_header
 from .surface import SurfaceMesh
 from .tetmesh import TET_FACES, TetMesh
 
@@ -68,6 +71,9 @@ class HybridMesh:
         fine_surface_nodes: ``(n_s,) int32`` fine-volume node index of every M_S vertex (identical coordinates), or
             None with ``fine_volume``.
         info: build report (simplification rounds, collapses skipped, TetGen switches, timings).
+        coarse_volume: ``(c0,) int32`` M_V node of each M'_S vertex once a cut (§7) has released control nodes
+            (then ``control``/``control_volume`` list only the control nodes still prescribed), else None: see
+            :attr:`coarse_volume_nodes`.
     """
 
     surface: SurfaceMesh
@@ -82,6 +88,12 @@ class HybridMesh:
     fine_volume: TetMesh | None = None
     fine_surface_nodes: np.ndarray | None = None
     info: dict = field(default_factory=dict)
+    coarse_volume: np.ndarray | None = None
+
+    @property
+    def coarse_volume_nodes(self) -> np.ndarray:
+        """``(c0,) int32`` the M_V node of each M'_S vertex (M_V is never cut, so neither is M'_S)."""
+        return self.control_volume if self.coarse_volume is None else self.coarse_volume
 
     # -- construction ------------------------------------------------------------------------------------------
 
@@ -107,45 +119,45 @@ class HybridMesh:
         steps = ["validate M_S", "simplify M_S -> M'_S", "tetrahedralize M'_S -> M_V", "map M_S onto M'_S and M_V"]
         if fine_volume:
             steps.append("tetrahedralize M_S -> fine volume")
-        bar = _progress(len(steps), progress)
-        timings = {}
+        # A bar left open on an error would run into the error line on stderr: close it on every exit.
+        with _progress(len(steps), progress) as bar:
+            timings = {}
 
-        def step(k):
-            bar.set_description(steps[k])
-            return time.perf_counter()
+            def step(k):
+                bar.set_description(steps[k])
+                return time.perf_counter()
 
-        t = step(0)
-        validate_surface(surface)
-        timings["validate_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(1)
-        simplified = simplify(surface, target_vertices=target_vertices)
-        coarse, control = simplified.surface, simplified.kept
-        timings["simplify_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(2)
-        volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
-        timings["coarse_tetgen_s"] = time.perf_counter() - t
-        bar.update()
-
-        t = step(3)
-        coarse_triangle, coarse_barycentric = closest_on_surface(coarse, surface.vertices)
-        # Control nodes map to themselves exactly (the search can land on another triangle at distance 0).
-        coarse_triangle[control], coarse_barycentric[control] = _own_corner(coarse, len(control))
-        embedding_tet, embedding_barycentric = embed_in_volume(volume, surface.vertices, coarse, coarse_triangle,
-                                                               coarse_barycentric)
-        timings["maps_s"] = time.perf_counter() - t
-        bar.update()
-
-        fine, fine_nodes = None, None
-        if fine_volume:
-            t = step(4)
-            fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
-            timings["fine_tetgen_s"] = time.perf_counter() - t
+            t = step(0)
+            validate_surface(surface)
+            timings["validate_s"] = time.perf_counter() - t
             bar.update()
-        bar.close()
+
+            t = step(1)
+            simplified = simplify(surface, target_vertices=target_vertices)
+            coarse, control = simplified.surface, simplified.kept
+            timings["simplify_s"] = time.perf_counter() - t
+            bar.update()
+
+            t = step(2)
+            volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
+            timings["coarse_tetgen_s"] = time.perf_counter() - t
+            bar.update()
+
+            t = step(3)
+            coarse_triangle, coarse_barycentric = closest_on_surface(coarse, surface.vertices)
+            # Control nodes map to themselves exactly (the search can land on another triangle at distance 0).
+            coarse_triangle[control], coarse_barycentric[control] = _own_corner(coarse, len(control))
+            embedding_tet, embedding_barycentric = embed_in_volume(volume, surface.vertices, coarse, coarse_triangle,
+                                                                   coarse_barycentric)
+            timings["maps_s"] = time.perf_counter() - t
+            bar.update()
+
+            fine, fine_nodes = None, None
+            if fine_volume:
+                t = step(4)
+                fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
+                timings["fine_tetgen_s"] = time.perf_counter() - t
+                bar.update()
         timings["total_s"] = sum(timings.values())
         info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
                 "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings}
@@ -158,10 +170,17 @@ class HybridMesh:
     # -- bundle ------------------------------------------------------------------------------------------------
 
     def save(self, path) -> Path:
-        """Write the bundle to ``path`` (``.npz``) atomically; return the path."""
+        """Write the bundle to ``path`` (``.npz``) atomically; return the path.
+
+        Raises:
+            BundleError: ``path`` exists and is not a regular file (a folder, device or pipe would be replaced).
+        """
         from .. import __version__
 
         path = Path(path)
+        if path.exists() and not path.is_file():
+            raise BundleError(f"cannot save the bundle to {path}: it exists and is not a regular file (a folder, "
+                              "device or pipe); give the path of a new or existing .npz file")
         header = {"format": BUNDLE_FORMAT, "format_version": BUNDLE_VERSION, "tissuesim_version": __version__,
                   "has_fine_volume": self.fine_volume is not None, "info": _jsonable(self.info)}
         arrays = {
@@ -171,6 +190,8 @@ class HybridMesh:
             "coarse_triangle": self.coarse_triangle, "coarse_barycentric": self.coarse_barycentric,
             "embedding_tet": self.embedding_tet, "embedding_barycentric": self.embedding_barycentric,
         }
+        if self.coarse_volume is not None:
+            arrays["coarse_volume"] = self.coarse_volume
         if self.fine_volume is not None:
             arrays.update(fine_points=self.fine_volume.points, fine_tets=self.fine_volume.tets,
                           fine_surface_nodes=self.fine_surface_nodes)
@@ -209,37 +230,34 @@ class HybridMesh:
             raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); rebuild it with "
                               "`tissuesim build ... --output`") from error
         header = _read_header(path, arrays)
+        fine_volume = header["has_fine_volume"]
         required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
                     "control", "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet",
                     "embedding_barycentric"]
-        if header.get("has_fine_volume"):
+        if fine_volume:
             required += ["fine_points", "fine_tets", "fine_surface_nodes"]
         missing = [key for key in required if key not in arrays]
         if missing:
             raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+        check_arrays(path, arrays, fine=fine_volume)
         try:
             surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
             control = arrays["control"]
-            coarse = SurfaceMesh(surface.vertices[control], arrays["coarse_triangles"])
             volume = TetMesh(arrays["volume_points"], arrays["volume_tets"])
+            coarse_volume = arrays.get("coarse_volume")
+            coarse = SurfaceMesh(surface.vertices[control] if coarse_volume is None else
+                                 volume.points[coarse_volume], arrays["coarse_triangles"])
             fine = fine_nodes = None
-            if header.get("has_fine_volume"):
+            if fine_volume:
                 fine = TetMesh(arrays["fine_points"], arrays["fine_tets"])
                 fine_nodes = arrays["fine_surface_nodes"]
-        except (MeshError, IndexError) as error:
+        except MeshError as error:
             raise BundleError(f"{path} holds inconsistent meshes ({error}); rebuild it") from error
-        n = surface.vertex_count
-        shapes = {"coarse_triangle": (n,), "coarse_barycentric": (n, 3), "embedding_tet": (n,),
-                  "embedding_barycentric": (n, 4), "control_volume": control.shape}
-        wrong = [key for key, shape in shapes.items() if arrays[key].shape != shape]
-        if wrong:
-            raise BundleError(f"{path}: arrays {', '.join(wrong)} do not match the surface's {n} vertices; "
-                              "rebuild it")
         return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
                    control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
                    coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
                    embedding_barycentric=arrays["embedding_barycentric"], fine_volume=fine,
-                   fine_surface_nodes=fine_nodes, info=header.get("info", {}))
+                   fine_surface_nodes=fine_nodes, info=header.get("info", {}), coarse_volume=coarse_volume)
 
     # -- reporting ---------------------------------------------------------------------------------------------
 
@@ -420,6 +438,7 @@ def _read_header(path: Path, arrays: dict) -> dict:
         raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
     if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:
         raise BundleError(f"{path} is not a tissuesim hybrid-mesh bundle")
+    check_header(path, header)
     if header.get("format_version") != BUNDLE_VERSION:
         raise BundleError(
             f"{path} is bundle format version {header.get('format_version')} (written by tissuesim "

@@ -18,10 +18,11 @@ as nodes; Table 1's fine volumes have about 2.3x).
 
 from __future__ import annotations
 
+import glob
 import os
 import sys
 import tempfile
-from contextlib import contextmanager
+from contextlib import contextmanager, suppress
 
 import numpy as np
 
@@ -31,6 +32,8 @@ from .tetmesh import TetMesh, tet_signed_volumes
 
 COARSE_SWITCHES = "pYq1.8/12"
 FINE_SWITCHES = "pYq1.2/15"
+#: Files TetGen writes into the working directory on some failures (removed again).
+TETGEN_LEFTOVERS = "tetgen-tmpfile*"
 
 
 def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> tuple[TetMesh, np.ndarray]:
@@ -56,7 +59,7 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
     if "Q" not in switches:
         switches += "Q"
     try:
-        with _quiet_stdout(), _scratch_directory():
+        with _quiet_stdout(), _no_leftovers():
             nodes, elems, *_ = tetgen.TetGen(surface.vertices, surface.triangles).tetrahedralize(switches=switches)
     except (RuntimeError, ValueError) as error:
         raise MeshError(
@@ -90,15 +93,19 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
 
 
 @contextmanager
-def _scratch_directory():
-    """Run inside a temporary working directory: on failure TetGen writes ``tetgen-tmpfile_skipped.*`` to the cwd."""
-    previous = os.getcwd()
-    with tempfile.TemporaryDirectory(prefix="tissuesim-tetgen-") as scratch:
-        os.chdir(scratch)
-        try:
-            yield
-        finally:
-            os.chdir(previous)
+def _no_leftovers():
+    """Remove the ``tetgen-tmpfile*`` files TetGen may write into the working directory when it fails.
+
+    The working directory itself is never changed: it belongs to the whole process, and another thread's relative
+    paths would resolve inside a scratch folder. Only files that appeared during the call are removed.
+    """
+    before = set(glob.glob(TETGEN_LEFTOVERS))
+    try:
+        yield
+    finally:
+        for name in set(glob.glob(TETGEN_LEFTOVERS)) - before:
+            with suppress(OSError):
+                os.remove(name)
 
 
 @contextmanager

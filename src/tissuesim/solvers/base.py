@@ -27,6 +27,7 @@ Common options (keyword-only, the same for every method):
 from __future__ import annotations
 
 import inspect
+import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -47,6 +48,14 @@ DEFAULT_DT = 0.01  # s
 #: or its force residual over the largest nodal load (static solvers).
 DEFAULT_RTOL = 1e-5
 DEFAULT_MAX_STEPS = 20000
+#: A state has run away when a node lies farther than this many model sizes (the diagonal of M_S's rest bounding
+#: box) from its rest position. Linear elasticity stops being valid near 0.1 sizes; the paper's largest load (20 N on
+#: a cube corner) moves the fine FEM 35 sizes and the embedded surface 31, so 100 sizes is no tissue's answer, only
+#: a blow-up (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
+RUNAWAY_SIZES = 100.0
+#: Linear elasticity (small strain, small rotation) is no longer a model of the body once a node moves more than
+#: about this fraction of the model's size; :class:`SolveReport` says so.
+LINEAR_VALIDITY_FRACTION = 0.1
 
 
 @dataclass
@@ -78,6 +87,8 @@ class SolveReport:
         max_motion: largest node motion [m] in the last step.
         tolerance: the tolerance asked for [m].
         elapsed: wall time of the solve [s].
+        largest_displacement: largest node displacement from rest at the end [m].
+        model_size: the model's size, the diagonal of M_S's rest bounding box [m].
     """
 
     steps: int
@@ -85,6 +96,22 @@ class SolveReport:
     max_motion: float
     tolerance: float
     elapsed: float
+    largest_displacement: float = math.nan
+    model_size: float = math.nan
+
+    @property
+    def linear_valid(self) -> bool:
+        """False when the largest displacement exceeds :data:`LINEAR_VALIDITY_FRACTION` of the model's size."""
+        return not self.largest_displacement > LINEAR_VALIDITY_FRACTION * self.model_size
+
+    @property
+    def warning(self) -> str | None:
+        """A sentence saying that linear elasticity is not valid for this answer, or None."""
+        if self.linear_valid:
+            return None
+        return (f"linear elasticity is not valid here: a node moved {self.largest_displacement:.3g} m, "
+                f"{self.largest_displacement / self.model_size:.2g} times the model's size {self.model_size:.3g} m "
+                f"(small-strain theory holds to about {LINEAR_VALIDITY_FRACTION:g}); lower the load")
 
 
 @njit(cache=True)
@@ -113,6 +140,25 @@ def _remaining_error(motions: list[float], window: int = 5) -> float:
     return motions[-1] * ratio / (1.0 - ratio)
 
 
+@njit(cache=True)
+def farthest_node(positions: np.ndarray, rest: np.ndarray) -> tuple[int, float]:
+    """``(node, distance [m])`` of the node of ``positions`` ``(n, 3)`` farthest from ``rest`` ``(n, 3)``.
+
+    A non-finite coordinate wins with distance inf (its node is returned), so one pass checks finiteness too.
+    """
+    worst, node = 0.0, -1
+    for i in range(positions.shape[0]):
+        d2 = 0.0
+        for k in range(3):
+            d = positions[i, k] - rest[i, k]
+            d2 += d * d
+        if not d2 <= worst:           # true for NaN and inf too
+            if not np.isfinite(d2):
+                return i, np.inf
+            worst, node = d2, i
+    return node, np.sqrt(worst)
+
+
 class Solver(ABC):
     """Base class of every method: state, load, stepping and the quasi-static loop.
 
@@ -126,6 +172,9 @@ class Solver(ABC):
         forces: ``(n, 3) float64`` external nodal forces [N] on M_S (zero but for the loaded node); read-only to
             users, change it through :meth:`set_load` / :meth:`clear_load`.
         state: the :class:`State`.
+        size: diagonal of M_S's rest bounding box [m].
+        runaway_distance: :data:`RUNAWAY_SIZES` × ``size`` [m]: a node farther than this from rest, or a non-finite
+            position, makes :meth:`step` and :meth:`solve_static` raise :class:`SolverError` (a blow-up).
         last_solve: :class:`SolveReport` of the last :meth:`solve_static`, or None.
     """
 
@@ -152,9 +201,9 @@ class Solver(ABC):
                 "tissuesim.HybridMesh.build(surface)"
             )
         self.hybrid = hybrid_mesh
-        self.material = Material(youngs_modulus=float(youngs_modulus), poisson_ratio=float(poisson_ratio))
-        self.youngs_modulus = float(youngs_modulus)
-        self.poisson_ratio = float(poisson_ratio)
+        self.material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)  # checks both
+        self.youngs_modulus = self.material.youngs_modulus
+        self.poisson_ratio = self.material.poisson_ratio
         self.density = positive_number("density", density, "kg/m³")
         self.dt = positive_number("dt", dt, "s")
         self.damping = _fraction("damping", damping)
@@ -177,6 +226,9 @@ class Solver(ABC):
         self._lumped_areas: np.ndarray | None = None
         self.state = State.at_rest(self.rest_positions)
         self._previous = np.array(self.rest_positions)  # workspace of the quasi-static loop
+        extent = self.rest_positions.max(axis=0) - self.rest_positions.min(axis=0)
+        self.size = float(np.linalg.norm(extent))
+        self.runaway_distance = RUNAWAY_SIZES * self.size
         self.last_solve: SolveReport | None = None
         #: Quasi-static solves whose static solver stalled (far beyond small strain) and were finished by stepping.
         self.static_fallbacks = 0
@@ -273,8 +325,14 @@ class Solver(ABC):
 
     # -------------------------------------------------------------------------------------------------- stepping
     def step(self, dt: float | None = None) -> None:
-        """Advance one time step of ``dt`` [s] (default: the ``dt`` option)."""
-        self._step(self._check_dt(dt))
+        """Advance one time step of ``dt`` [s] (default: the ``dt`` option).
+
+        Raises SolverError when the state blew up (non-finite, or a node beyond :attr:`runaway_distance` from rest);
+        :meth:`reset` then returns the solver to rest.
+        """
+        dt = self._check_dt(dt)
+        self._step(dt)
+        self._check_blow_up(dt)
 
     def reset(self) -> None:
         """Back to rest: rest positions, zero velocities, no load."""
@@ -304,12 +362,14 @@ class Solver(ABC):
         damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
         ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
-        What was done is in :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling.
+        What was done, and whether linear elasticity is valid for the answer (``last_solve.warning``), is in
+        :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling, or at once when the state
+        blows up (see :meth:`step`).
         """
         tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
         rtol = positive_number("rtol", rtol, "1")
-        if int(max_steps) < 1:
-            raise SolverError(f"max_steps must be at least 1, got {max_steps}")
+        if not _is_integer(max_steps) or max_steps < 1:
+            raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
         node = self._check_node(node)
         force = _check_force(force)
@@ -319,7 +379,9 @@ class Solver(ABC):
         start = time.perf_counter()
         iterations = self._static_solve(rtol)
         if iterations is not None:
-            self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start)
+            self._check_blow_up(dt, " in its static solve")
+            self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
+                                          *self._largest_displacement())
             return self.state.positions.copy()
         previous = self._previous
         previous[:] = self.state.positions
@@ -328,21 +390,38 @@ class Solver(ABC):
         while steps < int(max_steps) and not settled:
             self._step(dt)
             steps += 1
+            self._check_blow_up(dt, f" after {steps} steps")
             motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)
             history.append(motion)
             settled = motion <= tolerance or _remaining_error(history) <= rtol * largest or self.static
-        self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start)
-        if not np.all(np.isfinite(self.state.positions)):
-            raise SolverError(
-                f"{self.name} solver diverged under {np.linalg.norm(force):g} N on node {node} (non-finite "
-                "positions); lower dt or raise damping"
-            )
+        self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start,
+                                      *self._largest_displacement())
         if not settled:
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
                 f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"
             )
         return self.state.positions.copy()
+
+    def _largest_displacement(self) -> tuple[float, float]:
+        """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""
+        return float(farthest_node(self.state.positions, self.rest_positions)[1]), self.size
+
+    def _check_blow_up(self, dt: float, when: str = "") -> None:
+        """SolverError naming the cause and the fix when the state is non-finite or ran away (one O(n) pass)."""
+        node, distance = farthest_node(self.state.positions, self.rest_positions)
+        if distance <= self.runaway_distance:
+            return
+        if np.isfinite(distance):
+            what = (f"node {node} ran {distance:.3g} m from rest, more than {RUNAWAY_SIZES:g} times the model's "
+                    f"size {self.size:.3g} m")
+        else:
+            what = f"node {node} has a non-finite position"
+        load = "no load" if self._load_node < 0 else (
+            f"{np.linalg.norm(self._load_force):.3g} N at node {self._load_node}")
+        raise SolverError(
+            f"{self.name} solver diverged{when} ({what}) under {load} with dt = {dt:g} s; the step is unstable for "
+            "this load: lower dt, the load or the pin-head stiffness, or raise damping, then call reset()")
 
     # --------------------------------------------------------------------------------------- subclass interface
     @abstractmethod
@@ -362,11 +441,10 @@ class Solver(ABC):
 
     # ---------------------------------------------------------------------------------------------- validation
     def _check_node(self, node) -> int:
-        try:
-            index = int(node)
-        except (TypeError, ValueError):
-            raise SolverError(f"load node must be an integer vertex index, got {node!r}") from None
-        if index != node or not 0 <= index < self.node_count:
+        if not _is_integer(node):
+            raise SolverError(f"load node must be an integer vertex index, got {node!r}")
+        index = int(node)
+        if not 0 <= index < self.node_count:
             raise SolverError(
                 f"load node {node!r} is outside the surface's vertices 0..{self.node_count - 1}; pick an M_S "
                 "vertex index (PinHead.grab snaps a point to one)"
@@ -408,6 +486,15 @@ def positive_number(name: str, value, unit: str) -> float:
     if not np.isfinite(value) or value <= 0.0:
         raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
     return value
+
+
+def _is_integer(value) -> bool:
+    """True for an int or NumPy integer (not a bool: True would otherwise mean node 1), or an integral float."""
+    if isinstance(value, (bool, np.bool_)):
+        return False
+    if isinstance(value, (int, np.integer)):
+        return True
+    return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
 def _fraction(name: str, value) -> float:

@@ -74,7 +74,8 @@ class HybridSolver(SurfaceLayerSolver):
         self.control_count = control.size
         # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle.
         coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
-        self.load_volume_nodes = control_volume[coarse_nodes[np.asarray(h.coarse_triangle, dtype=np.int64)]]
+        coarse_volume = np.asarray(h.coarse_volume_nodes, dtype=np.int64)     # control_volume until a cut
+        self.load_volume_nodes = coarse_volume[coarse_nodes[np.asarray(h.coarse_triangle, dtype=np.int64)]]
         self.load_weights = np.asarray(h.coarse_barycentric, dtype=np.float64)
         # M_V nodes whose displacement a step needs: control nodes first, then (warm start) the embedding tets.
         tets = volume.tets.astype(np.int64)

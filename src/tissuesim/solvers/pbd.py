@@ -127,33 +127,32 @@ class SurfaceLayerSolver(Solver):
         self.mass = self.mass * self.mass_scale
 
     def _static_solve(self, rtol: float) -> int | None:
-        """xpbd form: the layer's exact static equilibrium (:mod:`tissuesim.pbd.static`); pbd form: None (its
-        equilibrium is only defined by its time stepping)."""
+        """xpbd form: the layer's small-strain static equilibrium, one back-substitution
+        (:mod:`tissuesim.pbd.static`); pbd form: None (its equilibrium is only defined by its time stepping)."""
         if self.form != "xpbd":
             return None
-        from ..pbd.static import LayerStatics
-
         self._prepare_static()
-        if self._statics is None:
-            c = self.constraints
-            self._statics = LayerStatics(self.node_count, edges=c.edges, rest_length=c.rest_length,
-                                         stretch_compliance=self.stretch_compliance, hinges=c.bending,
-                                         rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
-                                         prescribed=self.prescribed, signed_bending=self.signed_bending)
+        statics = self.statics()
         positions = self.state.positions
-        start = positions.copy()
+        positions[:] = self.rest_positions
         positions[self.prescribed] = self.targets
-        try:
-            report = self._statics.solve(positions, self.forces, rtol=rtol)
-        except SolverError:
-            # Far beyond small strain (a large load folding the layer) Gauss–Newton can stall; time stepping, whose
-            # bending safeguard keeps a folded layer finite, then finds a resting state instead (not the exact
-            # static one: see docs/solvers.md).
-            positions[:] = start
-            self.static_fallbacks += 1
-            return None
+        moved = self.targets - self.rest_positions[self.prescribed]
+        positions[statics.free_nodes] += statics.displacement(self.forces, moved)
         self.state.velocities[:] = 0.0
-        return report.iterations
+        return 1
+
+    def statics(self):
+        """The :class:`~tissuesim.pbd.static.LayerStatics` of this layer and its prescribed nodes (built on first
+        use: one sparse factorisation)."""
+        if self._statics is None:
+            from ..pbd.static import LayerStatics, layer_stiffness
+
+            c = self.constraints
+            stiffness = layer_stiffness(self.rest_positions, edges=c.edges, stretch_compliance=self.stretch_compliance,
+                                        hinges=c.bending, bend_compliance=self.bend_compliance,
+                                        signed_bending=self.signed_bending)
+            self._statics = LayerStatics(stiffness, prescribed=self.prescribed)
+        return self._statics
 
     def _prepare_static(self) -> None:
         """Bring the prescribed nodes' ``targets`` up to date with the load (the hybrid's FEM part)."""

@@ -1,0 +1,160 @@
+"""Cost of cutting (§7): one scalpel move against the triangles it crosses and the mesh size, the step after many
+cuts, and the fine FEM's cost for the same cut (re-tetrahedralize + re-factorize K) side by side.
+
+    PYTHONPATH=src python benchmarks/bench_cut.py [--sizes 1000 10000 100000] [--quick]
+
+Prints figures and ratios; asserts nothing (timings belong here, not in tests).
+
+1. **one move**: a progressive 3 cm cut over the cube's flat top in moves of 0.5–4 edge lengths (so each crosses
+   about k triangles), on cubes of 1k, 10k and 100k vertices: the pure core (:func:`tissuesim.cutting.cut_surface`)
+   and the whole scalpel move on a pbd solver (core + the solver's arrays). Medians over the moves.
+2. **step after 50 cuts**: hybrid step time on the Table-1 cube before and after 50 progressive moves in five
+   strokes (the kernels also sweep the retired rows).
+3. **fine FEM for the same cut**: TetGen on the cut M_S (fine switches) + assembly and factorization of K, the
+   work a volumetric FEM would redo for each move, against one hybrid move.
+"""
+
+from __future__ import annotations
+
+import argparse
+import statistics
+import time
+
+import numpy as np
+
+import tissuesim
+from tissuesim.cutting import Sweep, cut_surface
+from tissuesim.cutting.wound import incision_line, scripted_incision
+from tissuesim.mesh import models
+
+
+def _edge(surface) -> float:
+    e = surface.edges
+    return float(np.linalg.norm(surface.vertices[e[:, 0]] - surface.vertices[e[:, 1]], axis=1).mean())
+
+
+def _line(surface):
+    """A 3 cm line over the middle of the cube's flat top, just above it (tool height 1 mm), and the blade."""
+    top = surface.vertices[:, 2].max()
+    start = np.array([-0.015, 1.1e-3, top + 1e-3])
+    return start, start + [0.03, 0.0, 0.0]
+
+
+def bench_core(surface, step):
+    """Progressive moves of ``step`` [m] along the line with the pure core: (median k, median seconds)."""
+    rest, tri = surface.vertices, surface.triangles
+    positions, velocities = rest.copy(), np.zeros_like(rest)
+    start, end = _line(surface)
+    closed = np.zeros((0, 2), dtype=np.int64)
+    tip, times, split = start, [], []
+    for f in np.arange(step, 0.03 + 1e-12, step) / 0.03:
+        new = start + f * (end - start)
+        t = time.perf_counter()
+        r = cut_surface(rest, positions, velocities, tri, Sweep.between(tip, new, [0.0, 0.0, -0.01]), closed=closed)
+        times.append(time.perf_counter() - t)
+        tip = new
+        if r is not None:
+            if r.end_vertex >= 0:
+                tip = r.positions[r.end_vertex] + [0.0, 0.0, 1e-3]
+            rest, positions, velocities, tri, closed = r.rest, r.positions, r.velocities, r.triangles, r.closed
+            split.append(r.split_count)
+    return statistics.median(split), statistics.median(times[1:] or times)
+
+
+def bench_solver_moves(hybrid, step):
+    """The same with the scalpel on a pbd solver (core + the solver's arrays)."""
+    solver = tissuesim.make_solver("pbd", hybrid)
+    start, end = _line(hybrid.surface)
+    scalpel = tissuesim.Scalpel(solver, depth=0.01)
+    scalpel.press(start, direction=[0, 0, -1])
+    reports = [scalpel.move(start + f * (end - start)) for f in np.arange(step, 0.03 + 1e-12, step) / 0.03]
+    return statistics.median(r.seconds for r in (reports[1:] or reports))   # the first builds the edge map
+
+
+def bench_steps(hybrid, steps):
+    solver = tissuesim.make_solver("hybrid", hybrid)
+
+    def timed():
+        solver.set_load(int(np.argmax(solver.rest_positions[:, 2])), [0.0, 0.0, 0.5])
+        solver.step()
+        t = time.perf_counter()
+        for _ in range(steps):
+            solver.step()
+        return (time.perf_counter() - t) / steps
+
+    before = min(timed() for _ in range(3))
+    start, end = incision_line(solver.rest_positions, length=0.02)
+    moves = 0
+    for offset in (-0.012, -0.006, 0.0, 0.006, 0.012):
+        shift = np.array([0.0, offset, 0.0])
+        scalpel = tissuesim.Scalpel(solver, depth=0.01)
+        scalpel.press(start + shift, direction=[0, 0, -1])
+        for f in np.linspace(0, 1, 11)[1:]:
+            moves += scalpel.move(start + shift + f * (end - start)).triangles_split > 0
+        scalpel.release()
+    after = min(timed() for _ in range(3))
+    c = solver.constraints
+    retired = int(np.count_nonzero(c.edges[:, 0] == c.edges[:, 1]))
+    return before, after, moves, retired, len(c.edges)
+
+
+def bench_fine_fem(solver_after_cut):
+    from tissuesim.fem.linear import LinearFEM
+    from tissuesim.mesh.tetrahedralize import FINE_SWITCHES, tetrahedralize
+
+    surface = solver_after_cut.hybrid.surface
+    t = time.perf_counter()
+    try:
+        volume, _ = tetrahedralize(surface, switches=FINE_SWITCHES)
+    except tissuesim.MeshError as error:
+        return None, f"TetGen refuses the cut surface ({error}); timing the uncut one instead"
+    mesh_s = time.perf_counter() - t
+    t = time.perf_counter()
+    LinearFEM(volume, youngs_modulus=5500.0, poisson_ratio=0.3,
+              fixed=np.flatnonzero(volume.points[:, 2] <= volume.points[:, 2].min() + 0.008))
+    return (mesh_s, time.perf_counter() - t, volume.element_count), None
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000, 100000])
+    parser.add_argument("--solver-limit", type=int, default=100000,
+                        help="largest M_S for the solver-level moves (its hybrid mesh build takes minutes beyond)")
+    parser.add_argument("--quick", action="store_true", help="fewer timed steps")
+    args = parser.parse_args()
+    print("## 1. one move: median time against triangles crossed (k) and M_S size\n")
+    print("| M_S vertices | move (edge lengths) | k (triangles split) | core [ms] | scalpel move, pbd [ms] |")
+    print("|---:|---:|---:|---:|---:|")
+    for size in args.sizes:
+        surface = models.cube(size)
+        edge = _edge(surface)
+        hybrid = None
+        if size <= args.solver_limit:
+            hybrid = tissuesim.HybridMesh.build(surface, fine_volume=False)
+        for f in (0.5, 1.0, 2.0, 3.0):
+            k, t_core = bench_core(surface, f * edge)
+            move = "-" if hybrid is None else f"{1e3 * bench_solver_moves(hybrid, f * edge):.2f}"
+            print(f"| {size} | {f:g} | {k:g} | {1e3 * t_core:.2f} | {move} |", flush=True)
+
+    print("\n## 2. hybrid step after 50 cuts (Table-1 cube)\n")
+    cube = tissuesim.HybridMesh.build(models.cube())
+    before, after, moves, retired, rows = bench_steps(cube, 20 if args.quick else 100)
+    print(f"step before: {1e3 * before:.3f} ms; after {moves} cutting moves: {1e3 * after:.3f} ms; ratio "
+          f"{after / before:.3f} ({retired} of {rows} stretch rows retired)")
+
+    print("\n## 3. the fine FEM's cost for the same cut, against one hybrid move\n")
+    solver = tissuesim.make_solver("hybrid", cube)
+    run = scripted_incision(solver)
+    move = statistics.median(r.seconds for r in run["moves"][1:-1])
+    figures, note = bench_fine_fem(solver)
+    if figures is None:
+        print(note)
+        figures, _ = bench_fine_fem(tissuesim.make_solver("hybrid", cube))
+    mesh_s, factor_s, tets = figures
+    print(f"one hybrid scalpel move (median): {1e3 * move:.2f} ms")
+    print(f"fine FEM: TetGen {1e3 * mesh_s:.1f} ms + assemble/factorize K {1e3 * factor_s:.1f} ms ({tets} tets) = "
+          f"{1e3 * (mesh_s + factor_s):.1f} ms, {(mesh_s + factor_s) / move:.0f}x one move")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,63 @@
+"""``tissuesim view [MODEL]``: the interactive simulator (§8.2 pin-head, §8.4 scalpel) in a polyscope window.
+
+MODEL is a built-in model (default: liver), a surface file or a saved hybrid bundle. ``--record FILE.pvd`` records
+every frame for ParaView; ``--replay FILE.pvd`` plays a recording back instead of simulating.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("model", nargs="?", default="liver", metavar="MODEL",
+                        help="built-in model (cube, sphere, liver, steak), surface file or hybrid bundle "
+                             "(default: liver)")
+    parser.add_argument("--method", default="hybrid", help="solver at start (switchable in the panel; default hybrid)")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="factor from a surface file's unit to metres (0.01 for cm); default 1")
+    parser.add_argument("--repair", action="store_true", help="repair safe defects of a surface file")
+    parser.add_argument("--resolution", type=int, default=None, help="vertex count of a built-in model")
+    parser.add_argument("--stiffness", type=float, default=None, metavar="K", help="pin-head k [N/m] (default 50)")
+    parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
+                        help="record every frame as a ParaView series (FILE.pvd + FILE_frames/)")
+    parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
+
+
+def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
+    """The hybrid mesh of a built-in model name or a surface file (built with the fine volume, so every method
+    runs), or a saved bundle as it is (without a fine volume the fem method is refused, saying why); and its name."""
+    from ..experiments.run import SURFACE_SUFFIXES, ExperimentConfig, load_model, model_name
+    from ..mesh.hybrid import HybridMesh
+
+    path = Path(spec)
+    if path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
+        return HybridMesh.load(path), path.stem
+    config = ExperimentConfig(models=(spec,), resolution=resolution, scale=scale, repair=repair)
+    return load_model(spec, config, progress=progress), model_name(spec)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..recording import read_recording
+    from ..viewer.app import ReplayApp, ViewerApp
+    from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings
+    from ..viewer.gl import polyscope
+
+    polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
+    if args.replay is not None:
+        frames = read_recording(args.replay)
+        ReplayApp(frames, title=args.replay.name).run()
+        return 0
+    print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
+    hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
+    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS)
+    controller = Controller(hybrid, settings=settings)
+    app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=args.record)
+    app.run()
+    if args.record is not None:
+        print(f"recorded {args.record}", file=sys.stderr)
+    return 0

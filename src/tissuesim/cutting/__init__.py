@@ -1,0 +1,10 @@
+"""§7 small incision on arrays: sweep ∩ surface, Fig 7 subdivision, vertex duplication, rest lengths (eq 19–23).
+
+Pure functions (no solver): :func:`cut_surface` returns a :class:`CutResult`; :func:`check_cut_invariants` lists
+what is wrong with a cut surface (used by the tests, the fuzz test and ``tissuesim incise``).
+"""
+
+from .core import DEFAULT_SNAP, CutResult, cut_surface
+from .sweep import Sweep
+
+__all__ = ["DEFAULT_SNAP", "CutResult", "Sweep", "cut_surface"]

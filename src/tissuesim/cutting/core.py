@@ -1,0 +1,344 @@
+"""§7 on arrays: one cut of the fine surface M_S by one sweep of the blade, returning a new surface and maps.
+
+:func:`cut_surface` runs the three steps of §7 on plain arrays and leaves its inputs untouched:
+
+1. the sweep's crossings with the triangles at their current positions (:mod:`.sweep`), snapped, become edge points
+   (keyed by their edge, so both triangles of an edge share the point) and facet points;
+2. every triangle with a crossing segment or an edge point on a side is split by the case of Fig 7 that fits
+   (:mod:`.subdivide`), in the plane of its rest triangle; the first piece keeps the triangle's row, the others
+   are appended;
+3. the vertices along the cut edges are duplicated per side (:mod:`.separate`).
+
+A new vertex's rest position, current position and velocity are the same barycentric combination of its parent
+triangle's (or edge's) corners (§7, Fig 8): the cut does not move anything. ``parents`` / ``weights`` give that
+combination for every vertex of the result, in the numbering before the cut; old vertices keep their indices.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import MeshError
+from .separate import separate
+from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
+from .sweep import Sweep, candidate_triangles, check_snap, crossings
+
+#: Default snap fraction of the local edge length (see :mod:`.sweep`).
+DEFAULT_SNAP = 0.25
+
+
+@dataclass(frozen=True, eq=False)
+class CutResult:
+    """A cut surface and how it relates to the one before.
+
+    Attributes:
+        rest: ``(n', 3) float64`` rest positions [m]; the first n rows are the old ones.
+        positions: ``(n', 3) float64`` current positions [m].
+        velocities: ``(n', 3) float64`` current velocities [m/s].
+        triangles: ``(m', 3) int32`` triangles; the first m rows are the old rows (rewritten where split or
+            where a corner became a copy).
+        parents: ``(n', 3) int64`` old vertices each vertex interpolates (itself three times for an old vertex).
+        weights: ``(n', 3) float64`` their barycentric weights (sum 1).
+        copy_of: ``(n',) int64`` the vertex (new numbering) a duplicate copies, −1 for the others.
+        triangle_origin: ``(m',) int64`` the old triangle each triangle lies in.
+        changed: ``(k,) int64`` rows of ``triangles`` that are new or rewritten.
+        cut_edges: ``(c, 2) int64`` the edges cut by this move (vertex pairs, before duplication).
+        closed: ``(p, 2) int64`` cut edges still shared by two triangles (a cut's tips), to pass to the next cut.
+        split_count: old triangles split.
+        end_vertex: the cut point farthest along the sweep (where the cut stopped), −1 if none; a progressive
+            cut starts its next sweep there so the wound stays one path.
+    """
+
+    rest: np.ndarray
+    positions: np.ndarray
+    velocities: np.ndarray
+    triangles: np.ndarray
+    parents: np.ndarray
+    weights: np.ndarray
+    copy_of: np.ndarray
+    triangle_origin: np.ndarray
+    changed: np.ndarray
+    cut_edges: np.ndarray
+    closed: np.ndarray
+    split_count: int
+    end_vertex: int = -1
+
+    @property
+    def duplicated(self) -> np.ndarray:
+        """``(d,) int64`` vertices (new numbering) that got a copy."""
+        return np.unique(self.copy_of[self.copy_of >= 0])
+
+
+@dataclass
+class _Points:
+    """The cut points of one move: existing vertices, edge points (per edge), facet points (per triangle)."""
+
+    n: int
+    snap: float
+    edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
+    facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
+    parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
+    weights: list = field(default_factory=list)   # per new point: (3,) weights
+
+    def locate(self, corners: np.ndarray, triangle: int, w: np.ndarray) -> tuple:
+        """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
+        from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
+        w = np.where(w < self.snap, 0.0, w)
+        w = w / w.sum()
+        nonzero = np.flatnonzero(w)
+        if nonzero.size == 1:
+            return ("v", int(corners[nonzero[0]]))
+        if nonzero.size == 2:
+            i, j = corners[nonzero]
+            lo, hi = (int(i), int(j)) if i < j else (int(j), int(i))
+            t = float(w[nonzero[1]] if j == hi else w[nonzero[0]])
+            if t < self.snap:
+                return ("v", lo)
+            if t > 1.0 - self.snap:
+                return ("v", hi)
+            return ("e", lo, hi, t)
+        return ("f", triangle, w)
+
+    def same(self, a: tuple, b: tuple) -> bool:
+        """Whether two located points are one point after snapping (then the segment between them is dropped)."""
+        if a[0] != b[0]:
+            return False
+        if a[0] == "v":
+            return a[1] == b[1]
+        if a[0] == "e":
+            return a[1:3] == b[1:3] and abs(a[3] - b[3]) < self.snap
+        return a[1] == b[1] and bool(np.all(np.abs(a[2] - b[2]) < self.snap))
+
+    def commit(self, corners: np.ndarray, point: tuple) -> int:
+        """The vertex id of a located point, registering a new edge or facet point (or reusing a near one)."""
+        if point[0] == "v":
+            return point[1]
+        if point[0] == "e":
+            _, lo, hi, t = point
+            for existing, pid in self.edge.get((lo, hi), []):
+                if abs(existing - t) < self.snap:
+                    return pid
+            pid = self._new(np.array([lo, hi, lo]), np.array([1.0 - t, t, 0.0]))
+            self.edge.setdefault((lo, hi), []).append([t, pid])
+            return pid
+        _, triangle, w = point
+        for existing, pid in self.facet.get(triangle, []):
+            if np.all(np.abs(existing - w) < self.snap):
+                return pid
+        pid = self._new(corners, w)
+        self.facet.setdefault(triangle, []).append([w, pid])
+        return pid
+
+    def _new(self, parents, weights) -> int:
+        self.parents.append(np.asarray(parents, dtype=np.int64))
+        self.weights.append(np.asarray(weights, dtype=np.float64))
+        return self.n + len(self.parents) - 1
+
+
+def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray, triangles: np.ndarray,
+                sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=()) -> CutResult | None:
+    """Cut M_S along one sweep; None when the sweep crosses no triangle (nothing changes).
+
+    Args:
+        rest, positions, velocities: ``(n, 3) float64`` rest positions [m], current positions [m] (the sweep is
+            intersected with these), velocities [m/s].
+        triangles: ``(m, 3) int`` triangles, counter-clockwise from outside.
+        sweep: the blade's sweep in this move.
+        snap: snap fraction of the local edge length, in [0, 1/3).
+        closed: ``(p, 2)`` cut edges of earlier moves still shared by two triangles (:attr:`CutResult.closed`),
+            so a cut that goes on from its tip opens there.
+
+    Raises:
+        MeshError: a cut segment could not be made an edge (a defect of the input mesh, e.g. a degenerate
+            triangle); the inputs are unchanged.
+    """
+    snap = check_snap(snap)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    n = len(rest)
+    found = crossings(positions, triangles, sweep)
+    if not found:
+        return None
+    points = _Points(n=n, snap=snap)
+    segments = {}
+    for crossing in found:
+        corners = triangles[crossing.triangle]
+        ends = [points.locate(corners, crossing.triangle, w) for w in crossing.ends]
+        if points.same(*ends):
+            continue            # the segment snapped to a point: nothing to cut in this triangle
+        a, b = (points.commit(corners, end) for end in ends)
+        if a != b:
+            segments[crossing.triangle] = (a, b)
+    if not points.parents and not segments:
+        return None
+    affected = _affected(positions, triangles, sweep, segments, points)
+    new_rest, new_pos, new_vel, parents, weights = _new_vertices(rest, positions, velocities, points)
+    tri_rows, origin, cut_edges = [], [], set()
+    out = triangles.copy()
+    for t in affected:
+        pieces, cut = _split(t, triangles[t], new_rest, points, segments.get(t), snap)
+        out[t] = pieces[0]
+        tri_rows.append(pieces[1:])
+        origin += [t] * (len(pieces) - 1)
+        cut_edges |= cut
+    extra = np.concatenate(tri_rows) if tri_rows else np.zeros((0, 3), dtype=np.int64)
+    out = np.concatenate([out, extra])
+    new_rows = np.concatenate([np.asarray(affected, dtype=np.int64), np.arange(len(triangles), len(out))])
+    _check_edges(out[new_rows], sorted(cut_edges), affected)
+    # earlier tips that are no longer edges (a later cut went through them) are ignored by separate()
+    cut_list = sorted(cut_edges | _carry_closed(closed, points))
+    copy_of, still_closed, rewritten = separate(out, cut_list, len(new_rest))
+    if copy_of.size:
+        new_rest = np.concatenate([new_rest, new_rest[copy_of]])
+        new_pos = np.concatenate([new_pos, new_pos[copy_of]])
+        new_vel = np.concatenate([new_vel, new_vel[copy_of]])
+        parents = np.concatenate([parents, parents[copy_of]])
+        weights = np.concatenate([weights, weights[copy_of]])
+    copies = np.full(len(new_rest), -1, dtype=np.int64)
+    copies[len(new_rest) - copy_of.size:] = copy_of
+    triangle_origin = np.concatenate([np.arange(len(triangles)), np.array(origin, dtype=np.int64)])
+    changed = np.unique(np.concatenate([new_rows, rewritten]))
+    return CutResult(end_vertex=_farthest(segments, new_pos, sweep), rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
+                     parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
+                     changed=changed, cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
+                     closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
+
+
+def _farthest(segments, positions, sweep) -> int:
+    """The segment end with the largest sweep coordinate s (the tip's side of the cut)."""
+    ends = np.unique(np.array(list(segments.values()), dtype=np.int64).ravel())
+    if ends.size == 0:
+        return -1
+    return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
+
+
+def _affected(positions, triangles, sweep, segments, points) -> list[int]:
+    """Triangles with a segment, or with an edge point on a side (searched near the sweep only)."""
+    affected = set(segments)
+    if points.edge:
+        t = np.array(sorted(affected | set(points.facet)) or [0])
+        p = positions[triangles[t]]
+        reach = float(np.linalg.norm(p - p[:, [1, 2, 0]], axis=2).max())
+        near = candidate_triangles(positions, triangles, sweep, pad=reach)
+        for r in near:
+            a, b, c = (int(x) for x in triangles[r])
+            for u, v in ((a, b), (b, c), (c, a)):
+                if (min(u, v), max(u, v)) in points.edge:
+                    affected.add(int(r))
+    return sorted(affected)
+
+
+def _new_vertices(rest, positions, velocities, points):
+    n = len(rest)
+    k = len(points.parents)
+    parents = np.repeat(np.arange(n, dtype=np.int64)[:, None], 3, axis=1)
+    weights = np.zeros((n, 3))
+    weights[:, 0] = 1.0
+    if k:
+        parents = np.concatenate([parents, np.array(points.parents)])
+        weights = np.concatenate([weights, np.array(points.weights)])
+    new_p, new_w = parents[n:], weights[n:]
+
+    def combine(a):
+        return np.concatenate([a, np.einsum("ij,ijk->ik", new_w, a[new_p])])
+
+    return combine(rest), combine(positions), combine(velocities), parents, weights
+
+
+def _split(t, corners, rest, points, segment, snap):
+    """Sub-triangles (global ids) of triangle ``t`` and the cut edges inside it (Fig 7 case by case)."""
+    ids, frame = _polygon(corners, rest, points)
+    polygon = np.array([frame(w) for _, w in ids])
+    poly_ids = [pid for pid, _ in ids]
+    facets = points.facet.get(t, [])
+    facet_of = {pid: w for w, pid in facets}
+    if segment is None:
+        local = split_uncut(polygon)
+        return _globals(local, poly_ids), set()
+    a, b = segment
+    if a in facet_of and b in facet_of:
+        local = split_interior_cut(polygon, frame(facet_of[a]), frame(facet_of[b]), snap=snap)
+        return _globals(local, poly_ids + [a, b]), {_key(a, b)}
+    if a in facet_of or b in facet_of:
+        facet, edge_end = (a, b) if a in facet_of else (b, a)
+        local = split_partial_cut(polygon, frame(facet_of[facet]))
+        return _globals(local, poly_ids + [facet]), {_key(facet, edge_end)}
+    i, j = poly_ids.index(a), poly_ids.index(b)
+    chain = _side_chain(polygon, i, j)
+    if chain is not None:       # along one side: its pieces between a and b are the cut
+        local = split_uncut(polygon)
+        return _globals(local, poly_ids), {_key(poly_ids[p], poly_ids[q]) for p, q in zip(chain, chain[1:])}
+    local = split_full_cut(polygon, i, j)
+    return _globals(local, poly_ids), {_key(a, b)}
+
+
+def _polygon(corners, rest, points):
+    """The triangle's boundary points (vertex id, barycentric weights) counter-clockwise, and a map weights →
+    2-D coordinates in the plane of its rest triangle."""
+    p = rest[corners]
+    ab, ac = p[1] - p[0], p[2] - p[0]
+    length = np.linalg.norm(ab)
+    x = ab / length
+    cx = ac @ x
+    cy = np.linalg.norm(ac - cx * x)
+    flat = np.array([[0.0, 0.0], [length, 0.0], [cx, cy]])
+    ids = []
+    for k in range(3):
+        u, v = int(corners[k]), int(corners[(k + 1) % 3])
+        w = np.zeros(3)
+        w[k] = 1.0
+        ids.append((u, w))
+        on_side = points.edge.get((min(u, v), max(u, v)), [])
+        along = sorted((tt if u < v else 1.0 - tt, pid) for tt, pid in on_side)
+        for s, pid in along:
+            w = np.zeros(3)
+            w[k], w[(k + 1) % 3] = 1.0 - s, s
+            ids.append((pid, w))
+    return ids, lambda w: w @ flat
+
+
+def _side_chain(polygon, i, j):
+    """Polygon indices from i to j along one side (all collinear), or None if i, j are not on one side."""
+    k = len(polygon)
+    for step in (1, -1):
+        chain = [i]
+        while chain[-1] != j:
+            chain.append((chain[-1] + step) % k)
+        pts = polygon[chain]
+        d = pts - pts[0]
+        cross = d[:, 0] * d[-1, 1] - d[:, 1] * d[-1, 0]
+        scale = np.sum(d[-1] ** 2)
+        if np.all(np.abs(cross) <= 1e-9 * scale):
+            return chain
+    return None
+
+
+def _globals(local, ids):
+    return np.asarray(ids, dtype=np.int64)[local]
+
+
+def _carry_closed(closed, points):
+    """Earlier cuts' closed edges, with any edge point inserted on them now (the edge became two)."""
+    edges = set()
+    for u, v in np.asarray(closed, dtype=np.int64).reshape(-1, 2):
+        lo, hi = (int(u), int(v)) if u < v else (int(v), int(u))
+        chain = [lo] + [pid for _, pid in sorted(points.edge.get((lo, hi), []))] + [hi]
+        edges |= {_key(p, q) for p, q in zip(chain, chain[1:])}
+    return edges
+
+
+def _check_edges(pieces, cut_edges, affected) -> None:
+    """Every cut edge must be an edge of the new pieces (the subdivision guarantees it; this guards it)."""
+    if not cut_edges:
+        return
+    present = {_key(u, v) for u, v in pieces[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2).tolist()}
+    missing = [e for e in cut_edges if e not in present]
+    if missing:
+        raise MeshError(f"{len(missing)} cut segments are not edges after subdivision (first: {missing[0]}, "
+                        f"triangles split: {len(affected)}); the mesh near the cut is degenerate, repair it")
+
+
+def _key(u, v):
+    u, v = int(u), int(v)
+    return (u, v) if u < v else (v, u)

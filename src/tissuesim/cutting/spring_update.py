@@ -1,0 +1,69 @@
+"""Cut updater of the mass-spring method: its stretch and bending springs edited locally, like the PBD constraints.
+
+Every edge of a changed triangle loses its stretch spring and its bending spring (across the edge's two opposite
+vertices); an edge that still exists gets a stretch spring again (rest length by eq 19–23, stiffness
+k = E β Σ A_T / l over its new triangles, the method's own formula), and a bending spring if it still has two
+triangles, so none crosses the cut. A retired spring joins node 0 to itself with zero stiffness (no force). The
+stability bound ω_max is recomputed from the spring arrays (one vectorised pass: the substep count follows the new,
+smaller springs).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .layer_update import adjacent_area, new_edge_constraints, new_hinges, touched_edges
+from .rows import Rows
+from .solver_update import SolverCut, lumped_masses, register_cut
+
+
+@register_cut("mass-spring")
+class MassSpringCut(SolverCut):
+    """Updater of :class:`~tissuesim.solvers.mass_spring.MassSpringSolver`."""
+
+    def __init__(self, solver):
+        super().__init__(solver)
+        self.mass_total = float(solver.mass.sum())
+        springs = np.array(solver.springs)
+        self.rows = Rows({"springs": springs, "rest": np.array(solver.rest_lengths),
+                          "stiffness": np.array(solver.stiffness)}, len(springs),
+                         {"springs": 0, "rest": 1.0, "stiffness": 0.0})
+        edges = np.asarray(solver.hybrid.surface.edges, dtype=np.int64)
+        self.stretch_row = {(int(u), int(v)): r for r, (u, v) in enumerate(edges.tolist())}
+        # spring_network: stretch springs in edge order, then one bending spring per interior edge in that order
+        interior = [k for k in self.stretch_row if len(self.edges.of(k)) == 2]
+        self.bend_row = {k: len(edges) + r for r, k in enumerate(interior)}
+        self._bind()
+
+    def _bind(self) -> None:
+        s, a = self.solver, self.rows.arrays
+        s.springs, s.rest_lengths, s.stiffness = a["springs"], a["rest"], a["stiffness"]
+
+    def update(self, result, n, old_triangles, old_content, released) -> None:
+        from ..solvers.mass_spring import _omega_bound
+
+        s = self.solver
+        keys = touched_edges(old_content, result.triangles[result.changed])
+        gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
+        gone += [self.bend_row.pop(k) for k in keys if k in self.bend_row]
+        self.rows.retire(gone)
+        live = [k for k in keys if self.edges.of(k)]
+        edges, rest, area = new_edge_constraints(result, result.rest[:n], np.asarray(old_triangles, dtype=np.int64),
+                                                 self.edges, live, n)
+        hinges, hinge_keys = new_hinges(result.triangles, self.edges, live)
+        across = hinges[:, 2:]
+        span = adjacent_area(result, self.edges, hinge_keys)
+        across_rest = np.linalg.norm(result.rest[across[:, 0]] - result.rest[across[:, 1]], axis=1)
+        rows, _ = self.rows.take(len(live) + len(hinge_keys))
+        a = self.rows.arrays
+        a["springs"][rows] = np.concatenate([edges, across])
+        a["rest"][rows] = np.concatenate([rest, across_rest])
+        a["stiffness"][rows] = s.youngs_modulus * s.thickness_ratio * np.concatenate([area, span]) / a["rest"][rows]
+        self.stretch_row.update(zip(live, rows[: len(live)].tolist()))
+        self.bend_row.update(zip(hinge_keys, rows[len(live):].tolist()))
+        self._bind()
+        s.mass = lumped_masses(self.lumped, self.mass_total)
+        s.inv_mass = 1.0 / s.mass
+        s.inv_mass[s.fixed] = 0.0
+        s.omega_max = _omega_bound(s.springs, s.stiffness, s.inv_mass)
+        s._accel = np.zeros_like(s.state.positions)

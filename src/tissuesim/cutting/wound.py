@@ -1,0 +1,102 @@
+"""The wound of the paper's Fig 16: a scripted incision across a model's top, a small force beside it, the gap.
+
+* :func:`scripted_incision`: the scalpel pressed above the top, moved in a straight line along x over ``length``
+  [m] in ``steps`` moves (progressive: each move cuts), blade straight down;
+* :func:`wound_gap`: the widest opening [m]: the largest current distance between two vertices that share a rest
+  position (the two sides of the cut; both copies start at the same point);
+* :func:`open_wound`: pull a node beside the middle of the cut away from it and solve to equilibrium.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import SolverError
+from .core import DEFAULT_SNAP
+
+#: The incision of the experiment: 3 cm long, in 15 moves of 2 mm.
+INCISION_LENGTH = 0.03
+INCISION_MOVES = 15
+#: Blade length [m] of the experiment and the tool's height above the top [m].
+INCISION_DEPTH = 0.01
+TOOL_HEIGHT = 0.001
+#: The pulling force of the experiment [N] and its distance beside the cut [m].
+PULL_FORCE = 0.1
+PULL_OFFSET = 0.005
+#: Steps allowed for the wound to settle (30 s of simulated time at 10 ms).
+OPEN_MAX_STEPS = 3000
+
+
+def incision_line(rest: np.ndarray, *, length: float = INCISION_LENGTH) -> tuple[np.ndarray, np.ndarray]:
+    """Tool start and end ``(3,)`` [m]: along x, centred over the model's vertical axis, just above its top."""
+    centre = 0.5 * (rest.min(axis=0) + rest.max(axis=0))
+    near_axis = np.linalg.norm(rest[:, :2] - centre[:2], axis=1) < 0.25 * length
+    height = rest[near_axis, 2].max() + TOOL_HEIGHT
+    # a small offset in y keeps the line off the procedural meshes' symmetry planes (off their edges)
+    start = np.array([centre[0] - 0.5 * length, centre[1] + 1.1e-3, height])
+    return start, start + [length, 0.0, 0.0]
+
+
+def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = INCISION_MOVES,
+                      depth: float = INCISION_DEPTH, snap: float = DEFAULT_SNAP) -> dict:
+    """Cut the top of ``solver``'s model; ``{"moves": [CutReport...], "seconds": total, "line": (start, end)}``."""
+    from ..scalpel import Scalpel
+
+    start, end = incision_line(solver.rest_positions, length=length)
+    scalpel = Scalpel(solver, depth=depth, snap=snap)
+    clock = time.perf_counter()
+    reports = [scalpel.press(start, direction=[0.0, 0.0, -1.0])]
+    for f in np.linspace(0.0, 1.0, moves + 1)[1:]:
+        reports.append(scalpel.move(start + f * (end - start)))
+    reports.append(scalpel.release())
+    return {"moves": reports, "seconds": time.perf_counter() - clock, "line": (start, end)}
+
+
+def wound_pairs(rest: np.ndarray) -> np.ndarray:
+    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut)."""
+    _, inverse, counts = np.unique(rest, axis=0, return_inverse=True, return_counts=True)
+    inverse = inverse.ravel()
+    shared = np.flatnonzero(counts[inverse] > 1)
+    order = shared[np.argsort(inverse[shared], kind="stable")]
+    groups = inverse[order]
+    first = np.concatenate([[True], groups[1:] != groups[:-1]])
+    leader = np.repeat(order[first], np.diff(np.append(np.flatnonzero(first), len(order))))
+    pairs = np.stack([leader, order], axis=1)
+    return pairs[pairs[:, 0] != pairs[:, 1]]
+
+
+def wound_gap(solver) -> float:
+    """The widest opening of the wound [m] at the current positions (0 if uncut)."""
+    pairs = wound_pairs(solver.rest_positions)
+    if pairs.size == 0:
+        return 0.0
+    x = solver.positions
+    return float(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).max())
+
+
+def pull_node(rest: np.ndarray, line, *, offset: float = PULL_OFFSET) -> int:
+    """The surface vertex nearest the point ``offset`` [m] beside the middle of the incision ``line`` (+y)."""
+    start, end = line
+    target = 0.5 * (start + end) + [0.0, offset, 0.0]
+    top = rest[:, 2] > target[2] - 0.02
+    candidates = np.flatnonzero(top)
+    return int(candidates[np.argmin(np.linalg.norm(rest[candidates] - target, axis=1))])
+
+
+def open_wound(solver, line, *, force: float = PULL_FORCE, offset: float = PULL_OFFSET,
+               max_steps: int = OPEN_MAX_STEPS) -> dict:
+    """Pull the node beside the cut away from it (+y) by ``force`` [N] toward equilibrium.
+
+    Returns ``{"node", "gap" [m], "steps", "settled"}``; a solve that does not settle within ``max_steps`` is
+    reported (``settled`` False, the gap where it stopped), not raised.
+    """
+    node = pull_node(solver.rest_positions, line, offset=offset)
+    try:
+        solver.solve_static(node, [0.0, force, 0.0], max_steps=max_steps)
+    except SolverError:
+        if solver.last_solve is None or not np.all(np.isfinite(solver.positions)):
+            raise
+    return {"node": node, "gap": wound_gap(solver), "steps": solver.last_solve.steps,
+            "settled": bool(solver.last_solve.converged)}

@@ -1,0 +1,126 @@
+"""Checks of a hybrid-mesh bundle's header and arrays at load, before any of them is used.
+
+A bundle is a file: it can be damaged, edited or forged. Every array is checked for dtype, shape, finiteness, index
+range and consistency with the others (the invariants :class:`~tissuesim.mesh.hybrid.HybridMesh` documents), so a
+bad bundle is a :class:`BundleError` naming the array at load, not an ``IndexError`` or a solver that never settles
+later. Geometric checks of the meshes themselves (tet orientation, degenerate tets) stay with
+:class:`~tissuesim.mesh.tetmesh.TetMesh`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import BundleError, first_indices
+
+#: Largest |sum of barycentric weights − 1| accepted (the builder's are exact to round-off).
+WEIGHT_SUM_TOLERANCE = 1e-9
+#: Largest distance, in model sizes, between a vertex and the point its embedding weights give back.
+EMBEDDING_TOLERANCE = 1e-9
+REBUILD = "the file is damaged or was edited; rebuild it with `tissuesim build MESH --output FILE`"
+
+
+def check_header(where, header: dict) -> None:
+    """The types of the header's ``format_version`` (an int), ``has_fine_volume`` (a bool) and ``info`` (a dict)."""
+    found = header.get("format_version")
+    if isinstance(found, bool) or not isinstance(found, int):
+        raise BundleError(f"{where}: the header's format_version is {found!r} ({type(found).__name__}), not an "
+                          f"integer; {REBUILD}")
+    if not isinstance(header.get("has_fine_volume"), bool):
+        raise BundleError(f"{where}: the header's has_fine_volume is {header.get('has_fine_volume')!r}, not true "
+                          f"or false, so whether the fine volume belongs to the bundle is unknown; {REBUILD}")
+    if not isinstance(header.get("info", {}), dict):
+        raise BundleError(f"{where}: the header's info is not a JSON object; {REBUILD}")
+
+
+def check_arrays(where, a: dict, *, fine: bool) -> None:
+    """Dtype, shape, finiteness, ranges and consistency of the bundle arrays ``a`` (name → array)."""
+    n = _rows(where, a, "surface_vertices", "f", 3)
+    c = _rows(where, a, "control", "i", None)
+    volume_nodes = _rows(where, a, "volume_points", "f", 3)
+    shapes = {"surface_triangles": ("i", 3, None), "coarse_triangles": ("i", 3, None), "volume_tets": ("i", 4, None),
+              "control_volume": ("i", None, c), "coarse_triangle": ("i", None, n),
+              "coarse_barycentric": ("f", 3, n), "embedding_tet": ("i", None, n), "embedding_barycentric": ("f", 4, n)}
+    if fine:
+        _rows(where, a, "fine_points", "f", 3)
+        shapes.update(fine_tets=("i", 4, None), fine_surface_nodes=("i", None, n))
+    for name, (kind, width, rows) in shapes.items():
+        found = _rows(where, a, name, kind, width)
+        if rows is not None and found != rows:
+            raise BundleError(f"{where}: array {name} has {found} rows, expected {rows}; {REBUILD}")
+    _in_range(where, a, "surface_triangles", n)
+    _in_range(where, a, "control", n)
+    if np.any(np.diff(a["control"]) <= 0):
+        raise BundleError(f"{where}: array control is not strictly increasing (M_S vertex indices of the control "
+                          f"nodes are stored sorted, each once); {REBUILD}")
+    _in_range(where, a, "coarse_triangles", c)
+    _in_range(where, a, "volume_tets", volume_nodes)
+    _in_range(where, a, "control_volume", volume_nodes)
+    _in_range(where, a, "coarse_triangle", len(a["coarse_triangles"]))
+    _in_range(where, a, "embedding_tet", len(a["volume_tets"]))
+    _same_points(where, a["volume_points"][a["control_volume"]], a["surface_vertices"][a["control"]],
+                 "volume_points[control_volume]", "surface_vertices[control]")
+    if fine:
+        _in_range(where, a, "fine_tets", len(a["fine_points"]))
+        _in_range(where, a, "fine_surface_nodes", len(a["fine_points"]))
+        _same_points(where, a["fine_points"][a["fine_surface_nodes"]], a["surface_vertices"],
+                     "fine_points[fine_surface_nodes]", "surface_vertices")
+    _weights(where, a, "coarse_barycentric", nonnegative=True)
+    _weights(where, a, "embedding_barycentric", nonnegative=False)
+    _embedding_reproduces_vertices(where, a)
+
+
+def _rows(where, a: dict, name: str, kind: str, width: int | None) -> int:
+    """Row count of ``a[name]`` after checking its dtype kind (``"i"``: integer, ``"f"``: float) and shape."""
+    array = a[name]
+    integer = np.issubdtype(array.dtype, np.integer)
+    if (kind == "i" and not integer) or (kind == "f" and not np.issubdtype(array.dtype, np.floating)):
+        wanted = "an integer" if kind == "i" else "a floating-point"
+        raise BundleError(f"{where}: array {name} has dtype {array.dtype}, expected {wanted} dtype; {REBUILD}")
+    shape = "(rows,)" if width is None else f"(rows, {width})"
+    if (width is None and array.ndim != 1) or (width is not None and (array.ndim != 2 or array.shape[1] != width)):
+        raise BundleError(f"{where}: array {name} has shape {array.shape}, expected {shape}; {REBUILD}")
+    if kind == "f":
+        bad = np.flatnonzero(~np.isfinite(array).reshape(len(array), -1).all(axis=1))
+        if bad.size:
+            raise BundleError(f"{where}: array {name} has {bad.size} non-finite rows (first: {first_indices(bad)}); "
+                              f"{REBUILD}")
+    return len(array)
+
+
+def _in_range(where, a: dict, name: str, count: int) -> None:
+    values = a[name]
+    bad = np.flatnonzero(((values < 0) | (values >= count)).reshape(len(values), -1).any(axis=1))
+    if bad.size:
+        raise BundleError(f"{where}: array {name} has {bad.size} rows with indices outside 0..{count - 1} (first "
+                          f"rows: {first_indices(bad)}); {REBUILD}")
+
+
+def _same_points(where, found: np.ndarray, expected: np.ndarray, found_name: str, expected_name: str) -> None:
+    bad = np.flatnonzero(np.any(found != expected, axis=1))
+    if bad.size:
+        raise BundleError(f"{where}: {found_name} differs from {expected_name} in {bad.size} rows (first: "
+                          f"{first_indices(bad)}); the maps between the meshes are inconsistent; {REBUILD}")
+
+
+def _weights(where, a: dict, name: str, *, nonnegative: bool) -> None:
+    w = a[name]
+    bad = np.abs(w.sum(axis=1) - 1.0) > WEIGHT_SUM_TOLERANCE
+    if nonnegative:
+        bad |= np.any(w < -WEIGHT_SUM_TOLERANCE, axis=1)
+    rows = np.flatnonzero(bad)
+    if rows.size:
+        rule = "are non-negative and sum to 1" if nonnegative else "sum to 1"
+        raise BundleError(f"{where}: array {name} has {rows.size} rows of barycentric weights that do not {rule} "
+                          f"(first: {first_indices(rows)}); {REBUILD}")
+
+
+def _embedding_reproduces_vertices(where, a: dict) -> None:
+    vertices = a["surface_vertices"]
+    corners = a["volume_points"][a["volume_tets"][a["embedding_tet"]]]            # (n, 4, 3)
+    back = np.einsum("ij,ijk->ik", a["embedding_barycentric"], corners)
+    size = float(np.linalg.norm(np.ptp(vertices, axis=0))) or 1.0
+    bad = np.flatnonzero(np.linalg.norm(back - vertices, axis=1) > EMBEDDING_TOLERANCE * size)
+    if bad.size:
+        raise BundleError(f"{where}: embedding_tet / embedding_barycentric do not give back {bad.size} M_S vertices "
+                          f"(first: {first_indices(bad)}); {REBUILD}")

@@ -1,0 +1,121 @@
+"""The scalpel of §7/§8.4: press on the surface, move to cut, release. Headless, shaped like the pin-head.
+
+    scalpel = Scalpel(solver, depth=0.01)       # blade 1 cm long [m]
+    scalpel.press(point)                        # blade along the inward normal at the press point
+    scalpel.move(point + [0.01, 0, 0])          # cuts the sweep between the previous blade and this one
+    solver.step()
+    scalpel.release()
+
+The cut is progressive: each ``move`` cuts at once, so the wound grows under the tool (the paper cuts at the
+release). Each call returns a :class:`~tissuesim.cutting.solver_update.CutReport`.
+
+Choices where the paper is silent:
+
+* the blade is a segment of ``depth`` [m] from the tool tip along ``direction``, fixed at the press (by default the
+  inward normal of the surface there), so each move sweeps a flat parallelogram;
+* ``press`` refuses a point farther than ``depth`` from the surface, naming the distance;
+* a move shorter than ``snap`` × the mean edge length is kept for later: its sweep would make only slivers, so the
+  tool's last cutting position stays until it has moved far enough;
+* ``snap`` is a fraction of the local edge length (see :mod:`tissuesim.cutting.sweep`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .cutting.core import DEFAULT_SNAP
+from .cutting.solver_update import CutReport, cut_updater
+from .cutting.sweep import Sweep, check_snap
+from .errors import SolverError
+from .interaction import _point
+from .solvers.base import positive_number
+
+#: Default blade length in mean rest edge lengths of M_S.
+DEPTH_EDGES = 2.0
+
+
+class Scalpel:
+    """Cuts a solver's fine surface M_S as a tool moves (§7).
+
+    Args:
+        solver: a hybrid, pbd, mass-spring or embedded solver (the fem reference refuses, saying why).
+        depth: blade length [m] from the tip into the tissue; default ``DEPTH_EDGES`` mean rest edge lengths.
+        snap: snap fraction of the local edge length in [0, 1/3) (default
+            :data:`tissuesim.cutting.core.DEFAULT_SNAP`).
+
+    Attributes:
+        tip: ``(3,) float64`` where the last cut stopped [m], or None when not pressed.
+        direction: ``(3,) float64`` unit blade direction, or None.
+    """
+
+    def __init__(self, solver, *, depth: float | None = None, snap: float = DEFAULT_SNAP):
+        self.solver = solver
+        self._updater = cut_updater(solver)
+        surface = solver.hybrid.surface
+        edges = surface.edges
+        self._edge = float(np.linalg.norm(surface.vertices[edges[:, 0]] - surface.vertices[edges[:, 1]],
+                                          axis=1).mean())
+        self.depth = positive_number("blade depth", DEPTH_EDGES * self._edge if depth is None else depth, "m")
+        self.snap = check_snap(snap)
+        self.tip: np.ndarray | None = None
+        self.direction: np.ndarray | None = None
+        self._anchor = -1       # the vertex where the last move's cut stopped
+
+    @property
+    def pressed(self) -> bool:
+        return self.tip is not None
+
+    def press(self, point, direction=None) -> CutReport:
+        """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` (default inward)."""
+        start = time.perf_counter()
+        from .mesh.hybrid import closest_on_surface
+        from .mesh.surface import SurfaceMesh
+
+        point = _point(point)
+        # a copy: SurfaceMesh freezes the array it is given, and the solver's positions must stay writeable
+        now = SurfaceMesh(np.array(self.solver.positions), self.solver.hybrid.surface.triangles)
+        tri, bary = closest_on_surface(now, point[None])
+        corners = now.vertices[now.triangles[tri[0]]]
+        distance = float(np.linalg.norm(bary[0] @ corners - point))
+        if distance > self.depth:
+            raise SolverError(f"nothing to cut: the point is {distance:.4g} m from the surface, farther than the "
+                              f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
+        if direction is None:
+            direction = -now.triangle_normals[tri[0]]
+        direction = _point(direction)
+        length = np.linalg.norm(direction)
+        if length == 0.0:
+            raise SolverError("the blade direction must be a non-zero vector")
+        self.tip, self.direction = point, direction / length
+        self._anchor = -1
+        return CutReport(seconds=time.perf_counter() - start)
+
+    def move(self, point) -> CutReport:
+        """Move the tip to ``point`` ``(3,)`` [m], cutting the surface the blade sweeps on the way."""
+        if self.tip is None:
+            raise SolverError("the scalpel is not pressed; call press(point) first")
+        start = time.perf_counter()
+        point = _point(point)
+        if np.linalg.norm(point - self.tip) < self.snap * self._edge:
+            return CutReport(seconds=time.perf_counter() - start)
+        report, end = self._updater.apply(Sweep.between(self._start(), point, self.depth * self.direction),
+                                          snap=self.snap)
+        self.tip = point
+        if end >= 0:
+            self._anchor = end
+        return report
+
+    def _start(self) -> np.ndarray:
+        """Where this move's sweep starts: the tip, moved across the blade so the blade passes through the vertex
+        where the last cut stopped (snapping may have ended it beside the tip), so the cut stays one path."""
+        if self._anchor < 0:
+            return self.tip
+        anchor = self.solver.positions[self._anchor]
+        return anchor - ((anchor - self.tip) @ self.direction) * self.direction
+
+    def release(self) -> CutReport:
+        """Lift the tool; the cut stays (its tips stay closed until a later cut goes on from them)."""
+        self.tip, self.direction = None, None
+        return CutReport()

@@ -1,0 +1,332 @@
+"""The simulator's window: a thin polyscope layer over :class:`~tissuesim.viewer.controller.Controller`.
+
+Each frame polyscope calls :meth:`ViewerApp.frame`, which (1) turns the mouse into pointer events — a left click
+on the surface grabs (pin-head) or starts a cut (scalpel) and turns the camera's mouse handling off until the
+button is released; a click beside the surface turns the camera as usual — (2) lets the controller run the steps
+the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a recording frame, (5) draws
+the panel. Keys: S switches pin-head / scalpel, R resets, space pauses.
+
+:class:`ReplayApp` plays a recording (``tissuesim view --replay FILE.pvd``) with a frame slider.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ..errors import TissuesimError
+from ..recording import Recorder, border_edges, solver_frame
+from ..solvers.base import available_solvers, solver_options
+from .controller import MODES, Controller
+from .gl import look_at_oblique, polyscope
+
+SURFACE = "M_S"
+WINDOW_SIZE = (1024, 720)  # pixels
+PANEL_WIDTH, PANEL_ITEM_WIDTH = 330, 150  # pixels of the panel and of one widget: the panel leaves the model in view
+DEFAULT_RECORDING = "tissuesim_session.pvd"
+BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
+FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
+
+
+class ViewerApp:
+    """The window over ``controller``; ``record`` (a .pvd path) starts recording at once.
+
+    ``headless=True`` draws into polyscope's offscreen EGL context instead of a window (for scripts, tests and
+    the benchmark, which call :meth:`tick`).
+    """
+
+    def __init__(self, controller: Controller, *, title: str = "", record=None, headless: bool = False):
+        self.controller = controller
+        self.title = title
+        self.record_path = record or DEFAULT_RECORDING
+        self.recorder = Recorder(record) if record else None
+        self.show_wireframe, self.show_control, self.show_colours = False, False, True
+        self.colour_top = 1.0  # mm at the top of the colour map
+        self.frame_seconds = 0.0  # running mean of the wall time between frames [s]
+        self.render_seconds = 0.0  # last frame's time outside the callback: polyscope's drawing [s]
+        self.callback_seconds = 0.0  # last frame's time inside the callback: events, steps, uploads, panel [s]
+        self.stats = None
+        self.sim_time = 0.0  # simulated seconds since the start [s]
+        self._pending = {}  # slider values not yet applied (see _apply_on_release)
+        self._topology = None
+        self._dragging = False
+        self._mouse = None
+        self._last = None
+        self.headless = headless
+        self.ps = polyscope(headless=headless)
+        style_window(self.ps)
+
+    # ------------------------------------------------------------------------------------------------ running
+    def run(self) -> None:
+        """Open the window and run until it is closed."""
+        self.ps.set_user_callback(self.frame)
+        try:
+            self.ps.show()
+        finally:
+            self.close()
+
+    def tick(self) -> None:
+        """One frame without a window: the callback, then polyscope's render (headless scripts)."""
+        self.ps.set_user_callback(self.frame)
+        self.ps.frame_tick()
+
+    def close(self) -> None:
+        if self.recorder is not None:
+            self.recorder.close()
+            self.recorder = None
+
+    def frame(self) -> None:
+        """Polyscope's per-frame callback."""
+        import polyscope.imgui as psim
+
+        now = time.perf_counter()
+        elapsed = 0.0 if self._last is None else now - self._last
+        self._last = now
+        if elapsed > 0.0:  # the time outside this callback is polyscope's rendering and the window's event loop
+            self.render_seconds = max(elapsed - self.callback_seconds, 0.0)
+            self.frame_seconds = elapsed if self.frame_seconds == 0.0 else (
+                (1.0 - FRAME_SMOOTHING) * self.frame_seconds + FRAME_SMOOTHING * elapsed)
+        if not self.headless:  # headless, a script drives the controller: there is no mouse to read
+            self._keys(psim)
+            self._pointer(psim)
+        self.stats = self.controller.advance(elapsed)
+        self.sim_time += self.stats.steps * self.controller.settings.dt
+        self.draw()
+        if self.recorder is not None and self.stats.steps:
+            self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+        self._panel(psim)
+        self.callback_seconds = time.perf_counter() - now
+
+    # ---------------------------------------------------------------------------------------------- drawing
+    def draw(self) -> None:
+        """Send the controller's current surface (and the optional layers) to polyscope."""
+        ps, solver = self.ps, self.controller.solver
+        triangles = solver.hybrid.surface.triangles
+        x = solver.positions
+        if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
+            self._topology = triangles
+            ps.remove_all_structures()
+            self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
+            cut = border_edges(triangles)
+            self.cut = ps.register_curve_network("cut edges", x, cut, color=(0.9, 0.05, 0.05)) if len(cut) else None
+            look_at_oblique(ps, x, distance=3.4)
+        else:
+            self.mesh.update_vertex_positions(x)
+            if self.cut is not None:
+                self.cut.update_node_positions(x)
+        if self.show_colours:
+            mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
+            self.colour_top = max(float(mm.max()), 1.0)
+            self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, self.colour_top))
+        else:
+            self.mesh.remove_all_quantities()
+        self._layers(x)
+
+    def _layers(self, x) -> None:
+        ps, hybrid = self.ps, self.controller.solver.hybrid
+        control = x[hybrid.control]
+        if self.show_wireframe:  # M_V's boundary (M'_S): its nodes are the control nodes, moved by the FEM
+            ps.register_curve_network("M_V wireframe", control, hybrid.coarse_surface.edges,
+                                      color=(0.1, 0.2, 0.6)).set_radius(0.0015, relative=True)
+        elif ps.has_curve_network("M_V wireframe"):
+            ps.remove_curve_network("M_V wireframe")
+        if self.show_control:
+            ps.register_point_cloud("control nodes", control, color=(0.95, 0.6, 0.1)).set_radius(0.004, relative=True)
+        elif ps.has_point_cloud("control nodes"):
+            ps.remove_point_cloud("control nodes")
+        cursor, pin = self.controller.cursor, self.controller.pin
+        if cursor is not None:
+            ps.register_point_cloud("pin-head", cursor[None], color=(0.85, 0.1, 0.1)).set_radius(0.01, relative=True)
+        elif ps.has_point_cloud("pin-head"):
+            ps.remove_point_cloud("pin-head")
+        if cursor is not None and pin.grabbed:  # the spring of eq 24, from the held node to the cursor
+            spring = ps.register_curve_network("spring", np.array([x[pin.node], cursor]), np.array([[0, 1]]),
+                                               color=(0.85, 0.1, 0.1))
+            spring.set_radius(0.002, relative=True)
+        elif ps.has_curve_network("spring"):
+            ps.remove_curve_network("spring")
+
+    # ---------------------------------------------------------------------------------------------- input
+    def _pointer(self, psim) -> None:
+        io = psim.GetIO()
+        if not psim.IsMousePosValid() or (io.WantCaptureMouse and not self._dragging):
+            return
+        mouse = tuple(io.MousePos)
+        moved, self._mouse = mouse != self._mouse, mouse
+        c = self.controller
+        if psim.IsMouseClicked(0):
+            hit, ray = self._pick(mouse)
+            c.pointer_down(hit, *ray)
+            self._dragging = hit is not None and (c.pin.grabbed or c.mode == "scalpel")
+            self.ps.set_do_default_mouse_interaction(not self._dragging)
+        elif psim.IsMouseReleased(0) and self._dragging:
+            c.pointer_up()
+            self._dragging = False
+            self.ps.set_do_default_mouse_interaction(True)
+        elif moved and (self._dragging or c.mode == "pin"):
+            hit, ray = self._pick(mouse) if (c.mode == "scalpel" or not self._dragging) else (None, self._ray(mouse))
+            c.pointer_move(hit, *ray)
+
+    def _pick(self, mouse):
+        result = self.ps.pick(screen_coords=mouse)
+        # every drawn structure lies on the surface (the pin-head under the cursor is hit first when hovering)
+        hit = result.position if result.is_hit else None
+        return hit, self._ray(mouse)
+
+    def _ray(self, mouse):
+        origin = np.asarray(self.ps.get_view_camera_parameters().get_position())
+        return origin, self.ps.screen_coords_to_world_ray(mouse)
+
+    def _keys(self, psim) -> None:
+        if psim.GetIO().WantCaptureKeyboard:
+            return
+        for key, name in ((psim.ImGuiKey_S, "s"), (psim.ImGuiKey_R, "r"), (psim.ImGuiKey_Space, "space")):
+            if psim.IsKeyPressed(key, False):
+                self.controller.key(name)
+                if name == "r":
+                    self._topology = None
+
+    # ---------------------------------------------------------------------------------------------- panel
+    def _panel(self, psim) -> None:
+        c, s = self.controller, self.controller.settings
+        psim.PushItemWidth(PANEL_ITEM_WIDTH)
+        if self.title:
+            psim.TextUnformatted(self.title)
+        for mode in MODES:
+            if psim.RadioButton("pin-head" if mode == "pin" else "scalpel", c.mode == mode):
+                c.set_mode(mode)
+            psim.SameLine()
+        psim.TextUnformatted("(S)")
+        methods = list(available_solvers())
+        changed, index = psim.Combo("method", methods.index(s.method), methods)
+        if changed:
+            self._configure(method=methods[index])
+        self._material(psim, s)
+        self._timing(psim)
+        if psim.Button("reset (R)"):
+            c.reset()
+            self._topology = None
+        psim.SameLine()
+        if psim.Button("stop recording" if self.recorder else "record"):
+            self._toggle_recording()
+        _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
+        _, self.show_control = psim.Checkbox("control nodes", self.show_control)
+        _, self.show_colours = psim.Checkbox("displacement colours", self.show_colours)
+        if self.show_colours:
+            psim.TextUnformatted(f"colours: |u| from 0 to {self.colour_top:.1f} mm (viridis)")
+        if c.notice:
+            psim.TextWrapped(c.notice)
+        psim.PopItemWidth()
+
+    def _material(self, psim, s) -> None:
+        enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
+        changed, e = psim.InputFloat("E [Pa]", s.youngs_modulus, 0.0, 0.0, "%.0f", enter)
+        if changed:
+            self._configure(youngs_modulus=e)
+        _, self._pending["poisson_ratio"] = psim.SliderFloat("nu", self._pending.get("poisson_ratio",
+                                                                                     s.poisson_ratio), 0.0, 0.49)
+        self._apply_on_release(psim, "poisson_ratio")
+        changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
+        if changed:
+            self._configure(stiffness=k)
+        if hasattr(self.controller.pin, "radius"):
+            radius_mm = 1e3 * (s.radius or 0.0)
+            changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
+            if changed:
+                self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
+        if "iterations" in solver_options(s.method):
+            current = s.iterations or solver_options(s.method)["iterations"]
+            _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
+                                                            1, 50)
+            self._apply_on_release(psim, "iterations")
+        changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
+        if changed:
+            self._configure(dt=dt_ms * 1e-3)
+
+    def _timing(self, psim) -> None:
+        st, c = self.stats, self.controller
+        step_ms = 1e3 * st.step_seconds if st else 0.0
+        fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
+        psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
+        psim.TextUnformatted(f"simulated {self.sim_time:.2f} s")
+        psim.TextUnformatted(f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else ""))
+        if st and (st.behind or st.dropped > 0.0):
+            psim.TextColored(BEHIND, "slower than real time (a step > dt)" if st.behind else
+                             "slower than real time (drawing)")
+        if c.paused:
+            psim.TextColored(BEHIND, "paused (space)")
+
+    def _apply_on_release(self, psim, name: str) -> None:
+        """Settings that rebuild the solver change when the slider is let go, not on every pixel of the drag."""
+        if psim.IsItemDeactivatedAfterEdit():
+            self._configure(**{name: self._pending.pop(name)})
+        elif not psim.IsItemActive():
+            self._pending.pop(name, None)
+
+    def _configure(self, **changes) -> None:
+        try:
+            self.controller.configure(**changes)
+            self._topology = None
+        except TissuesimError as error:
+            self.controller.notice = str(error)
+
+    def _toggle_recording(self) -> None:
+        if self.recorder is None:
+            try:
+                self.recorder = Recorder(self.record_path)
+            except TissuesimError as error:
+                self.controller.notice = str(error)
+        else:
+            self.close()
+            self.controller.notice = f"recorded to {self.record_path}"
+
+
+def style_window(ps) -> None:
+    """z up, no ground shadow (its pass costs more than the rest of a software-rendered frame), our panel only."""
+    ps.set_up_dir("z_up")
+    ps.set_front_dir("neg_y_front")
+    ps.set_ground_plane_mode("none")
+    ps.set_window_size(*WINDOW_SIZE)
+    ps.set_build_default_gui_panels(False)
+    ps.set_user_gui_is_on_right_side(True)
+    ps.set_right_gui_pane_width(PANEL_WIDTH)
+
+
+class ReplayApp:
+    """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button."""
+
+    def __init__(self, frames, *, title: str = "", headless: bool = False):
+        if not frames:
+            raise TissuesimError("the recording holds no frame")
+        self.frames, self.title = frames, title
+        self.index, self.playing, self._topology = 0, True, None
+        self.ps = polyscope(headless=headless)
+        style_window(self.ps)
+
+    def run(self) -> None:
+        self.ps.set_user_callback(self.frame)
+        self.ps.show()
+
+    def frame(self) -> None:
+        import polyscope.imgui as psim
+
+        frame = self.frames[self.index]
+        if self._topology is not frame.triangles:
+            self._topology = frame.triangles
+            self.ps.remove_all_structures()
+            self.mesh = self.ps.register_surface_mesh(SURFACE, frame.positions, frame.triangles, smooth_shade=True,
+                                                      material="clay")
+            if self.index == 0:
+                look_at_oblique(self.ps, frame.positions, distance=3.4)
+        self.mesh.update_vertex_positions(frame.positions)
+        mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
+        self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, max(mm.max(), 1.0)))
+        force = np.linalg.norm(frame.force, axis=1).max()
+        psim.TextUnformatted(f"{self.title}  t = {frame.time:.3f} s, force {force:.3f} N")
+        _, self.playing = psim.Checkbox("play", self.playing)
+        changed, index = psim.SliderInt("frame", self.index, 0, len(self.frames) - 1)
+        if changed:
+            self.index, self.playing = index, False
+        elif self.playing:
+            self.index = (self.index + 1) % len(self.frames)

@@ -1,0 +1,304 @@
+"""The simulator's interaction logic, without any window: pointer and key events in, PinHead / Scalpel calls out.
+
+A window layer (:mod:`tissuesim.viewer.app`) turns mouse events into *pointer events* — the picked surface point
+under the cursor (or None) and the camera ray through it — and calls :meth:`Controller.advance` once per frame
+with the wall time that passed. Everything else happens here, so it is tested without OpenGL:
+
+* **pin-head mode** (§8.2): pointer down on the surface snaps the pin-head to the nearest M_S node
+  (:meth:`PinHead.grab`); moving drags the cursor in the *camera plane* (the plane through the grab point facing
+  the camera), so f = k (x − x0) (eq 24) lies in the screen plane as on a haptic-free desktop; pointer up releases;
+* **scalpel mode** (§8.4): pointer down, move and up call ``Scalpel.press / move / release``, with the picked
+  surface point (or, off the surface, the camera-plane point through the last blade point);
+* **settings** (method, E, ν, k, contact radius, iterations, dt) change live: a change that alters the solver
+  (method, material, iterations) builds a new one over the current mesh and re-applies a held pin-head;
+* **time**: the simulation runs at its own fixed dt (:meth:`advance`), as many steps as the wall time asks, at most
+  :data:`MAX_STEPS_PER_FRAME` steps and :data:`STEP_BUDGET` seconds per frame so a slow method never freezes the
+  window; when one step takes longer than dt of wall time the simulation is slower than real time and
+  :attr:`FrameStats.behind` says so.
+
+Choices where the paper is silent: the default pin-head stiffness :data:`DEFAULT_STIFFNESS` [N/m] (a 2 cm drag is
+1 N, the middle of the experiments' 0.5–20 N range); a grab that misses every node within the snap radius leaves
+the pin-head free and says why in :attr:`Controller.notice`, instead of raising into the window loop.
+"""
+
+from __future__ import annotations
+
+import inspect
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import SolverError, TissuesimError
+from ..interaction import PinHead
+from ..solvers.base import available_solvers, make_solver, positive_number, solver_options
+
+DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
+MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
+STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
+SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
+MODES = ("pin", "scalpel")
+# settings whose change needs a new solver (the others are set on the live objects)
+_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations")
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the panel edits.
+
+    Attributes:
+        method: solver name (``tissuesim.available_solvers()``).
+        youngs_modulus: E [Pa]. poisson_ratio: ν [-].
+        stiffness: pin-head k of eq 24 [N/m].
+        radius: pin-head contact radius [m], or None for a point load (only where PinHead takes one).
+        iterations: PBD iterations per step, or None where the method has none (or keeps its default).
+        dt: simulation time step [s].
+    """
+
+    method: str = "hybrid"
+    youngs_modulus: float = 5500.0
+    poisson_ratio: float = 0.3
+    stiffness: float = DEFAULT_STIFFNESS
+    radius: float | None = None
+    iterations: int | None = None
+    dt: float = 0.01
+
+
+@dataclass(frozen=True)
+class FrameStats:
+    """What :meth:`Controller.advance` did this frame.
+
+    Attributes:
+        steps: simulation steps run. step_seconds: mean wall time of one step [s] (running mean).
+        behind: True when a step takes longer than dt, i.e. the simulation runs slower than real time.
+        dropped: simulated time [s] given up this frame because the frame's step budget was spent.
+    """
+
+    steps: int
+    step_seconds: float
+    behind: bool
+    dropped: float
+
+
+def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
+    """``(3,)`` point [m] where the ray ``origin + t direction`` meets the plane through ``anchor`` facing it.
+
+    The plane's normal is the ray direction, so moving the cursor moves the point parallel to the screen. Returns
+    None when the anchor lies behind the camera.
+    """
+    origin, direction, anchor = (np.asarray(v, dtype=np.float64) for v in (origin, direction, anchor))
+    direction = direction / np.linalg.norm(direction)
+    t = float(np.dot(anchor - origin, direction))
+    return None if t <= 0.0 else origin + t * direction
+
+
+def scalpel_class():
+    """The Scalpel class, or None where this installation has none (scalpel mode is then unavailable)."""
+    try:
+        from ..scalpel import Scalpel
+    except ImportError:
+        return None
+    return Scalpel
+
+
+class Controller:
+    """Interaction logic of the simulator over one hybrid mesh.
+
+    Args:
+        hybrid: the :class:`~tissuesim.mesh.hybrid.HybridMesh` to simulate (kept for :meth:`reset`).
+        settings: initial :class:`Settings`.
+        scalpel_factory: ``solver -> scalpel`` with press / move / release; default: ``tissuesim.Scalpel`` where
+            installed, else scalpel mode is unavailable.
+        clock: seconds, monotonic (injectable for tests).
+
+    Attributes:
+        solver, pin (PinHead), scalpel (or None), mode ("pin" or "scalpel"), paused, settings, notice (a line for
+        the user or ""), cursor (``(3,)`` pin-head position [m] or None), force (``(3,)`` current pin-head force [N]),
+        last_cut (the last report the scalpel returned, or None).
+    """
+
+    def __init__(self, hybrid, *, settings: Settings = Settings(), scalpel_factory=None, clock=time.perf_counter):
+        self.hybrid = hybrid
+        self.clock = clock
+        self._scalpel_factory = scalpel_class() if scalpel_factory is None else scalpel_factory
+        self.mode = "pin"
+        self.paused = False
+        self.notice = ""
+        self.cursor: np.ndarray | None = None
+        self.force = np.zeros(3)
+        self.last_cut = None
+        self._cutting = False
+        self._blade: np.ndarray | None = None
+        self._debt = 0.0
+        self._step_seconds = 0.0
+        self.settings = self._checked(settings)
+        self._build(hybrid)
+
+    # ---------------------------------------------------------------------------------------------- properties
+    @property
+    def scalpel_available(self) -> bool:
+        """Whether scalpel mode works with the current method (else :meth:`set_mode` says why not)."""
+        return self.scalpel is not None
+
+    @property
+    def force_newtons(self) -> float:
+        """|f| of the pin-head [N]."""
+        return float(np.linalg.norm(self.force))
+
+    # ----------------------------------------------------------------------------------------------- pointer
+    def pointer_down(self, hit, ray_origin, ray_direction) -> None:
+        """Button down: ``hit`` ``(3,)`` picked surface point [m] or None; the camera ray through the cursor."""
+        self.notice = ""
+        if hit is None:
+            return
+        hit = np.asarray(hit, dtype=np.float64)
+        if self.mode == "pin":
+            try:
+                self.pin.grab(hit)
+            except SolverError as error:
+                self.notice = str(error)
+                return
+            self.cursor, self.force = hit, np.zeros(3)
+        else:
+            try:
+                self.last_cut = self.scalpel.press(hit)  # the blade along the inward normal there
+            except SolverError as error:
+                self.notice = str(error)
+                return
+            self._cutting, self._blade = True, hit
+
+    def pointer_move(self, hit, ray_origin, ray_direction) -> None:
+        """Cursor moved: drag the held pin-head in the camera plane, or move the blade."""
+        if self.mode == "pin":
+            if not self.pin.grabbed:
+                self.cursor = None if hit is None else np.asarray(hit, dtype=np.float64)
+                return
+            point = camera_plane_point(ray_origin, ray_direction, self.pin.anchor)
+            if point is not None:
+                self.cursor, self.force = point, self.pin.drag(point)
+        elif self._cutting:
+            point = hit if hit is not None else camera_plane_point(ray_origin, ray_direction, self._blade)
+            if point is not None:
+                self._blade = np.asarray(point, dtype=np.float64)
+                self.last_cut = self.scalpel.move(self._blade)
+
+    def pointer_up(self) -> None:
+        """Button up: release the pin-head (the force goes) or lift the blade."""
+        if self.mode == "pin":
+            self.pin.release()
+            self.force = np.zeros(3)
+        elif self._cutting:
+            self.last_cut = self.scalpel.release()
+            self._cutting = False
+
+    def key(self, name: str) -> None:
+        """Keyboard: "s" switches pin-head / scalpel, "r" resets, "space" pauses and resumes."""
+        actions = {"s": self.toggle_mode, "r": self.reset, "space": self.toggle_pause}
+        if name in actions:
+            actions[name]()
+
+    # ---------------------------------------------------------------------------------------------- commands
+    def toggle_mode(self) -> None:
+        self.set_mode("scalpel" if self.mode == "pin" else "pin")
+
+    def set_mode(self, mode: str) -> None:
+        if mode not in MODES:
+            raise SolverError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
+        if mode == "scalpel" and self.scalpel is None:
+            self.notice = self._no_scalpel
+            return
+        self.pointer_up()  # never leave a load or a cut dangling across a mode switch
+        self.mode = mode
+
+    def toggle_pause(self) -> None:
+        self.paused = not self.paused
+
+    def reset(self) -> None:
+        """Back to the uncut mesh at rest, without load."""
+        self._cutting = False
+        self._build(self.hybrid)
+
+    def configure(self, **changes) -> None:
+        """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
+        settings = self._checked(replace(self.settings, **changes))
+        rebuild = any(getattr(settings, name) != getattr(self.settings, name) for name in _REBUILD)
+        self.settings = settings
+        if rebuild:
+            self._build(self.solver.hybrid, carry=True)
+        else:
+            self.solver.dt = settings.dt
+            self.pin.stiffness = settings.stiffness
+            if self.pin.grabbed and self.cursor is not None:
+                self.force = self.pin.drag(self.cursor)
+            if _accepts(PinHead, "radius"):
+                self.pin.radius = settings.radius
+
+    # ---------------------------------------------------------------------------------------------- time
+    def advance(self, elapsed: float) -> FrameStats:
+        """Run the simulation steps that ``elapsed`` [s] of wall time ask for (at most MAX_STEPS_PER_FRAME)."""
+        dt = self.settings.dt
+        if self.paused:
+            return FrameStats(0, self._step_seconds, False, 0.0)
+        self._debt += max(float(elapsed), 0.0)
+        steps, began = 0, self.clock()
+        while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
+            start = self.clock()
+            self.solver.step(dt)
+            took = self.clock() - start
+            self._step_seconds = took if self._step_seconds == 0.0 else (
+                (1.0 - SMOOTHING) * self._step_seconds + SMOOTHING * took)
+            self._debt -= dt
+            steps += 1
+        dropped = self._debt - self._debt % dt if self._debt >= dt else 0.0  # never owe more than one step:
+        self._debt -= dropped  # a slow frame loses simulated time instead of spiralling behind
+        return FrameStats(steps, self._step_seconds, self._step_seconds > dt, dropped)
+
+    # ---------------------------------------------------------------------------------------------- internals
+    def _checked(self, settings: Settings) -> Settings:
+        if settings.method not in available_solvers():
+            raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
+        positive_number("pin-head stiffness", settings.stiffness, "N/m")
+        positive_number("time step dt", settings.dt, "s")
+        if settings.radius is not None:
+            positive_number("contact radius", settings.radius, "m")
+        if settings.iterations is not None and int(settings.iterations) < 1:
+            raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
+        return settings
+
+    def _solver_options(self) -> dict:
+        s = self.settings
+        options = {"youngs_modulus": s.youngs_modulus, "poisson_ratio": s.poisson_ratio, "dt": s.dt}
+        if s.iterations is not None and "iterations" in solver_options(s.method):
+            options["iterations"] = int(s.iterations)
+        return options
+
+    def _build(self, hybrid, *, carry: bool = False) -> None:
+        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node."""
+        held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
+        solver = make_solver(self.settings.method, hybrid, **self._solver_options())  # raises before any change
+        self.solver = solver
+        pin_options = {"stiffness": self.settings.stiffness}
+        if self.settings.radius is not None and _accepts(PinHead, "radius"):
+            pin_options["radius"] = self.settings.radius
+        self.pin = PinHead(solver, **pin_options)
+        self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
+        if self._scalpel_factory is not None:
+            try:
+                self.scalpel = self._scalpel_factory(solver)
+            except TissuesimError as error:  # e.g. a method that cannot be cut
+                self._no_scalpel = f"no scalpel with the {solver.name} method: {error}"
+        if self.scalpel is None and self.mode == "scalpel":
+            self.mode, self._cutting = "pin", False
+        self._debt = 0.0
+        self._step_seconds = 0.0
+        if held is not None:
+            self.pin.node, self.pin.anchor = held
+            self.force = self.pin.drag(self.cursor) if self.cursor is not None else np.zeros(3)
+        else:
+            self.force = np.zeros(3)
+            if self.mode == "pin":
+                self.cursor = None
+
+
+def _accepts(cls, name: str) -> bool:
+    return name in inspect.signature(cls).parameters

@@ -1,0 +1,224 @@
+"""The simulator's interaction logic without OpenGL: pointer events → PinHead / Scalpel, settings, fixed-dt time."""
+
+import numpy as np
+import pytest
+
+from tissuesim import HybridMesh, PinHead, SolverError
+from tissuesim.mesh import models
+from tissuesim.viewer import controller as controller_module
+from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
+
+DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down
+
+
+@pytest.fixture(scope="module")
+def hybrid():
+    return HybridMesh.build(models.sphere(resolution=200))
+
+
+class FakeScalpel:
+    """Records the calls the controller makes; stands in for tissuesim.Scalpel's press / move / release."""
+
+    def __init__(self, solver):
+        self.solver, self.calls = solver, []
+
+    def press(self, point, direction=None):
+        self.calls.append(("press", np.array(point), direction))
+        return {"cut": 0}
+
+    def move(self, point):
+        self.calls.append(("move", np.array(point)))
+        return {"cut": len(self.calls)}
+
+    def release(self):
+        self.calls.append(("release",))
+        return {"cut": len(self.calls)}
+
+
+class Clock:
+    """A clock that advances by a fixed wall time per reading, so every step takes exactly that long."""
+
+    def __init__(self, step_seconds):
+        self.now, self.step_seconds = 0.0, step_seconds
+
+    def __call__(self):
+        self.now += self.step_seconds
+        return self.now
+
+
+def top_of(controller):
+    x = controller.solver.positions
+    return x[np.argmax(x[:, 2])].copy()
+
+
+def above(point, height=0.5):
+    return point + [0.0, 0.0, height]
+
+
+def test_camera_plane_point_moves_parallel_to_the_screen():
+    anchor = np.array([0.1, 0.2, 0.3])
+    point = camera_plane_point([0.15, 0.2, 1.0], DOWN, anchor)
+    assert np.allclose(point, [0.15, 0.2, 0.3])  # same depth as the anchor, under the cursor
+    assert camera_plane_point([0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, -1.0]) is None  # behind the camera
+
+
+def test_press_drag_release_applies_eq24_in_the_camera_plane_and_withdraws_it(hybrid):
+    c = Controller(hybrid, settings=Settings(stiffness=40.0))
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    node = c.pin.node
+    assert node is not None and c.solver.load is None  # a grab alone applies no force
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)  # the cursor slides 1 cm sideways on screen
+    assert np.allclose(c.force, [0.4, 0.0, 0.0])  # k (x − x0), x in the plane through the grab point
+    assert c.solver.load[0] == node and np.allclose(c.solver.load[1], c.force)
+    c.advance(0.05)
+    assert c.solver.positions[node, 0] > hybrid.surface.vertices[node, 0]
+    c.pointer_up()
+    assert c.solver.load is None and c.force_newtons == 0.0 and not c.pin.grabbed
+
+
+def test_a_press_beside_the_surface_grabs_nothing_and_says_why(hybrid):
+    c = Controller(hybrid)
+    c.pointer_down(None, [0.0, 0.0, 1.0], DOWN)  # nothing picked: the camera turns instead
+    assert not c.pin.grabbed and c.notice == ""
+    c.pointer_down(top_of(c) + [0.0, 0.0, 0.3], [0.0, 0.0, 1.0], DOWN)  # a point far from every node
+    assert not c.pin.grabbed and "nothing to grab" in c.notice
+
+
+def test_hover_moves_the_pin_head_with_the_cursor(hybrid):
+    c = Controller(hybrid)
+    top = top_of(c)
+    c.pointer_move(top, above(top), DOWN)
+    assert np.array_equal(c.cursor, top) and c.solver.load is None
+
+
+def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
+    c = Controller(hybrid, scalpel_factory=FakeScalpel)
+    c.key("s")
+    assert c.mode == "scalpel"
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(top + [0.005, 0.0, 0.0], above(top), DOWN)
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)  # off the surface: the camera-plane point
+    c.pointer_up()
+    calls = c.scalpel.calls
+    assert [call[0] for call in calls] == ["press", "move", "move", "release"]
+    assert np.array_equal(calls[0][1], top) and calls[0][2] is None  # the blade along the surface's inward normal
+    assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0])
+    assert c.last_cut == {"cut": 4} and c.solver.load is None
+
+
+def test_scalpel_mode_is_refused_with_a_notice_where_no_scalpel_exists(hybrid, monkeypatch):
+    monkeypatch.setattr(controller_module, "scalpel_class", lambda: None)  # an installation without Scalpel
+    c = Controller(hybrid)
+    c.set_mode("scalpel")
+    assert c.mode == "pin" and "Scalpel" in c.notice and not c.scalpel_available
+
+
+def test_a_method_that_cannot_be_cut_falls_back_to_the_pin_head_and_says_why(hybrid):
+    def scalpel_unless_fem(solver):
+        if solver.name == "fem":
+            raise SolverError("the fem reference cannot be cut")
+        return FakeScalpel(solver)
+
+    c = Controller(hybrid, scalpel_factory=scalpel_unless_fem)
+    c.set_mode("scalpel")
+    c.configure(method="fem")
+    assert c.mode == "pin" and not c.scalpel_available
+    c.set_mode("scalpel")
+    assert c.mode == "pin" and "cannot be cut" in c.notice
+    c.configure(method="hybrid")
+    c.set_mode("scalpel")
+    assert c.mode == "scalpel"
+
+
+def test_switching_mode_releases_a_held_pin_head(hybrid):
+    c = Controller(hybrid, scalpel_factory=FakeScalpel)
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.0, 0.01, 0.0]), DOWN)
+    c.toggle_mode()
+    assert c.mode == "scalpel" and c.solver.load is None
+
+
+def test_method_switch_is_live_and_keeps_the_held_load(hybrid):
+    c = Controller(hybrid, settings=Settings(stiffness=40.0))
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)
+    node = c.pin.node
+    c.configure(method="pbd")
+    assert c.solver.name == "pbd" and c.solver.load[0] == node and np.allclose(c.solver.load[1], [0.4, 0.0, 0.0])
+
+
+def test_settings_reach_the_solver_and_pin_head(hybrid):
+    c = Controller(hybrid)
+    c.configure(youngs_modulus=11000.0, poisson_ratio=0.45, iterations=4, dt=0.005, stiffness=80.0)
+    assert c.solver.youngs_modulus == 11000.0 and c.solver.poisson_ratio == 0.45
+    assert c.solver.iterations == 4 and c.solver.dt == 0.005 and c.pin.stiffness == 80.0
+    c.configure(method="embedded")  # a method without iterations keeps working
+    assert c.solver.name == "embedded"
+
+
+def test_a_bad_setting_changes_nothing(hybrid):
+    c = Controller(hybrid)
+    solver = c.solver
+    with pytest.raises(SolverError, match="dt"):
+        c.configure(dt=-1.0)
+    with pytest.raises(SolverError, match="unknown method"):
+        c.configure(method="magic")
+    assert c.solver is solver and c.settings == Settings()
+
+
+def test_reset_returns_to_rest_without_load(hybrid):
+    c = Controller(hybrid)
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.0, 0.02, 0.0]), DOWN)
+    c.advance(0.1)
+    c.key("r")
+    assert c.solver.load is None and np.array_equal(c.solver.positions, hybrid.surface.vertices)
+
+
+def test_advance_runs_the_steps_wall_time_asks_for_at_fixed_dt(hybrid):
+    c = Controller(hybrid, clock=Clock(0.001))
+    assert c.advance(0.035).steps == 3  # 35 ms at dt = 10 ms: 3 steps, 5 ms carried to the next frame
+    assert c.advance(0.005).steps == 1
+    stats = c.advance(1.0)  # a long stall: at most MAX_STEPS_PER_FRAME, the rest is dropped, not owed
+    assert stats.steps == MAX_STEPS_PER_FRAME and stats.dropped > 0.7 and not stats.behind
+    assert c.advance(0.0).steps == 0
+
+
+def test_a_step_slower_than_dt_is_reported_behind(hybrid):
+    c = Controller(hybrid, clock=Clock(0.02))  # every step takes 20 ms of wall time, dt is 10 ms
+    stats = c.advance(0.02)
+    assert stats.behind and stats.step_seconds == pytest.approx(0.02)
+
+
+def test_pause_stops_time(hybrid):
+    c = Controller(hybrid)
+    c.key("space")
+    assert c.advance(0.1).steps == 0
+    c.key("space")
+    assert c.advance(0.01).steps == 1
+
+
+@pytest.mark.skipif("radius" not in __import__("inspect").signature(PinHead).parameters,
+                    reason="PinHead has no contact radius in this version")
+def test_the_contact_radius_reaches_the_pin_head(hybrid):
+    c = Controller(hybrid, settings=Settings(radius=0.01))
+    assert c.pin.radius == 0.01
+    c.configure(radius=0.005)
+    assert c.pin.radius == 0.005
+
+
+def test_a_bundle_opens_as_saved_and_the_fem_method_says_what_it_lacks(tmp_path):
+    from tissuesim.commands.view import load_hybrid
+
+    HybridMesh.build(models.cube(resolution=150), fine_volume=False).save(tmp_path / "cube.npz")
+    hybrid, name = load_hybrid(str(tmp_path / "cube.npz"))
+    assert name == "cube" and hybrid.fine_volume is None
+    c = Controller(hybrid)
+    with pytest.raises(SolverError, match="fine volume"):
+        c.configure(method="fem")
+    assert c.solver.name == "hybrid"
