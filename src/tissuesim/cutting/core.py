@@ -27,6 +27,9 @@ from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
 DEFAULT_SNAP = 0.25
+#: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
+#: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
+GUARD_QUALITY = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -90,6 +93,8 @@ class _Points:
 
     n: int
     snap: float
+    rest: np.ndarray                              # (n, 3) rest positions: the quality guard measures there
+    opposite: dict = field(default_factory=dict)  # (lo, hi) -> opposite vertices of the edge's triangles
     edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
     facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
     parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
@@ -99,7 +104,7 @@ class _Points:
         """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
         from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
         w = np.where(w < self.snap, 0.0, w)
-        w = w / w.sum()
+        w = self._guard(corners, w / w.sum())
         nonzero = np.flatnonzero(w)
         if nonzero.size == 1:
             return ("v", int(corners[nonzero[0]]))
@@ -113,6 +118,33 @@ class _Points:
                 return ("v", hi)
             return ("e", lo, hi, t)
         return ("f", triangle, w)
+
+    def _guard(self, corners, w):
+        """Snap further while a piece the point would make in this triangle falls below :data:`GUARD_QUALITY` at
+        rest: a facet point onto the edge of its worst piece, an edge point onto the nearer end (repeated re-cuts
+        would otherwise thin the triangles step by step)."""
+        p = self.rest[corners]
+        while np.count_nonzero(w) > 1:
+            x = w @ p
+            inside = np.flatnonzero(w)
+            if inside.size == 3:
+                pieces = [(x, p[i], p[(i + 1) % 3]) for i in range(3)]        # piece i lies on edge (i, i + 1)
+            else:
+                i, j = inside
+                key = tuple(sorted((int(corners[i]), int(corners[j]))))
+                # the pieces in both triangles of the edge (the neighbour gets the point too, Fig 7(a))
+                others = self.opposite.get(key) or [int(corners[3 - i - j])]
+                pieces = [(x, p[e], self.rest[o]) for o in others for e in (i, j)]
+            quality = [_quality3(*piece) for piece in pieces]
+            if min(quality) >= GUARD_QUALITY:
+                break
+            if inside.size == 3:
+                worst = int(np.argmin(quality))
+                w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
+            else:
+                w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
+            w = w / w.sum()
+        return w
 
     def same(self, a: tuple, b: tuple) -> bool:
         """Whether two located points are one point after snapping (then the segment between them is dropped)."""
@@ -174,7 +206,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
-    points = _Points(n=n, snap=snap)
+    points = _Points(n=n, snap=snap, rest=rest, opposite=_opposites(triangles, near))
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
@@ -224,6 +256,21 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
                      copy_of=copies, triangle_origin=triangle_origin, changed=changed,
                      cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
                      closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
+
+
+def _opposites(triangles, rows) -> dict:
+    """For each edge of ``rows``: the opposite vertex in each of those triangles holding it."""
+    opposite: dict = {}
+    for a, b, c in triangles[rows].tolist():
+        for u, v, w in ((a, b, c), (b, c, a), (c, a, b)):
+            opposite.setdefault((u, v) if u < v else (v, u), []).append(w)
+    return opposite
+
+
+def _quality3(a, b, c) -> float:
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate)."""
+    squares = np.sum((b - a) ** 2) + np.sum((c - b) ** 2) + np.sum((a - c) ** 2)
+    return 2.0 * np.sqrt(3.0) * np.linalg.norm(np.cross(b - a, c - a)) / squares if squares > 0.0 else 0.0
 
 
 def _farthest(segments, positions, sweep) -> int:
