@@ -1,5 +1,5 @@
 # Two commands for a fresh machine:
-#   make run   set up, then run the paper's experiments on the built-in models (report in results/)
+#   make run   set up, then run the paper's experiments (results/) and the contact protocol (results/contact/)
 #   make test  set up, then run the test suite
 PYTHON ?= python3
 VENV   ?= .venv
@@ -24,6 +24,7 @@ setup: $(STAMP)
 run: $(STAMP)
 	$(BIN)/tissuesim experiment --output results
 	$(BIN)/tissuesim render --output results --report results/report.md --if-available
+	$(BIN)/tissuesim experiment --protocol contact --output results/contact
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q

@@ -112,7 +112,12 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
         info[name] = _model_info(spec, hybrid, node, refs, config.radii_mm)
         solvers = {m: make_solver(m, hybrid) for m in methods}
         for radius_mm, ref in zip(config.radii_mm, refs):
-            patch = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
+            try:
+                patch = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
+            except SolverError as error:  # e.g. the patch reaches the support on a small model: say so, go on
+                info[name]["skipped"] = {**info[name].get("skipped", {}), f"{radius_mm:g}": str(error)}
+                say(f"{name}: R = {radius_mm:g} mm skipped: {error}")
+                continue
             for case in protocol.load_cases(config.forces, config.loads):
                 reference = rest + ref.displacements(case.vector)
                 for method in methods:

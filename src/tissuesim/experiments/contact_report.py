@@ -92,6 +92,9 @@ def contact_report_markdown(data: dict) -> str:
                 f"**not converged** (last change {100 * ref['levels'][-1]['change']:.2f} %)"
                 if ref["levels"][-1]["change"] is not None else "**not converged**")
             parts += [f"### {model}, R = {radius} mm: {status}", "", convergence_table(ref["levels"]), ""]
+    for model, info in meta["models"].items():
+        for radius, reason in info.get("skipped", {}).items():
+            parts += [f"Skipped: {model}, R = {radius} mm: {reason}", ""]
     unsettled = [r for r in data["records"] if not r["converged"]]
     if unsettled:
         parts += [f"{len(unsettled)} solves did not settle within the step cap and are measured at their last "

@@ -68,7 +68,11 @@ class RefinementSettings:
             converged (0.01 = 1 %).
         max_levels: the last level tried (level 0 is the default fine volume).
         min_levels: the first level at which convergence may be declared (≥ 1: a change needs two levels).
+            Fewer than that many levels (max_levels < min_levels) is never converged.
         samples: how many M_S nodes nearest the contact are compared (:func:`protocol.sample_nodes`).
+        max_surface_vertices: a level whose refined surface would exceed this many vertices is not computed (the
+            refinement stops there, unconverged): it bounds the cost on a model that is small against R (about
+            150k tets and a minute on 2 cores at the bound).
     """
 
     grading: float = 0.5
@@ -78,14 +82,15 @@ class RefinementSettings:
     max_levels: int = 4
     min_levels: int = 1
     samples: int = protocol.RMSE_SAMPLES
+    max_surface_vertices: int = 16000
 
     def __post_init__(self):
         ratios = (self.grading_ratio, 1.0 if self.interior_ratio is None else self.interior_ratio)
         if not (self.grading > 0 and all(0 < r <= 1 for r in ratios) and self.tolerance > 0):
             raise SolverError(f"refinement settings need grading > 0, ratios in (0, 1] and tolerance > 0, got "
                               f"{self.grading}, {ratios}, {self.tolerance}")
-        if not 1 <= self.min_levels <= self.max_levels:
-            raise SolverError(f"need 1 ≤ min_levels ≤ max_levels, got {self.min_levels} and {self.max_levels}")
+        if self.min_levels < 1 or self.max_levels < 0:
+            raise SolverError(f"need min_levels ≥ 1 and max_levels ≥ 0, got {self.min_levels} and {self.max_levels}")
 
 
 @dataclass(frozen=True)
@@ -204,7 +209,7 @@ def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, you
     """Levels 0..``levels`` computed whatever the change (no stop, no cache): to show how a load *diverges*."""
     surface = getattr(mesh, "surface", mesh)
     settings = settings or RefinementSettings()
-    settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels), "min_levels": int(levels)})
+    settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels)})
     return _compute(surface, int(node), [radius], youngs_modulus, poisson_ratio, settings, progress, stop=False)[0]
 
 
@@ -235,7 +240,12 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
     tables = [[] for _ in radii]
     done = [False] * len(radii)
     for level in range(settings.max_levels + 1):
-        refined, volume = _level_volume(surface, rest[node], core, h0, level, settings)
+        level_mesh = _level_volume(surface, rest[node], core, h0, level, settings)
+        if level_mesh is None:
+            if progress is not None:
+                progress(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
+            break
+        refined, volume = level_mesh
         fem = LinearFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                         fixed=nodes_below(volume.points, height))
         for k, radius in enumerate(radii):
@@ -266,10 +276,13 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
 
 
 def _level_volume(surface, centre, core, h0, level, settings):
-    """``(surface, volume)`` of a level: M_S refined around ``centre``, then TetGen (with a volume bound if set)."""
+    """``(surface, volume)`` of a level: M_S refined around ``centre``, then TetGen (with a volume bound if set);
+    None when the refined surface exceeds the settings' vertex bound."""
     if level == 0:
         return surface, tetrahedralize(surface, switches=FINE_SWITCHES)[0]
     refined = refine_surface(surface, lambda points: level_size(points, centre, core, h0, level, settings))
+    if refined.vertex_count > settings.max_surface_vertices:
+        return None
     if settings.interior_ratio is None:
         return refined, tetrahedralize(refined, switches=FINE_SWITCHES)[0]
     interior = h0 * settings.interior_ratio ** level

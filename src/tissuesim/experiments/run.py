@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError, SolverError, TissuesimError
+from ..errors import InversionError, MeshError, SolverError, TissuesimError
 from ..mesh import models as builtin_models
+from ..solvers.base import SolveReport
 from . import protocol
 from .schema import SCHEMA_VERSION, check_results
 
@@ -224,6 +225,11 @@ def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfi
     start = time.perf_counter()
     try:
         positions = np.array(solver.solve_static(node, force, max_steps=config.max_steps), dtype=np.float64)
+    except InversionError:
+        # The mass-spring surface turned inside out (it could not come back): its last state is the answer, marked
+        # as not settled.
+        solver.last_solve = SolveReport(0, False, 0.0, 0.0, 0.0)
+        positions = np.array(solver.positions, dtype=np.float64)
     except SolverError:
         # Not settled within max_steps: keep the last (finite) positions and say so; anything else is re-raised.
         report = solver.last_solve

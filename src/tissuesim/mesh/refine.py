@@ -6,8 +6,10 @@ Each pass marks the triangles whose longest edge exceeds a target size at its mi
 at their midpoints, and closes the marking (a triangle with any split edge has its longest edge split too), so every
 subdivided triangle is bisected through its longest edge first. That is Rivara's rule, which keeps the smallest angle
 bounded below by a fixed fraction of the input's, and it leaves no hanging vertex: the result is again a closed,
-consistently oriented manifold. New vertices lie on the midpoints of existing edges, so the surface is the same set
-of points; input vertices keep their indices and coordinates bit for bit (new ones are appended).
+consistently oriented manifold. On flat regions new vertices are the midpoints of existing edges, so the surface is
+the same set of points; on curved regions they lie on a smooth curve through the edge's ends (see
+:func:`_edge_midpoints`), within |e|²/(8ρ) of the facet (0.1 mm for a 6 mm edge on a 40 mm radius). Input vertices
+keep their indices and coordinates bit for bit (new ones are appended).
 """
 
 from __future__ import annotations
@@ -19,6 +21,8 @@ import numpy as np
 from ..errors import MeshError
 from .surface import SurfaceMesh
 
+# Edges whose end normals differ by more than this are creases (the cube's edges): split at the plain midpoint.
+SHARP_DEGREES = 30.0
 # A pass can at most halve an edge; this many passes shrink any edge by 2**-MAX_PASSES, far below any sensible size.
 MAX_PASSES = 40
 
@@ -42,7 +46,7 @@ def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray
         lengths = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
         longest = np.argmax(lengths[tri_edges], axis=1)  # local index 0..2 of each triangle's longest edge
         longest_edge = tri_edges[np.arange(len(triangles)), longest]
-        midpoints = 0.5 * (vertices[edges[:, 0]] + vertices[edges[:, 1]])
+        midpoints = _edge_midpoints(vertices, triangles, edges)
         target = np.asarray(size(midpoints[longest_edge]), dtype=np.float64)
         if target.shape != (len(triangles),) or not np.all(target > 0):
             raise MeshError("refine_surface: size() must return one positive length per point")
@@ -56,6 +60,32 @@ def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray
         vertices = np.concatenate([vertices, midpoints[split]])
         triangles = _subdivide(triangles, tri_edges, longest, new_index)
     raise MeshError(f"refine_surface did not reach the target size in {MAX_PASSES} passes; is size() too small?")
+
+
+def _edge_midpoints(vertices, triangles, edges) -> np.ndarray:
+    """``(e, 3)`` the point that splits each edge: the midpoint of the cubic Hermite curve whose end tangents are the
+    edge projected onto the end vertices' tangent planes (area-weighted vertex normals). On a flat region that is the
+    edge's midpoint exactly; on a curved one it lies on the smooth surface through the vertices (on a sphere of radius
+    ρ, |e|²/(8ρ) outside the chord) instead of on the flat facet, which TetGen cannot tetrahedralize once many nearly
+    coplanar slivers of one facet meet (measured: it fails from the third level on the sphere and the steak). Where
+    the end normals differ by more than :data:`SHARP_DEGREES` the edge crosses a crease: the plain midpoint keeps
+    the crease sharp."""
+    p0, p1 = vertices[edges[:, 0]], vertices[edges[:, 1]]
+    normals = _vertex_normals(vertices, triangles)
+    n0, n1 = normals[edges[:, 0]], normals[edges[:, 1]]
+    d = p1 - p0
+    bulge = (np.einsum("ij,ij->i", d, n1)[:, None] * n1 - np.einsum("ij,ij->i", d, n0)[:, None] * n0) / 8.0
+    smooth = np.einsum("ij,ij->i", n0, n1) >= np.cos(np.radians(SHARP_DEGREES))
+    return 0.5 * (p0 + p1) + np.where(smooth[:, None], bulge, 0.0)
+
+
+def _vertex_normals(vertices, triangles) -> np.ndarray:
+    a, b, c = (vertices[triangles[:, k]] for k in range(3))
+    face = np.cross(b - a, c - a)  # length: twice the area, so the sum is area-weighted
+    normals = np.zeros_like(vertices)
+    for k in range(3):
+        np.add.at(normals, triangles[:, k], face)
+    return normals / np.linalg.norm(normals, axis=1, keepdims=True)
 
 
 def _edges(triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

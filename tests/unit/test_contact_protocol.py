@@ -1,0 +1,90 @@
+"""The contact protocol: metrics by hand, a small run end to end (records, roles, convergence table, report, CLI)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from tissuesim.cli import main
+from tissuesim.experiments import contact
+from tissuesim.experiments.contact_report import contact_report_markdown, method_table
+from tissuesim.experiments.output import write_contact_outputs
+from tissuesim.experiments.reference import RefinementSettings
+
+
+def test_metrics_by_hand():
+    rest = np.zeros((4, 3))
+    reference = np.array([[0, 0, -2.0], [0, 0, -1.0], [0, 0, -1.0], [0, 0, 0.0]]) * 1e-3
+    positions = reference + np.array([[0, 0, 1.0], [0, 0, -1.0], [0, 0, 0.0], [0, 0, 2.0]]) * 1e-3
+    m = contact.contact_metrics(positions, reference, rest, [0, 1, 2, 3], [0, 1], [0.75, 0.25])
+    assert m["rmse_mm"] == pytest.approx(np.sqrt((1 + 1 + 0 + 4) / 4))
+    assert m["rmse_outside_mm"] == pytest.approx(np.sqrt((0 + 4) / 2))
+    assert m["contact_error_mm"] == pytest.approx(abs(0.75 * 1.0 - 0.25 * 1.0))
+    assert m["reference_rms_mm"] == pytest.approx(np.sqrt((4 + 1 + 1 + 0) / 4))
+    assert m["relative_rmse"] == pytest.approx(m["rmse_mm"] / m["reference_rms_mm"])
+    assert m["relative_contact_error"] == pytest.approx(m["contact_error_mm"] / m["reference_rms_mm"])
+    covered = contact.contact_metrics(positions, reference, rest, [0, 1], [0, 1], [0.5, 0.5])
+    assert covered["rmse_outside_mm"] is None and covered["relative_rmse_outside"] is None
+
+
+def test_roles():
+    assert contact.role("cube", "pressure", 1.0, 4.0) == "calibration"
+    assert contact.role("cube", "tension", 1.0, 4.0) == "held out"
+    assert contact.role("liver", "pressure", 1.0, 4.0) == "held out"
+
+
+@pytest.fixture(scope="module")
+def small_run():
+    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0, 2.0), loads=("pressure",),
+                                   radii_mm=(8.0,), methods=("embedded", "fem"),
+                                   settings=RefinementSettings(max_levels=1))
+    return contact.run_contact(config, progress=False)
+
+
+def test_small_run_records_and_metrics(small_run):
+    records = small_run["records"]
+    assert len(records) == 2 * 2  # two forces × two methods
+    for r in records:
+        assert r["role"] == "held out" and r["radius_mm"] == 8.0
+        for key in ("rmse", "rmse_outside", "contact_error"):
+            assert r[f"{key}_mm"] > 0 and r[f"relative_{key}"] == pytest.approx(r[f"{key}_mm"] / r["reference_rms_mm"])
+    by = {(r["method"], r["force_N"]): r for r in records}
+    # Every method here is linear: twice the force, twice every error; the relative errors stay.
+    for method in ("embedded", "fem"):
+        assert by[(method, 2.0)]["rmse_mm"] == pytest.approx(2 * by[(method, 1.0)]["rmse_mm"], rel=1e-6)
+        assert by[(method, 2.0)]["relative_rmse"] == pytest.approx(by[(method, 1.0)]["relative_rmse"], rel=1e-6)
+    # The default fine mesh is the reference's level 0: its error is the level-1 change, well below embedded's.
+    assert by[("fem", 1.0)]["relative_rmse"] < by[("embedded", 1.0)]["relative_rmse"]
+    levels = small_run["metadata"]["models"]["cube"]["references"]["8"]["levels"]
+    assert [row["level"] for row in levels] == [0, 1]
+    assert by[("fem", 1.0)]["relative_rmse"] == pytest.approx(levels[1]["change"], rel=0.05)
+
+
+def test_report_prints_convergence_table_and_method_table(small_run, tmp_path):
+    text = contact_report_markdown(small_run)
+    assert "### cube, R = 8 mm" in text and "| Level | Tets |" in text
+    assert "not converged" in text  # one level cannot reach 1 %
+    table = method_table(small_run)
+    assert table.splitlines()[0].startswith("| Method | Rows |") and "Emb." in table and "FEM" in table
+    paths = write_contact_outputs(small_run, tmp_path / "out")
+    assert sorted(p.name for p in paths) == ["report.md", "results.json"]
+    assert json.loads((tmp_path / "out" / "results.json").read_text())["schema"] == contact.SCHEMA
+
+
+def test_cli_contact_protocol(tmp_path, capsys):
+    code = main(["experiment", "cube", "--protocol", "contact", "--resolution", "400", "--forces", "1",
+                 "--loads", "tension", "--radii", "8", "--methods", "embedded", "fem", "--levels", "1",
+                 "--cache", str(tmp_path / "cache"), "--output", str(tmp_path / "out"), "--quiet"])
+    assert code == 0
+    assert (tmp_path / "out" / "report.md").is_file() and list((tmp_path / "cache").glob("*.npz"))
+
+
+@pytest.mark.parametrize("arguments, message", [
+    (["--protocol", "magic"], "unknown protocol 'magic'"),
+    (["--protocol", "contact", "--radii", "-1"], "--radii takes a positive"),
+    (["--protocol", "contact", "--levels", "1.5"], "--levels takes a positive whole number"),
+])
+def test_bad_contact_argument_is_a_one_line_error(arguments, message, tmp_path, capsys):
+    code = main(["experiment", *arguments, "--output", str(tmp_path / "out"), "--quiet"])
+    error = capsys.readouterr().err
+    assert code == 1 and message in error and error.count("\n") == 1

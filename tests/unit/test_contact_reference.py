@@ -1,0 +1,115 @@
+"""The contact reference: surface refinement keeps M_S, the refinement loop, its convergence table and its cache."""
+
+import numpy as np
+import pytest
+
+from tissuesim.errors import SolverError
+from tissuesim.experiments import protocol, reference
+from tissuesim.mesh import models
+from tissuesim.mesh.refine import refine_surface
+from tissuesim.mesh.validate import validate_surface
+
+QUICK = reference.RefinementSettings(max_levels=2)
+
+
+@pytest.fixture(scope="module")
+def cube():
+    surface = models.model("cube", 400)
+    return surface, protocol.load_node(surface.vertices, surface.triangles)
+
+
+def test_refinement_keeps_the_surface_and_its_vertices(cube):
+    surface, node = cube
+    centre = surface.vertices[node]
+    refined = refine_surface(surface, lambda p: 1e-3 + 0.5 * np.linalg.norm(p - centre, axis=1))
+    n = surface.vertex_count
+    assert np.array_equal(refined.vertices[:n], surface.vertices)
+    validate_surface(refined)  # closed, manifold, outward, no degenerate or self-intersecting face
+    assert refined.triangle_areas.sum() == pytest.approx(surface.triangle_areas.sum(), rel=1e-12)
+    assert refined.signed_volume == pytest.approx(surface.signed_volume, rel=1e-12)
+    near = np.linalg.norm(refined.vertices - centre, axis=1) < 2e-3
+    edges = refined.edges
+    lengths = np.linalg.norm(refined.vertices[edges[:, 0]] - refined.vertices[edges[:, 1]], axis=1)
+    assert lengths[near[edges[:, 0]] & near[edges[:, 1]]].max() <= 1e-3 + 0.5 * 2e-3 + 1e-12
+
+
+def test_refinement_that_asks_nothing_changes_nothing(cube):
+    surface, _ = cube
+    same = refine_surface(surface, lambda p: np.full(len(p), 1.0))
+    assert np.array_equal(same.triangles, surface.triangles) and same.vertex_count == surface.vertex_count
+
+
+def test_level_zero_is_the_default_fine_fem_with_the_solvers_forces(cube):
+    from tissuesim import HybridMesh, make_solver
+
+    surface, node = cube
+    hybrid = HybridMesh.build(surface, fine_volume=True)
+    ref = reference.refinement_levels(hybrid, node, 8e-3, levels=0)
+    fem = make_solver("fem", hybrid)
+    expected = fem.solve_static(node, [0.0, 0.0, -1.0], radius=8e-3) - surface.vertices
+    assert np.allclose(ref.displacements([0.0, 0.0, -1.0]), expected, rtol=1e-9, atol=1e-12)
+
+
+def test_reference_table_and_response_are_linear(cube):
+    surface, node = cube
+    ref = reference.contact_reference(surface, node, 8e-3, settings=QUICK)
+    assert [row.level for row in ref.levels] == [0, 1, 2]
+    assert ref.levels[0].change is None and all(row.change > 0 for row in ref.levels[1:])
+    assert ref.levels[2].tets > ref.levels[0].tets and ref.levels[2].contact_size_mm < ref.levels[0].contact_size_mm
+    assert ref.converged == (ref.levels[-1].change < QUICK.tolerance)
+    force = np.array([0.2, -0.1, 3.0])
+    assert np.allclose(ref.displacements(force), sum(ref.response[:, :, a] * force[a] for a in range(3)))
+    assert ref.displacements([0, 0, 1.0])[node, 2] > 0  # tension lifts the contact
+    assert ref.levels[-1].sample_rms_mm == pytest.approx(
+        1e3 * np.sqrt(np.mean(np.sum(ref.displacements([0, 0, -1.0])[ref.samples] ** 2, axis=1))))
+
+
+def test_cache_returns_the_same_reference_and_keys_on_radius(cube, tmp_path):
+    surface, node = cube
+    first = reference.contact_reference(surface, node, 8e-3, settings=QUICK, cache_dir=tmp_path)
+    assert len(list(tmp_path.glob("*.npz"))) == 1
+    lines = []
+    again = reference.contact_reference(surface, node, 8e-3, settings=QUICK, cache_dir=tmp_path,
+                                        progress=lines.append)
+    assert not lines  # read from disk, nothing refined
+    assert np.array_equal(first.response, again.response) and again.levels == first.levels
+    reference.contact_reference(surface, node, 9e-3, settings=reference.RefinementSettings(max_levels=1),
+                                cache_dir=tmp_path)
+    assert len(list(tmp_path.glob("*.npz"))) == 2
+
+
+def test_damaged_cache_entry_is_recomputed(cube, tmp_path):
+    surface, node = cube
+    settings = reference.RefinementSettings(max_levels=1)
+    first = reference.contact_reference(surface, node, 8e-3, settings=settings, cache_dir=tmp_path)
+    (entry,) = tmp_path.glob("*.npz")
+    entry.write_bytes(b"not an npz")
+    again = reference.contact_reference(surface, node, 8e-3, settings=settings, cache_dir=tmp_path)
+    assert np.array_equal(first.response, again.response)
+
+
+def test_single_node_load_diverges_while_the_other_samples_settle(cube):
+    surface, node = cube
+    rows = reference.point_load_divergence(surface, node, levels=2)
+    contact = [row["contact_mm"] for row in rows]
+    others = [row["others_rms_mm"] for row in rows]
+    assert contact[2] > 1.7 * contact[1] > 1.7 ** 2 * contact[0] * 0.9  # grows ~ 1/h_c
+    assert max(others) < 1.15 * min(others)
+
+
+def test_bad_settings_and_node_are_refused(cube):
+    surface, _ = cube
+    with pytest.raises(SolverError, match="min_levels"):
+        reference.RefinementSettings(min_levels=0)
+    with pytest.raises(SolverError, match="grading"):
+        reference.RefinementSettings(grading=0.0)
+    with pytest.raises(SolverError, match="outside"):
+        reference.contact_reference(surface, surface.vertex_count, 4e-3)
+
+
+def test_default_cache_dir_follows_the_environment(monkeypatch, tmp_path):
+    monkeypatch.setenv("TISSUESIM_CACHE", str(tmp_path))
+    assert reference.default_cache_dir() == tmp_path
+    monkeypatch.delenv("TISSUESIM_CACHE")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert reference.default_cache_dir() == tmp_path / "tissuesim" / "references"
