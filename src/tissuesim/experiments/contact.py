@@ -99,8 +99,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
     methods = tuple(config.methods or available_solvers())
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
-    for spec in config.models:
-        name = model_name(spec)
+    for spec, name in zip(config.models, _names(config.models, model_name)):
         hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
                                                    scale=config.scales.get(spec, 1.0)))
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
@@ -136,6 +135,18 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
             say(f"{name}: R = {radius_mm:g} mm done")
     return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
             "records": records}
+
+
+def _names(specs, model_name) -> list[str]:
+    """Report names: a file's stem, prefixed with its folder where two models would share one (the shared
+    softbodyliver/liver.obj beside the built-in liver)."""
+    names = []
+    for spec in specs:
+        name = model_name(spec)
+        if name in names or (spec != name and name in builtin_models.MODELS):
+            name = f"{Path(spec).parent.name}-{name}"
+        names.append(name)
+    return names
 
 
 def role(model: str, load: str, force_N: float, radius_mm: float) -> str:
