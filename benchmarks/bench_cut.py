@@ -3,7 +3,8 @@ cuts, and the fine FEM's cost for the same cut (re-tetrahedralize + re-factorize
 
     PYTHONPATH=src python benchmarks/bench_cut.py [--sizes 1000 10000 100000] [--quick]
 
-Prints figures and ratios; asserts nothing (timings belong here, not in tests).
+Prints figures and ratios; asserts nothing (timings belong here, not in tests). Move costs are CPU time of this
+process (the code is single-threaded, so it equals wall time on an idle machine and is not inflated by other jobs).
 
 1. **one move**: a progressive 3 cm cut over the cube's flat top in moves of 0.5–4 edge lengths (so each crosses
    about k triangles), on cubes of 1k, 10k and 100k vertices: the pure core (:func:`tissuesim.cutting.cut_surface`)
@@ -49,9 +50,9 @@ def bench_core(surface, step):
     tip, times, split = start, [], []
     for f in np.arange(step, 0.03 + 1e-12, step) / 0.03:
         new = start + f * (end - start)
-        t = time.perf_counter()
+        t = time.process_time()
         r = cut_surface(rest, positions, velocities, tri, Sweep.between(tip, new, [0.0, 0.0, -0.01]), closed=closed)
-        times.append(time.perf_counter() - t)
+        times.append(time.process_time() - t)
         tip = new
         if r is not None:
             if r.end_vertex >= 0:
@@ -67,8 +68,12 @@ def bench_solver_moves(hybrid, step):
     start, end = _line(hybrid.surface)
     scalpel = tissuesim.Scalpel(solver, depth=0.01)
     scalpel.press(start, direction=[0, 0, -1])
-    reports = [scalpel.move(start + f * (end - start)) for f in np.arange(step, 0.03 + 1e-12, step) / 0.03]
-    return statistics.median(r.seconds for r in (reports[1:] or reports))   # the first builds the edge map
+    times = []
+    for f in np.arange(step, 0.03 + 1e-12, step) / 0.03:
+        t = time.process_time()
+        scalpel.move(start + f * (end - start))
+        times.append(time.process_time() - t)
+    return statistics.median(times[1:] or times)        # the first move builds the edge map
 
 
 def bench_steps(hybrid, steps):
@@ -77,10 +82,10 @@ def bench_steps(hybrid, steps):
     def timed():
         solver.set_load(int(np.argmax(solver.rest_positions[:, 2])), [0.0, 0.0, 0.5])
         solver.step()
-        t = time.perf_counter()
+        t = time.process_time()
         for _ in range(steps):
             solver.step()
-        return (time.perf_counter() - t) / steps
+        return (time.process_time() - t) / steps
 
     before = min(timed() for _ in range(3))
     start, end = incision_line(solver.rest_positions, length=0.02)

@@ -34,6 +34,7 @@ _EXPORTS = {
     "MaterialError": "tissuesim.errors",
     "BoundaryConditionError": "tissuesim.errors",
     "SolverError": "tissuesim.errors",
+    "InversionError": "tissuesim.errors",
     "BundleError": "tissuesim.errors",
 }
 _SUBMODULES = {"models": "tissuesim.mesh.models"}

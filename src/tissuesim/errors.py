@@ -25,6 +25,10 @@ class SolverError(TissuesimError, ValueError):
     """A solver was asked something it cannot do (unknown name, bad time step, bad node or force)."""
 
 
+class InversionError(SolverError):
+    """A method's surface turned inside out under a load it cannot come back from (the mass-spring model)."""
+
+
 class BundleError(TissuesimError, ValueError):
     """A saved hybrid-mesh bundle is unreadable or was written by an incompatible version."""
 

@@ -63,7 +63,7 @@ class PinHead:
 
     def grab(self, point) -> int:
         """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions; returns its index."""
-        point = _point(point)
+        point = checked_point(point)
         distance = np.linalg.norm(self.solver.positions - point, axis=1)
         node = int(np.argmin(distance))
         if distance[node] > self.snap_radius:
@@ -83,7 +83,7 @@ class PinHead:
         """``(3,) float64`` eq 24's f = k (x − x0) [N] for cursor ``point`` x [m]."""
         if self.node is None:
             raise SolverError("the pin-head holds no node; call grab(point) first")
-        return self.stiffness * (_point(point) - self.anchor)
+        return self.stiffness * (checked_point(point) - self.anchor)
 
     def drag(self, point) -> np.ndarray:
         """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
@@ -98,7 +98,8 @@ class PinHead:
         self.node, self.anchor = None, None
 
 
-def _point(point) -> np.ndarray:
+def checked_point(point) -> np.ndarray:
+    """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError."""
     try:
         point = np.asarray(point, dtype=np.float64)
     except (TypeError, ValueError):

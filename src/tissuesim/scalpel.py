@@ -29,7 +29,7 @@ from .cutting.core import DEFAULT_SNAP
 from .cutting.solver_update import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap
 from .errors import SolverError
-from .interaction import _point
+from .interaction import checked_point
 from .solvers.base import positive_number
 
 #: Default blade length in mean rest edge lengths of M_S.
@@ -73,7 +73,7 @@ class Scalpel:
         from .mesh.hybrid import closest_on_surface
         from .mesh.surface import SurfaceMesh
 
-        point = _point(point)
+        point = checked_point(point)
         # a copy: SurfaceMesh freezes the array it is given, and the solver's positions must stay writeable
         now = SurfaceMesh(np.array(self.solver.positions), self.solver.hybrid.surface.triangles)
         tri, bary = closest_on_surface(now, point[None])
@@ -84,7 +84,7 @@ class Scalpel:
                               f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
         if direction is None:
             direction = -now.triangle_normals[tri[0]]
-        direction = _point(direction)
+        direction = checked_point(direction)
         length = np.linalg.norm(direction)
         if length == 0.0:
             raise SolverError("the blade direction must be a non-zero vector")
@@ -97,7 +97,7 @@ class Scalpel:
         if self.tip is None:
             raise SolverError("the scalpel is not pressed; call press(point) first")
         start = time.perf_counter()
-        point = _point(point)
+        point = checked_point(point)
         if np.linalg.norm(point - self.tip) < self.snap * self._edge:
             return CutReport(seconds=time.perf_counter() - start)
         report, end = self._updater.apply(Sweep.between(self._start(), point, self.depth * self.direction),

@@ -29,5 +29,6 @@ def test_the_calibration_model_is_named(tmp_path, capsys, monkeypatch):
         raise KeyboardInterrupt     # the notice comes before any calibration run
 
     monkeypatch.setattr("tissuesim.solvers.calibration.calibrate", stop)
+    monkeypatch.setattr("tissuesim.solvers.calibration.calibration_case", stop)
     assert cli.main(["calibrate", "--bundle", str(path), "--method", "mass-spring"]) == 130
     assert "calibrating on " + str(path) + ", NOT the built-in cube" in capsys.readouterr().err

@@ -6,6 +6,7 @@ import pytest
 from tissuesim import MeshError
 from tissuesim.mesh import models
 from tissuesim.mesh.surface import SurfaceMesh
+from tissuesim.mesh.tetrahedralize import tetrahedralize
 from tissuesim.mesh.validate import validate_surface
 
 
@@ -27,3 +28,12 @@ def test_a_sliver_is_refused_naming_the_triangle(height):
     surface, triangle = cube_with_a_sliver(height)
     with pytest.raises(MeshError, match=rf"1 sliver triangles .*first: {triangle}\b.*remesh"):
         validate_surface(surface)
+
+
+def test_tetgen_changing_the_boundary_is_not_blamed_on_a_non_manifold_surface():
+    surface, _ = cube_with_a_sliver(1e-9)          # closed and manifold; TetGen adds a boundary node at the sliver
+    with pytest.raises(MeshError) as caught:
+        tetrahedralize(surface)
+    message = str(caught.value)
+    assert "not a closed manifold" not in message
+    assert "TetGen changed the boundary" in message and "validate_surface" in message

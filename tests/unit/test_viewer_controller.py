@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from tissuesim import HybridMesh, PinHead, SolverError
+from tissuesim import HybridMesh, SolverError
 from tissuesim.mesh import models
 from tissuesim.viewer import controller as controller_module
-from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
+from tissuesim.viewer.controller import BLADE_LIFT, MAX_STEPS_PER_FRAME, Controller, Settings, camera_plane_point
 
 DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down
 
@@ -18,6 +18,8 @@ def hybrid():
 
 class FakeScalpel:
     """Records the calls the controller makes; stands in for tissuesim.Scalpel's press / move / release."""
+
+    depth = 0.01  # blade length [m]
 
     def __init__(self, solver):
         self.solver, self.calls = solver, []
@@ -102,9 +104,11 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)  # off the surface: the camera-plane point
     c.pointer_up()
     calls = c.scalpel.calls
+    lift = np.array([0.0, 0.0, BLADE_LIFT * FakeScalpel.depth])  # the tip above the picked point, toward the camera
     assert [call[0] for call in calls] == ["press", "move", "move", "release"]
-    assert np.array_equal(calls[0][1], top) and calls[0][2] is None  # the blade along the surface's inward normal
-    assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0])
+    assert np.allclose(calls[0][1], top + lift) and calls[0][2] is None  # the blade along the inward normal
+    assert np.allclose(calls[1][1], top + [0.005, 0.0, 0.0] + lift)
+    assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0] + lift)  # off the surface: the plane through the tip
     assert c.last_cut == {"cut": 4} and c.solver.load is None
 
 
@@ -203,13 +207,18 @@ def test_pause_stops_time(hybrid):
     assert c.advance(0.01).steps == 1
 
 
-@pytest.mark.skipif("radius" not in __import__("inspect").signature(PinHead).parameters,
-                    reason="PinHead has no contact radius in this version")
-def test_the_contact_radius_reaches_the_pin_head(hybrid):
-    c = Controller(hybrid, settings=Settings(radius=0.01))
-    assert c.pin.radius == 0.01
-    c.configure(radius=0.005)
-    assert c.pin.radius == 0.005
+def test_the_contact_radius_spreads_the_held_load_and_a_bad_one_changes_nothing(hybrid):
+    c = Controller(hybrid, settings=Settings(radius=0.03))  # 3 cm on a 10 cm sphere of ~2 cm edges
+    assert c.pin.radius == 0.03
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)
+    spread = np.count_nonzero(np.any(c.solver.forces, axis=1))
+    c.configure(radius=None)
+    assert c.pin.radius is None and np.count_nonzero(np.any(c.solver.forces, axis=1)) == 1 < spread
+    with pytest.raises(SolverError):
+        c.configure(radius=1.0)  # a 1 m tip reaches the fixed bottom
+    assert c.settings.radius is None and c.pin.radius is None and c.pin.grabbed
 
 
 def test_a_bundle_opens_as_saved_and_the_fem_method_says_what_it_lacks(tmp_path):

@@ -5,6 +5,7 @@ what is wrong with a cut surface (used by the tests, the fuzz test and ``tissues
 """
 
 from .core import DEFAULT_SNAP, CutResult, cut_surface
+from .invariants import check_cut_invariants
 from .sweep import Sweep
 
-__all__ = ["DEFAULT_SNAP", "CutResult", "Sweep", "cut_surface"]
+__all__ = ["DEFAULT_SNAP", "CutResult", "Sweep", "check_cut_invariants", "cut_surface"]

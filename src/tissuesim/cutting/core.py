@@ -27,6 +27,9 @@ from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
 DEFAULT_SNAP = 0.25
+#: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
+#: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
+GUARD_QUALITY = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -39,8 +42,9 @@ class CutResult:
         velocities: ``(n', 3) float64`` current velocities [m/s].
         triangles: ``(m', 3) int32`` triangles; the first m rows are the old rows (rewritten where split or
             where a corner became a copy).
-        parents: ``(n', 3) int64`` old vertices each vertex interpolates (itself three times for an old vertex).
-        weights: ``(n', 3) float64`` their barycentric weights (sum 1).
+        old_count: n, the vertex count before the cut.
+        parents: ``(n' − n, 3) int64`` old vertices each new vertex n + i interpolates (row i).
+        weights: ``(n' − n, 3) float64`` their barycentric weights (sum 1).
         copy_of: ``(n',) int64`` the vertex (new numbering) a duplicate copies, −1 for the others.
         triangle_origin: ``(m',) int64`` the old triangle each triangle lies in.
         changed: ``(k,) int64`` rows of ``triangles`` that are new or rewritten.
@@ -55,6 +59,7 @@ class CutResult:
     positions: np.ndarray
     velocities: np.ndarray
     triangles: np.ndarray
+    old_count: int
     parents: np.ndarray
     weights: np.ndarray
     copy_of: np.ndarray
@@ -64,6 +69,17 @@ class CutResult:
     closed: np.ndarray
     split_count: int
     end_vertex: int = -1
+
+    def parents_of(self, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(parents (k, 3) int64, weights (k, 3))`` of any ``vertices`` (an old vertex is its own parent)."""
+        vertices = np.asarray(vertices, dtype=np.int64)
+        parents = np.repeat(vertices[:, None], 3, axis=1)
+        weights = np.zeros((len(vertices), 3))
+        weights[:, 0] = 1.0
+        new = vertices >= self.old_count
+        parents[new] = self.parents[vertices[new] - self.old_count]
+        weights[new] = self.weights[vertices[new] - self.old_count]
+        return parents, weights
 
     @property
     def duplicated(self) -> np.ndarray:
@@ -77,6 +93,8 @@ class _Points:
 
     n: int
     snap: float
+    rest: np.ndarray                              # (n, 3) rest positions: the quality guard measures there
+    opposite: dict = field(default_factory=dict)  # (lo, hi) -> opposite vertices of the edge's triangles
     edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
     facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
     parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
@@ -86,7 +104,7 @@ class _Points:
         """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
         from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
         w = np.where(w < self.snap, 0.0, w)
-        w = w / w.sum()
+        w = self._guard(corners, w / w.sum())
         nonzero = np.flatnonzero(w)
         if nonzero.size == 1:
             return ("v", int(corners[nonzero[0]]))
@@ -100,6 +118,33 @@ class _Points:
                 return ("v", hi)
             return ("e", lo, hi, t)
         return ("f", triangle, w)
+
+    def _guard(self, corners, w):
+        """Snap further while a piece the point would make in this triangle falls below :data:`GUARD_QUALITY` at
+        rest: a facet point onto the edge of its worst piece, an edge point onto the nearer end (repeated re-cuts
+        would otherwise thin the triangles step by step)."""
+        p = self.rest[corners]
+        while np.count_nonzero(w) > 1:
+            x = w @ p
+            inside = np.flatnonzero(w)
+            if inside.size == 3:
+                pieces = [(x, p[i], p[(i + 1) % 3]) for i in range(3)]        # piece i lies on edge (i, i + 1)
+            else:
+                i, j = inside
+                key = tuple(sorted((int(corners[i]), int(corners[j]))))
+                # the pieces in both triangles of the edge (the neighbour gets the point too, Fig 7(a))
+                others = self.opposite.get(key) or [int(corners[3 - i - j])]
+                pieces = [(x, p[e], self.rest[o]) for o in others for e in (i, j)]
+            quality = [_quality3(*piece) for piece in pieces]
+            if min(quality) >= GUARD_QUALITY:
+                break
+            if inside.size == 3:
+                worst = int(np.argmin(quality))
+                w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
+            else:
+                w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
+            w = w / w.sum()
+        return w
 
     def same(self, a: tuple, b: tuple) -> bool:
         """Whether two located points are one point after snapping (then the segment between them is dropped)."""
@@ -155,12 +200,13 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
             triangle); the inputs are unchanged.
     """
     snap = check_snap(snap)
-    triangles = np.asarray(triangles, dtype=np.int64)
+    triangles = np.asarray(triangles, dtype=np.int32)      # no copy for a SurfaceMesh's triangles
     n = len(rest)
-    found = crossings(positions, triangles, sweep)
+    near = candidate_triangles(positions, triangles, sweep)
+    found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
-    points = _Points(n=n, snap=snap)
+    points = _Points(n=n, snap=snap, rest=rest, opposite=_opposites(triangles, near))
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
@@ -172,37 +218,59 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
             segments[crossing.triangle] = (a, b)
     if not points.parents and not segments:
         return None
-    affected = _affected(positions, triangles, sweep, segments, points)
-    new_rest, new_pos, new_vel, parents, weights = _new_vertices(rest, positions, velocities, points)
+    affected = _affected(positions, triangles, sweep, segments, points, near)
+    parents = np.array(points.parents, dtype=np.int64).reshape(-1, 3)
+    weights = np.array(points.weights, dtype=np.float64).reshape(-1, 3)
     tri_rows, origin, cut_edges = [], [], set()
     out = triangles.copy()
     for t in affected:
-        pieces, cut = _split(t, triangles[t], new_rest, points, segments.get(t), snap)
+        pieces, cut = _split(t, triangles[t], rest, points, segments.get(t), snap)
         out[t] = pieces[0]
         tri_rows.append(pieces[1:])
         origin += [t] * (len(pieces) - 1)
         cut_edges |= cut
-    extra = np.concatenate(tri_rows) if tri_rows else np.zeros((0, 3), dtype=np.int64)
+    extra = np.concatenate(tri_rows).astype(np.int32) if tri_rows else np.zeros((0, 3), dtype=np.int32)
     out = np.concatenate([out, extra])
     new_rows = np.concatenate([np.asarray(affected, dtype=np.int64), np.arange(len(triangles), len(out))])
     _check_edges(out[new_rows], sorted(cut_edges), affected)
     # earlier tips that are no longer edges (a later cut went through them) are ignored by separate()
     cut_list = sorted(cut_edges | _carry_closed(closed, points))
-    copy_of, still_closed, rewritten = separate(out, cut_list, len(new_rest))
-    if copy_of.size:
-        new_rest = np.concatenate([new_rest, new_rest[copy_of]])
-        new_pos = np.concatenate([new_pos, new_pos[copy_of]])
-        new_vel = np.concatenate([new_vel, new_vel[copy_of]])
-        parents = np.concatenate([parents, parents[copy_of]])
-        weights = np.concatenate([weights, weights[copy_of]])
+    copy_of, still_closed, rewritten = separate(out, cut_list, n + len(parents))
+    # a copy of an old vertex interpolates that vertex alone; a copy of an inserted point takes its parents
+    copy_parents = np.repeat(copy_of[:, None], 3, axis=1)
+    copy_weights = np.zeros((len(copy_of), 3))
+    copy_weights[:, 0] = 1.0
+    inserted = copy_of >= n
+    copy_parents[inserted] = parents[copy_of[inserted] - n]
+    copy_weights[inserted] = weights[copy_of[inserted] - n]
+    parents = np.concatenate([parents, copy_parents])
+    weights = np.concatenate([weights, copy_weights])
+    new_rest, new_pos, new_vel = (np.concatenate([a, np.einsum("ij,ijk->ik", weights, a[parents])])
+                                  for a in (rest, positions, velocities))
     copies = np.full(len(new_rest), -1, dtype=np.int64)
     copies[len(new_rest) - copy_of.size:] = copy_of
     triangle_origin = np.concatenate([np.arange(len(triangles)), np.array(origin, dtype=np.int64)])
     changed = np.unique(np.concatenate([new_rows, rewritten]))
-    return CutResult(end_vertex=_farthest(segments, new_pos, sweep), rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out.astype(np.int32),
-                     parents=parents, weights=weights, copy_of=copies, triangle_origin=triangle_origin,
-                     changed=changed, cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
+    return CutResult(rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out, old_count=n,
+                     end_vertex=_farthest(segments, new_pos, sweep), parents=parents, weights=weights,
+                     copy_of=copies, triangle_origin=triangle_origin, changed=changed,
+                     cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
                      closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
+
+
+def _opposites(triangles, rows) -> dict:
+    """For each edge of ``rows``: the opposite vertex in each of those triangles holding it."""
+    opposite: dict = {}
+    for a, b, c in triangles[rows].tolist():
+        for u, v, w in ((a, b, c), (b, c, a), (c, a, b)):
+            opposite.setdefault((u, v) if u < v else (v, u), []).append(w)
+    return opposite
+
+
+def _quality3(a, b, c) -> float:
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate)."""
+    squares = np.sum((b - a) ** 2) + np.sum((c - b) ** 2) + np.sum((a - c) ** 2)
+    return 2.0 * np.sqrt(3.0) * np.linalg.norm(np.cross(b - a, c - a)) / squares if squares > 0.0 else 0.0
 
 
 def _farthest(segments, positions, sweep) -> int:
@@ -213,37 +281,33 @@ def _farthest(segments, positions, sweep) -> int:
     return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
 
 
-def _affected(positions, triangles, sweep, segments, points) -> list[int]:
-    """Triangles with a segment, or with an edge point on a side (searched near the sweep only)."""
+def _affected(positions, triangles, sweep, segments, points, near) -> list[int]:
+    """Triangles with a segment, or with an edge point on a side. Searched among the sweep's candidates ``near``;
+    only when an edge point's edge shows fewer than two triangles there (a point snapped just outside the sweep's
+    box, or an edge on an opening) is the search widened by the longest edge of the cut triangles."""
     affected = set(segments)
-    if points.edge:
+    if not points.edge:
+        return sorted(affected)
+    owners = _edge_owners(triangles, near, points.edge)
+    if any(len(owners.get(key, ())) < 2 for key in points.edge):
         t = np.array(sorted(affected | set(points.facet)) or [0])
         p = positions[triangles[t]]
         reach = float(np.linalg.norm(p - p[:, [1, 2, 0]], axis=2).max())
-        near = candidate_triangles(positions, triangles, sweep, pad=reach)
-        for r in near:
-            a, b, c = (int(x) for x in triangles[r])
-            for u, v in ((a, b), (b, c), (c, a)):
-                if (min(u, v), max(u, v)) in points.edge:
-                    affected.add(int(r))
+        owners = _edge_owners(triangles, candidate_triangles(positions, triangles, sweep, pad=reach), points.edge)
+    for rows in owners.values():
+        affected |= set(rows)
     return sorted(affected)
 
 
-def _new_vertices(rest, positions, velocities, points):
-    n = len(rest)
-    k = len(points.parents)
-    parents = np.repeat(np.arange(n, dtype=np.int64)[:, None], 3, axis=1)
-    weights = np.zeros((n, 3))
-    weights[:, 0] = 1.0
-    if k:
-        parents = np.concatenate([parents, np.array(points.parents)])
-        weights = np.concatenate([weights, np.array(points.weights)])
-    new_p, new_w = parents[n:], weights[n:]
-
-    def combine(a):
-        return np.concatenate([a, np.einsum("ij,ijk->ik", new_w, a[new_p])])
-
-    return combine(rest), combine(positions), combine(velocities), parents, weights
+def _edge_owners(triangles, rows, edges) -> dict:
+    """Among ``rows``, the triangles having each of ``edges`` (sorted vertex pairs)."""
+    owners: dict = {}
+    for r, (a, b, c) in zip(rows.tolist(), triangles[rows].tolist()):
+        for u, v in ((a, b), (b, c), (c, a)):
+            key = (u, v) if u < v else (v, u)
+            if key in edges:
+                owners.setdefault(key, []).append(r)
+    return owners
 
 
 def _split(t, corners, rest, points, segment, snap):

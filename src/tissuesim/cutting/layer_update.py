@@ -78,9 +78,9 @@ def new_hinges(triangles, edge_map, keys):
 def _in_corners(result, vertices, corners):
     """Barycentric ``(k, 3)`` of each vertex in its parent triangle ``corners`` ``(k, 3)`` (old ids)."""
     bary = np.zeros((len(vertices), 3))
+    parents, weights = result.parents_of(vertices)
     for j in range(3):
-        parent = result.parents[vertices, j][:, None]
-        bary += (parent == corners) * result.weights[vertices, j][:, None]
+        bary += (parents[:, j, None] == corners) * weights[:, j, None]
     return bary
 
 

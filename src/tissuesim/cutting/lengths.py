@@ -10,8 +10,8 @@ rest positions nor the current shape.
   l_DC = λ2/(λ2 + λ3) l_BC (eq 21), l_AD by the law of cosines (eq 22), l_AP = (λ2 + λ3) l_AD (eq 23)
   (:func:`facet_point_length`).
 * Any two points P, Q of one triangle (what a cut also needs: edge point to edge point, facet to facet):
-  with d = λ_P − λ_Q (Σ d = 0), |PQ|² = −(d1 d2 l_AB² + d2 d3 l_BC² + d3 d1 l_CA²) (:func:`barycentric_distance`),
-  which reduces to eq 19 and eq 20–23 in their cases (tested).
+  with d = λ_P − λ_Q (Σ d = 0), |PQ|² = −(d1 d2 l_AB² + d2 d3 l_BC² + d3 d1 l_CA²)
+  (:func:`barycentric_distance`), which reduces to eq 19 and eq 20–23 in their cases (tested).
 """
 
 from __future__ import annotations

@@ -28,8 +28,7 @@ def new_vertex_order(result: CutResult, old_count: int) -> tuple[np.ndarray, np.
 
 def interpolate(values: np.ndarray, result: CutResult, old_count: int) -> np.ndarray:
     """``values`` ``(n, ...)`` per old vertex extended to the cut mesh by the parents' barycentric weights."""
-    new = np.arange(old_count, len(result.rest))
-    extra = np.einsum("ij,ij...->i...", result.weights[new], values[result.parents[new]])
+    extra = np.einsum("ij,ij...->i...", result.weights, values[result.parents])
     return np.concatenate([values, extra])
 
 
@@ -48,10 +47,10 @@ def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray) -> H
     n = hybrid.surface.vertex_count
     points, _ = new_vertex_order(result, n)
     rest = result.rest[points]
-    parents = result.parents[points]
+    parents = result.parents[points - n]
     coarse_tri, coarse_bary = _load_map(hybrid, rest, parents)
     tet, tet_bary = _embedding(hybrid, rest, parents)
-    keep = ~np.isin(hybrid.control, released)
+    keep = ~np.isin(hybrid.control, released, kind="table") if released.size else np.ones(len(hybrid.control), bool)
     info = dict(hybrid.info)
     info["cuts"] = int(info.get("cuts", 0)) + 1
     return dataclasses.replace(
@@ -70,7 +69,8 @@ def _load_map(hybrid, rest, parents):
         return np.zeros(0, dtype=np.int32), np.zeros((0, 3))
     candidates = np.unique(hybrid.coarse_triangle[parents])
     coarse = hybrid.coarse_surface
-    local = SurfaceMesh(coarse.vertices, coarse.triangles[candidates])
+    corners, local_triangles = np.unique(coarse.triangles[candidates], return_inverse=True)
+    local = SurfaceMesh(coarse.vertices[corners], local_triangles.reshape(-1, 3))   # a few triangles, renumbered
     tri, bary = closest_on_surface(local, rest)
     return candidates[tri].astype(np.int32), bary
 

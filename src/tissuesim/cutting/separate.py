@@ -26,7 +26,7 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
     """Duplicate the vertices of ``cut_edges`` (pairs of vertex indices) per wedge, in place on ``triangles``.
 
     Args:
-        triangles: ``(m, 3) int64`` triangles, rewritten in place where a wedge gets a copy.
+        triangles: ``(m, 3) int32 or int64`` triangles, rewritten in place where a wedge gets a copy.
         cut_edges: iterable of ``(u, v)`` vertex pairs; a pair that is not an edge of ``triangles`` is ignored.
         vertex_count: n, the number of vertices; copies are numbered n, n + 1, ...
 

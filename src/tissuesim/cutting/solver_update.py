@@ -103,7 +103,8 @@ class SolverCut:
         if result is None:
             return CutReport(seconds=time.perf_counter() - start), -1
         n, m = len(s.rest_positions), len(s.hybrid.surface.triangles)
-        released = np.intersect1d(s.hybrid.control, result.copy_of[result.copy_of >= 0])
+        originals = np.unique(result.copy_of[result.copy_of >= 0])
+        released = originals[np.isin(originals, s.hybrid.control, kind="table")]
         fixed = _fixed_after(s.fixed, result, n)
         identity = np.concatenate([self.identity, np.arange(n, len(result.rest))])
         copies = np.flatnonzero(result.copy_of >= 0)

@@ -105,17 +105,19 @@ def candidate_triangles(positions: np.ndarray, triangles: np.ndarray, sweep: Swe
     return _candidates(positions, triangles, corners.min(axis=0) - pad, corners.max(axis=0) + pad)
 
 
-def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep) -> list[Crossing]:
+def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *,
+              near: np.ndarray | None = None) -> list[Crossing]:
     """The segments where the sweep crosses M_S's triangles at their current ``positions`` ``(n, 3)`` [m].
 
     A triangle lying in the sweep plane, or touching it in one point, gives none. Edge crossings are computed from
-    the edge's lower-numbered vertex, so the two triangles of an edge agree on the point bit for bit.
+    the edge's lower-numbered vertex, so the two triangles of an edge agree on the point bit for bit. ``near``:
+    the rows to search (default :func:`candidate_triangles`).
     """
     normal = sweep.normal
     if not np.any(normal):
         return []
     out = []
-    near = candidate_triangles(positions, triangles, sweep)
+    near = candidate_triangles(positions, triangles, sweep) if near is None else near
     p = positions[triangles[near]]
     d = (p - sweep.origin) @ normal
     reach = PLANE_TOLERANCE * np.abs(p - p[:, [1, 2, 0]]).sum(axis=(1, 2))

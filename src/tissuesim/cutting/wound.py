@@ -32,7 +32,8 @@ OPEN_MAX_STEPS = 3000
 def incision_line(rest: np.ndarray, *, length: float = INCISION_LENGTH) -> tuple[np.ndarray, np.ndarray]:
     """Tool start and end ``(3,)`` [m]: along x, centred over the model's vertical axis, just above its top."""
     centre = 0.5 * (rest.min(axis=0) + rest.max(axis=0))
-    near_axis = np.linalg.norm(rest[:, :2] - centre[:2], axis=1) < 0.25 * length
+    from_axis = np.linalg.norm(rest[:, :2] - centre[:2], axis=1)
+    near_axis = from_axis <= max(0.25 * length, from_axis.min())  # a coarse mesh may have no node that close
     height = rest[near_axis, 2].max() + TOOL_HEIGHT
     # a small offset in y keeps the line off the procedural meshes' symmetry planes (off their edges)
     start = np.array([centre[0] - 0.5 * length, centre[1] + 1.1e-3, height])

@@ -127,7 +127,9 @@ def _make_staging(target: Path) -> Path:
 def _remove_abandoned_staging(target: Path) -> None:
     """Remove staging folders of ``target`` whose writing process no longer runs (it was killed)."""
     prefix = _staging_prefix(target)
-    for path in target.parent.glob(prefix + "*"):
+    for path in target.parent.iterdir():             # not glob: the folder's name may hold [ ] * ?
+        if not path.name.startswith(prefix):
+            continue
         pid = path.name[len(prefix):].split("-", 1)[0]
         if pid.isdigit() and int(pid) not in (0, os.getpid()) and not _running(int(pid)) and path.is_dir():
             shutil.rmtree(path, ignore_errors=True)

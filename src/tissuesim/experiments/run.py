@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import MeshError, SolverError, TissuesimError
+from ..errors import InversionError, MeshError, SolverError, TissuesimError
 from ..mesh import models as builtin_models
 from . import protocol
 from .schema import SCHEMA_VERSION, check_results
@@ -225,7 +225,8 @@ def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfi
     try:
         positions = np.array(solver.solve_static(node, force, max_steps=config.max_steps), dtype=np.float64)
     except SolverError:
-        # Not settled within max_steps: keep the last (finite) positions and say so; anything else is re-raised.
+        # Not settled within max_steps, or turned inside out (mass-spring): keep the last (finite) positions and
+        # say so; anything else is re-raised.
         report = solver.last_solve
         if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
             raise
@@ -236,19 +237,30 @@ def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfi
     converged = bool(report.converged) if report is not None else True
     if positions.shape != np.shape(solver.rest_positions) or not np.all(np.isfinite(positions)):
         raise SolverError(f"{type(solver).__name__} returned non-finite or misshapen positions for {case.label}")
-    solver.reset()
-    solver.set_load(node, force)
-    for _ in range(config.warmup_steps):
-        solver.step(config.dt)
-    times = np.empty(config.timing_steps)
-    for i in range(config.timing_steps):
-        start = time.perf_counter()
-        solver.step(config.dt)
-        times[i] = time.perf_counter() - start
+    times = _step_times(solver, node, force, config)
     solver.clear_load()
     solver.reset()
     return {"positions": positions, "equilibrium_ms": equilibrium_ms, "equilibrium_steps": steps,
             "converged": converged, "step_ms": 1e3 * float(np.median(times))}
+
+
+def _step_times(solver, node, force, config: ExperimentConfig) -> np.ndarray:
+    """``(timing_steps,)`` wall times [s] of steps under the load, after the warm-up steps. A step that turns a
+    mass-spring surface inside out (InversionError) still did its work and is timed; the solver then restarts from
+    rest under the same load."""
+    solver.reset()
+    solver.set_load(node, force)
+    times = []
+    for taken in range(config.warmup_steps + config.timing_steps):
+        start = time.perf_counter()
+        try:
+            solver.step(config.dt)
+        except InversionError:
+            solver.reset()
+            solver.set_load(node, force)
+        if taken >= config.warmup_steps:
+            times.append(time.perf_counter() - start)
+    return np.array(times)
 
 
 def _record_order(names, loads, methods):

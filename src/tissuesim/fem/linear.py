@@ -369,6 +369,15 @@ class _Cholmod:
         self._solve(self._factor, x)
         return np.array(x).reshape(rhs.shape)
 
+    def workspace(self, size: int):
+        """``(buffer, view)``: a right-hand side for :meth:`solve_in_place` and a NumPy view of it ``(size,)``."""
+        buffer = self._matrix(0.0, (size, 1))
+        return buffer, np.asarray(buffer).reshape(size)
+
+    def solve_in_place(self, buffer) -> None:
+        """Overwrite a :meth:`workspace` buffer holding b with the solution x of K x = b (allocates nothing)."""
+        self._solve(self._factor, buffer)
+
 
 class _PermutedLU:
     """SuperLU of ``K_ff[order][:, order]``; ``solve`` undoes the permutation."""

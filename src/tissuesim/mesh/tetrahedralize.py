@@ -85,11 +85,23 @@ def tetrahedralize(surface: SurfaceMesh, *, switches: str = COARSE_SWITCHES) -> 
     if not np.array_equal(boundary, surface_nodes):
         extra = np.setdiff1d(boundary, surface_nodes)
         missing = np.setdiff1d(surface_nodes, boundary)
+        changes = []
+        if extra.size:
+            changes.append(f"{extra.size} added boundary nodes (first: {first_indices(extra)}, at "
+                           f"{_where(nodes, extra)})")
+        if missing.size:
+            changes.append(f"{missing.size} surface vertices not on the boundary (first: {first_indices(missing)})")
         raise MeshError(
-            f"the volume's boundary differs from the surface: {extra.size} added boundary nodes (first: "
-            f"{first_indices(extra)}), {missing.size} surface vertices not on the boundary (first: "
-            f"{first_indices(missing)}); the surface is probably not a closed manifold")
+            f"TetGen changed the boundary of a {surface.vertex_count}-vertex surface: {', '.join(changes)}; it does "
+            "so where it cannot fill the surface as given: run validate_surface (slivers, self-intersections), and "
+            "for a valid surface remesh near those points or build with fewer target_vertices")
     return volume, surface_nodes
+
+
+def _where(nodes: np.ndarray, extra: np.ndarray) -> str:
+    """The position [m] of the first added node, for the message."""
+    x, y, z = nodes[extra[0]]
+    return f"({x:.4g}, {y:.4g}, {z:.4g}) m"
 
 
 @contextmanager

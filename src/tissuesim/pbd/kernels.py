@@ -168,18 +168,6 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
       ∇_4 = σ|a| (a×c)/|a×c|², σ = sign det(a, b, c); ∇_2 = −(b·a/|a|²) ∇_3 − (c·a/|a|²) ∇_4 (lever rule);
       ∇_1 = −∇_2 − ∇_3 − ∇_4.
     """
-    ox = x[i1, 0]
-    oy = x[i1, 1]
-    oz = x[i1, 2]
-    px2 = x[i2, 0]
-    py2 = x[i2, 1]
-    pz2 = x[i2, 2]
-    px3 = x[i3, 0]
-    py3 = x[i3, 1]
-    pz3 = x[i3, 2]
-    px4 = x[i4, 0]
-    py4 = x[i4, 1]
-    pz4 = x[i4, 2]
     valid, theta, length, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient(
         x, i1, i2, i3, i4)
     if not valid:
@@ -202,18 +190,18 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     move = abs(dlam) * largest
     if move > limit:
         dlam *= limit / move
-    x[i1, 0] = ox + w1 * dlam * g1x
-    x[i1, 1] = oy + w1 * dlam * g1y
-    x[i1, 2] = oz + w1 * dlam * g1z
-    x[i2, 0] = px2 + w2 * dlam * g2x
-    x[i2, 1] = py2 + w2 * dlam * g2y
-    x[i2, 2] = pz2 + w2 * dlam * g2z
-    x[i3, 0] = px3 + w3 * dlam * g3x
-    x[i3, 1] = py3 + w3 * dlam * g3y
-    x[i3, 2] = pz3 + w3 * dlam * g3z
-    x[i4, 0] = px4 + w4 * dlam * g4x
-    x[i4, 1] = py4 + w4 * dlam * g4y
-    x[i4, 2] = pz4 + w4 * dlam * g4z
+    x[i1, 0] += w1 * dlam * g1x
+    x[i1, 1] += w1 * dlam * g1y
+    x[i1, 2] += w1 * dlam * g1z
+    x[i2, 0] += w2 * dlam * g2x
+    x[i2, 1] += w2 * dlam * g2y
+    x[i2, 2] += w2 * dlam * g2z
+    x[i3, 0] += w3 * dlam * g3x
+    x[i3, 1] += w3 * dlam * g3y
+    x[i3, 2] += w3 * dlam * g3z
+    x[i4, 0] += w4 * dlam * g4x
+    x[i4, 1] += w4 * dlam * g4y
+    x[i4, 2] += w4 * dlam * g4z
     return dlam
 
 
@@ -289,18 +277,6 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     Gradient in closed form (``constraints.signed_bend_gradient``): no division by sin β, so it is exact and smooth
     at flat hinges, where eq 10's unsigned angle has a cusp. Same PBD/XPBD update as :func:`_project_bend`.
     """
-    ox = x[i1, 0]
-    oy = x[i1, 1]
-    oz = x[i1, 2]
-    px2 = x[i2, 0]
-    py2 = x[i2, 1]
-    pz2 = x[i2, 2]
-    px3 = x[i3, 0]
-    py3 = x[i3, 1]
-    pz3 = x[i3, 2]
-    px4 = x[i4, 0]
-    py4 = x[i4, 1]
-    pz4 = x[i4, 2]
     valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
         x, i1, i2, i3, i4)
     if not valid:
@@ -314,18 +290,18 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     if denom <= 0.0:
         return 0.0
     dlam = scale * (-(beta - rest) - alpha * lam) / denom
-    x[i1, 0] = ox + w1 * dlam * g1x
-    x[i1, 1] = oy + w1 * dlam * g1y
-    x[i1, 2] = oz + w1 * dlam * g1z
-    x[i2, 0] = px2 + w2 * dlam * g2x
-    x[i2, 1] = py2 + w2 * dlam * g2y
-    x[i2, 2] = pz2 + w2 * dlam * g2z
-    x[i3, 0] = px3 + w3 * dlam * g3x
-    x[i3, 1] = py3 + w3 * dlam * g3y
-    x[i3, 2] = pz3 + w3 * dlam * g3z
-    x[i4, 0] = px4 + w4 * dlam * g4x
-    x[i4, 1] = py4 + w4 * dlam * g4y
-    x[i4, 2] = pz4 + w4 * dlam * g4z
+    x[i1, 0] += w1 * dlam * g1x
+    x[i1, 1] += w1 * dlam * g1y
+    x[i1, 2] += w1 * dlam * g1z
+    x[i2, 0] += w2 * dlam * g2x
+    x[i2, 1] += w2 * dlam * g2y
+    x[i2, 2] += w2 * dlam * g2z
+    x[i3, 0] += w3 * dlam * g3x
+    x[i3, 1] += w3 * dlam * g3y
+    x[i3, 2] += w3 * dlam * g3z
+    x[i4, 0] += w4 * dlam * g4x
+    x[i4, 1] += w4 * dlam * g4y
+    x[i4, 2] += w4 * dlam * g4z
     return dlam
 
 

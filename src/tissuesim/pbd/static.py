@@ -85,6 +85,41 @@ def layer_stiffness(rest_positions, *, edges, stretch_compliance, hinges, bend_c
     return (jacobian.T @ inverse_compliance @ jacobian).tocsr()
 
 
+@njit(cache=True)
+def implicit_rhs(positions, velocities, rest, free, inertia, keep, dt, forces, indptr, indices, data, prescribed,
+                 targets, out):
+    """``out`` ``(3f,)`` = M/dt² (u_f + dt (1 − damping) v_f) + f_f − K_fp u_p, in place (``keep`` = 1 − damping;
+    K_fp as CSR ``indptr, indices, data`` over the prescribed dofs; u_p = targets − rest of the prescribed nodes)."""
+    for r in range(free.shape[0]):
+        i = free[r]
+        for k in range(3):
+            row = 3 * r + k
+            coupled = 0.0
+            for q in range(indptr[row], indptr[row + 1]):
+                col = indices[q]
+                node = col // 3
+                coupled += data[q] * (targets[node, col % 3] - rest[prescribed[node], col % 3])
+            u = positions[i, k] - rest[i, k]
+            out[row] = inertia[row] * (u + dt * keep * velocities[i, k]) + forces[i, k] - coupled
+
+
+@njit(cache=True)
+def implicit_update(solution, positions, velocities, rest, free, prescribed, targets, dt):
+    """New positions (free: rest + ``solution`` ``(3f,)``; prescribed: ``targets``) and v = Δx/dt, in place."""
+    inv_dt = 1.0 / dt
+    for r in range(free.shape[0]):
+        i = free[r]
+        for k in range(3):
+            x = rest[i, k] + solution[3 * r + k]
+            velocities[i, k] = (x - positions[i, k]) * inv_dt
+            positions[i, k] = x
+    for r in range(prescribed.shape[0]):
+        i = prescribed[r]
+        for k in range(3):
+            velocities[i, k] = (targets[r, k] - positions[i, k]) * inv_dt
+            positions[i, k] = targets[r, k]
+
+
 class LayerStatics:
     """Small-strain static equilibrium of a surface layer with some nodes prescribed (module docstring).
 
@@ -107,10 +142,46 @@ class LayerStatics:
         fixed_dofs = (3 * self.prescribed[:, None] + np.arange(3)).ravel()
         stiffness = stiffness.tocsr()
         self._coupling = stiffness[free_dofs][:, fixed_dofs].tocsr()
+        self._free_stiffness = stiffness[free_dofs][:, free_dofs].tocsc()
+        self._dof_node = free_dofs // 3
         try:
-            self._factor = factorise_spd(stiffness[free_dofs][:, free_dofs].tocsc(), free_dofs // 3)
+            self._factor = factorise_spd(self._free_stiffness, self._dof_node)
         except SolverError as error:
             raise SolverError(f"the surface layer does not hold every free node ({error})") from None
+        self._dynamic: tuple[float, object] | None = None
+
+    def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
+                      targets: np.ndarray, mass: np.ndarray, dt: float, damping: float) -> None:
+        """One implicit-Euler step of the linear layer, in place on ``positions``, ``velocities`` ``(n, 3)``.
+
+        Solves (M/dt² + K_ff) u' = M/dt² (u + dt (1 − damping) v) + f_f − K_fp u_p for the free nodes (u = x − rest,
+        ``forces`` ``(n, 3)`` [N], lumped ``mass`` ``(n,)`` [kg], prescribed nodes at ``targets`` ``(k, 3)`` [m], in
+        the order of :attr:`prescribed` as given); v = Δx/dt. Its fixed point (x' = x, v = 0) is :meth:`displacement`'s
+        equilibrium, for any dt and mass. The matrix is factorised once per dt; with CHOLMOD a step allocates
+        nothing."""
+        if self._dynamic is None or self._dynamic[0] != dt:
+            self._dynamic = (dt, *self._dynamic_factor(mass, dt))
+        _, factor, inertia, buffer, rhs = self._dynamic
+        coupling = self._coupling
+        implicit_rhs(positions, velocities, rest, self.free_nodes, inertia, 1.0 - damping, dt, forces,
+                     coupling.indptr, coupling.indices, coupling.data, self.prescribed, targets, rhs)
+        if buffer is None:
+            solution = np.asarray(factor.solve(rhs))
+        else:
+            factor.solve_in_place(buffer)
+            solution = rhs
+        implicit_update(solution, positions, velocities, rest, self.free_nodes, self.prescribed, targets, dt)
+
+    def _dynamic_factor(self, mass, dt):
+        from ..fem.linear import factorise_spd
+
+        inertia = np.repeat(mass[self.free_nodes], 3) / (dt * dt)
+        factor = factorise_spd((self._free_stiffness + sp.diags(inertia)).tocsc(), self._dof_node)
+        if hasattr(factor, "workspace"):
+            buffer, rhs = factor.workspace(inertia.size)
+        else:
+            buffer, rhs = None, np.zeros(inertia.size)
+        return factor, inertia, buffer, rhs
 
     def displacement(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
         """``(f, 3) float64`` displacements [m] of the free nodes (in :attr:`free_nodes` order) under nodal

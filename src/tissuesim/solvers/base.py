@@ -37,7 +37,7 @@ from typing import ClassVar
 import numpy as np
 from numba import njit
 
-from ..errors import BoundaryConditionError, SolverError, first_indices
+from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
@@ -388,7 +388,13 @@ class Solver(ABC):
         steps, motion, settled = 0, np.inf, False
         history = []
         while steps < int(max_steps) and not settled:
-            self._step(dt)
+            try:
+                self._step(dt)
+            except InversionError:
+                # The surface cannot come back: report the solve as unsettled at its last (finite) state.
+                self.last_solve = SolveReport(steps, False, float(motion), tolerance, time.perf_counter() - start,
+                                              *self._largest_displacement())
+                raise
             steps += 1
             self._check_blow_up(dt, f" after {steps} steps")
             motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)

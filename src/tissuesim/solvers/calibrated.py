@@ -9,15 +9,15 @@ NaN was not calibrated (a provisional value; the xpbd forms, see docs/solvers.md
 # method -> form -> (option name, value, calibration RMSE [m], reference RMS displacement [m])
 CALIBRATED = {
     'hybrid': {
-        'xpbd': ('thickness_ratio', 1.0, float('nan'), float('nan')),
+        'xpbd': ('thickness_ratio', 1.0441388350867442, 0.0021418311069962555, 0.005736974807995306),
         'pbd': ('stiffness', 0.7846353417495806, 0.0029940996196070524, 0.006356496460080796),
     },
     'pbd': {
-        'xpbd': ('thickness_ratio', 4.0, float('nan'), float('nan')),
+        'xpbd': ('thickness_ratio', 4.030807175417886, 0.0034312340793708393, 0.005736974807995306),
         'pbd': ('mass_scale', 142.98011876119094, 0.0040085301029780755, 0.006356496460080796),
     },
     'mass-spring': {
-        'springs': ('thickness_ratio', 300.0, float('nan'), float('nan')),
+        'springs': ('thickness_ratio', 343.3938967688446, 0.0032083885913306628, 0.005736974807995306),
     },
 }
 

@@ -3,7 +3,8 @@
 The case (DESIGN "free parameters"): the cube model at its default resolution, 1 N of pressure (−z) through a
 pin-head tip of radius 4 mm at the load node (:func:`tissuesim.experiments.protocol.load_node`: the top node nearest the vertical centre axis); metric: eq 26
 (RMSE) over the 50 M_S nodes nearest the load node (:func:`~tissuesim.experiments.protocol.sample_nodes`), against
-the ``fem`` method's positions. A 1-D bounded minimisation (:func:`scipy.optimize.minimize_scalar`, ``bounded``) over
+the contact protocol's refined linear FEM reference (:func:`tissuesim.experiments.reference.contact_reference`,
+cached on disk). A 1-D bounded minimisation (:func:`scipy.optimize.minimize_scalar`, ``bounded``) over
 the logarithm of the scalar finds the value; ``tissuesim calibrate --write`` freezes it in
 :mod:`tissuesim.solvers.calibrated`, and every model and load then uses it unchanged.
 
@@ -30,9 +31,9 @@ CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure
 CALIBRATION_RADIUS = 0.004  # m: the pin-head's contact radius
 #: method -> form -> (option, lower bound, upper bound): the search interval of the free scalar.
 PARAMETERS = {
-    "hybrid": {"xpbd": ("thickness_ratio", 0.25, 16.0), "pbd": ("stiffness", 1e-3, 1.0)},
-    "pbd": {"xpbd": ("thickness_ratio", 0.25, 16.0), "pbd": ("mass_scale", 1.0, 1e5)},
-    "mass-spring": {"springs": ("thickness_ratio", 0.1, 1000.0)},
+    "hybrid": {"xpbd": ("thickness_ratio", 0.6, 4.0), "pbd": ("stiffness", 1e-3, 1.0)},
+    "pbd": {"xpbd": ("thickness_ratio", 1.0, 16.0), "pbd": ("mass_scale", 1.0, 1e5)},
+    "mass-spring": {"springs": ("thickness_ratio", 10.0, 3000.0)},
 }
 #: Quasi-static step budget of every calibration solve.
 MAX_STEPS = 3000
@@ -64,8 +65,10 @@ def calibration_case(hybrid_mesh):
     surface = hybrid_mesh.surface
     node = load_node(surface.vertices, surface.triangles)
     samples = sample_nodes(surface.vertices, node, RMSE_SAMPLES)
-    reference = make_solver("fem", hybrid_mesh).solve_static(node, CALIBRATION_FORCE, radius=CALIBRATION_RADIUS)
-    return node, samples, reference
+    from ..experiments.reference import contact_reference, default_cache_dir
+
+    reference = contact_reference(hybrid_mesh, node, CALIBRATION_RADIUS, cache_dir=default_cache_dir())
+    return node, samples, surface.vertices + reference.displacements(CALIBRATION_FORCE)
 
 
 def evaluate(method: str, hybrid_mesh, case, **options) -> float:

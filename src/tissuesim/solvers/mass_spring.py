@@ -26,6 +26,12 @@ patch, so its matrix is singular.)
 Masses: the body's mass (density × enclosed volume) spread over the surface nodes in proportion to their lumped
 area (1/3 of each adjacent triangle's area): the surface stands for the whole body, as in the paper's MSM.
 
+Inversion: a spring network has no restoring force for a triangle turned inside out (it is an equilibrium of the
+springs too), so a large load that inverts triangles leaves them inverted after release (measured before this check:
+20 N on the sphere for 300 steps, then 3000 steps without load, left 149 mm of deformation and 1597 flipped
+triangles). A step that inverts a triangle (its normal against its rest normal; one O(m) pass) therefore raises
+:class:`~tissuesim.errors.InversionError`, and ``reset()`` returns to rest.
+
 Integration: semi-implicit (symplectic) Euler, stable for a substep h_s ≤ 2/ω_max. ω_max² is bounded at set-up by
 Gershgorin's theorem on M^{-1/2} K M^{-1/2} (block norms: a spring of stiffness k between i, j adds k w_i to row i's
 diagonal block and k √(w_i w_j) off it; a stretched spring's tangent never exceeds k), and each step runs
@@ -40,7 +46,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..errors import SolverError
+from ..errors import InversionError, SolverError
 from .base import Solver, positive_number, register
 
 #: Most substeps one step may take: beyond it the step is refused (a stiff material at a large dt would otherwise
@@ -98,6 +104,27 @@ def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, re
                 v = (velocities[i, k] + h * w * accel[i, k]) * keep
                 velocities[i, k] = v
                 positions[i, k] += h * v
+
+
+@njit(cache=True)
+def inverted_triangles(rest, positions, triangles) -> tuple[int, int]:
+    """``(count, first)`` of the triangles whose normal now points against their rest normal (first: −1 if none)."""
+    count, first = 0, -1
+    for t in range(triangles.shape[0]):
+        a, b, c = triangles[t, 0], triangles[t, 1], triangles[t, 2]
+        dot = 0.0
+        for k in range(3):
+            k1, k2 = (k + 1) % 3, (k + 2) % 3
+            rest_normal = ((rest[b, k1] - rest[a, k1]) * (rest[c, k2] - rest[a, k2])
+                           - (rest[b, k2] - rest[a, k2]) * (rest[c, k1] - rest[a, k1]))
+            normal = ((positions[b, k1] - positions[a, k1]) * (positions[c, k2] - positions[a, k2])
+                      - (positions[b, k2] - positions[a, k2]) * (positions[c, k1] - positions[a, k1]))
+            dot += rest_normal * normal
+        if dot < 0.0:
+            count += 1
+            if first < 0:
+                first = t
+    return count, first
 
 
 def spring_network(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -188,6 +215,15 @@ class MassSpringSolver(Solver):
         keep = (1.0 - self.damping) ** (1.0 / substeps)
         mass_spring_step(self.state.positions, self.state.velocities, self._accel, self.inv_mass, self.forces,
                          self.springs, self.rest_lengths, self.stiffness, dt, substeps, keep)
+        count, first = inverted_triangles(self.rest_positions, self.state.positions, self.hybrid.surface.triangles)
+        if count:
+            load = self.load
+            raise InversionError(
+                f"the mass-spring surface turned {count} triangles inside out (first: {first}) under "
+                f"{0.0 if load is None else float(np.linalg.norm(load[1])):g} N: springs have no force that turns an "
+                "inverted triangle back, so it would stay inverted after release; lower the force, or use the "
+                "hybrid method (reset() returns to rest)"
+            )
 
 
 def _omega_bound(springs, stiffness, inv_mass) -> float:

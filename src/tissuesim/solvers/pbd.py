@@ -33,6 +33,9 @@ from .base import Solver, positive_number, register
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
+#: Time integrators of the xpbd form (the pbd form always steps with the paper's projection).
+INTEGRATORS = ("implicit", "xpbd")
+DEFAULT_INTEGRATOR = "implicit"
 DEFAULT_FORM = "xpbd"
 DEFAULT_ITERATIONS = 10
 #: PBD-form stiffness where it is not the calibrated scalar: just below 1, because a full projection (k' = 1 in every
@@ -50,7 +53,11 @@ class SurfaceLayerSolver(Solver):
 
     Options (besides the common ones):
         form: ``"xpbd"`` (default, physical) or ``"pbd"`` (the paper's, dt- and mass-dependent).
-        iterations: Gauss–Seidel sweeps per step (≥ 1); in the xpbd form they shape the path, not the equilibrium.
+        iterations: Gauss–Seidel sweeps per step (≥ 1) of the projection (pbd form, and the xpbd integrator).
+        integrator: xpbd form's time step: ``"implicit"`` (default: implicit Euler of the layer linearised at rest,
+            one back-substitution per step; it rests exactly at the static equilibrium for any dt and mass) or
+            ``"xpbd"`` (Macklin et al.'s projection, nonlinear; it rests off the static answer by an amount that
+            depends on dt and the sweeps, see docs/solvers.md).
         thickness_ratio: xpbd form: layer thickness over the local rest edge length β (dimensionless); default: the
             calibrated value of this method.
         stiffness: pbd form: stiffness coefficient k in (0, 1]; default: the calibrated value of this method, or
@@ -71,7 +78,7 @@ class SurfaceLayerSolver(Solver):
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness_ratio: float | None = None, stiffness: float | None = None,
                  mass_scale: float | None = None, signed_bending: bool | None = None,
-                 damping: float = DEFAULT_DAMPING, **common):
+                 integrator: str = DEFAULT_INTEGRATOR, damping: float = DEFAULT_DAMPING, **common):
         super().__init__(hybrid_mesh, damping=damping, **common)
         from ..pbd.topology import SurfaceConstraints
         from . import calibrated as frozen
@@ -80,7 +87,10 @@ class SurfaceLayerSolver(Solver):
             raise SolverError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
         if isinstance(iterations, bool) or int(iterations) != iterations or int(iterations) < 1:
             raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
+        if integrator not in INTEGRATORS:
+            raise SolverError(f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
         self.form = form
+        self.integrator = integrator
         self.iterations = int(iterations)
         self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
         self.signed_bending = (form == "xpbd") if signed_bending is None else bool(signed_bending)
@@ -141,6 +151,13 @@ class SurfaceLayerSolver(Solver):
         self.state.velocities[:] = 0.0
         return 1
 
+    def _implicit_step(self, dt: float) -> None:
+        """Linear implicit Euler on the layer (:meth:`LayerStatics.implicit_step`); damping removes a fraction of the
+        velocity before the step, as in the kernels."""
+        s = self.state
+        self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.forces,
+                                     self.targets, self.mass, dt, self.damping)
+
     def statics(self):
         """The :class:`~tissuesim.pbd.static.LayerStatics` of this layer and its prescribed nodes (built on first
         use: one sparse factorisation)."""
@@ -167,7 +184,9 @@ class SurfaceLayerSolver(Solver):
 
     def _step(self, dt: float) -> None:
         c, s = self.constraints, self.state
-        if self.form == "xpbd":
+        if self.form == "xpbd" and self.integrator == "implicit":
+            self._implicit_step(dt)
+        elif self.form == "xpbd":
             xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
                       self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
                       self.stretch_compliance, c.bending, self._rest_angle, self.bend_compliance,

@@ -50,6 +50,9 @@ class ViewerApp:
         self.sim_time = 0.0  # simulated seconds since the start [s]
         self._pending = {}  # slider values not yet applied (see _apply_on_release)
         self._topology = None
+        self._home_view = True
+        self._coarse_for, self._coarse = None, None  # cache of _coarse_nodes
+        self._shown = {}  # optional layer name -> its polyscope structure
         self._dragging = False
         self._mouse = None
         self._last = None
@@ -107,14 +110,21 @@ class ViewerApp:
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
             ps.remove_all_structures()
+            self._shown = {}  # layer name -> polyscope structure
             self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
             cut = border_edges(triangles)
-            self.cut = ps.register_curve_network("cut edges", x, cut, color=(0.9, 0.05, 0.05)) if len(cut) else None
-            look_at_oblique(ps, x, distance=3.4)
+            self.cut = None
+            if len(cut):  # only the cut's own nodes: a network over every vertex would dot the whole surface
+                self._cut_nodes, local = np.unique(cut, return_inverse=True)
+                self.cut = ps.register_curve_network("cut edges", x[self._cut_nodes], local.reshape(-1, 2),
+                                                     color=(0.9, 0.05, 0.05))
+            if self._home_view:  # first frame and reset only: a cut or a method change keeps the user's camera
+                look_at_oblique(ps, x, distance=3.4)
+                self._home_view = False
         else:
             self.mesh.update_vertex_positions(x)
             if self.cut is not None:
-                self.cut.update_node_positions(x)
+                self.cut.update_node_positions(x[self._cut_nodes])
         if self.show_colours:
             mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
             self.colour_top = max(float(mm.max()), 1.0)
@@ -124,28 +134,43 @@ class ViewerApp:
         self._layers(x)
 
     def _layers(self, x) -> None:
-        ps, hybrid = self.ps, self.controller.solver.hybrid
-        control = x[hybrid.control]
-        if self.show_wireframe:  # M_V's boundary (M'_S): its nodes are the control nodes, moved by the FEM
-            ps.register_curve_network("M_V wireframe", control, hybrid.coarse_surface.edges,
-                                      color=(0.1, 0.2, 0.6)).set_radius(0.0015, relative=True)
-        elif ps.has_curve_network("M_V wireframe"):
-            ps.remove_curve_network("M_V wireframe")
-        if self.show_control:
-            ps.register_point_cloud("control nodes", control, color=(0.95, 0.6, 0.1)).set_radius(0.004, relative=True)
-        elif ps.has_point_cloud("control nodes"):
-            ps.remove_point_cloud("control nodes")
-        cursor, pin = self.controller.cursor, self.controller.pin
-        if cursor is not None:
-            ps.register_point_cloud("pin-head", cursor[None], color=(0.85, 0.1, 0.1)).set_radius(0.01, relative=True)
-        elif ps.has_point_cloud("pin-head"):
-            ps.remove_point_cloud("pin-head")
-        if cursor is not None and pin.grabbed:  # the spring of eq 24, from the held node to the cursor
-            spring = ps.register_curve_network("spring", np.array([x[pin.node], cursor]), np.array([[0, 1]]),
-                                               color=(0.85, 0.1, 0.1))
-            spring.set_radius(0.002, relative=True)
-        elif ps.has_curve_network("spring"):
-            ps.remove_curve_network("spring")
+        """The optional layers: registered when switched on (or after a re-registration), then only moved."""
+        ps, hybrid, c = self.ps, self.controller.solver.hybrid, self.controller
+        held = c.cursor is not None and c.pin.grabbed
+        self._layer("M_V wireframe", self.show_wireframe, x[self._coarse_nodes()],  # M'_S: M_V's boundary
+                    lambda p: ps.register_curve_network("M_V wireframe", p, hybrid.coarse_surface.edges,
+                                                        color=(0.1, 0.2, 0.6), radius=0.0015))
+        self._layer("control nodes", self.show_control, x[hybrid.control],
+                    lambda p: ps.register_point_cloud("control nodes", p, color=(0.95, 0.6, 0.1), radius=0.004))
+        self._layer("pin-head", c.cursor is not None, None if c.cursor is None else c.cursor[None],
+                    lambda p: ps.register_point_cloud("pin-head", p, color=(0.85, 0.1, 0.1), radius=0.01))
+        self._layer("spring", held, np.array([x[c.pin.node], c.cursor]) if held else None,  # eq 24's spring
+                    lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
+                                                        radius=0.002))
+
+    def _layer(self, name: str, shown: bool, points, register) -> None:
+        layer = self._shown.get(name)
+        if not shown:
+            if layer is not None:
+                layer.remove()
+                del self._shown[name]
+        elif layer is None:
+            self._shown[name] = register(points)  # radii relative to the scene's length scale
+        elif hasattr(layer, "update_node_positions"):
+            layer.update_node_positions(points)
+        else:
+            layer.update_point_positions(points)
+
+    def _coarse_nodes(self) -> np.ndarray:
+        """``(c0,)`` an M_S vertex at the rest position of each M'_S vertex: the control nodes before any cut; after
+        one, a node released by it still marks its M'_S vertex (M_V and M'_S are never cut)."""
+        hybrid = self.controller.solver.hybrid
+        if self._coarse_for is not hybrid:
+            from scipy.spatial import cKDTree
+
+            _, nodes = cKDTree(self.controller.solver.rest_positions).query(hybrid.coarse_surface.vertices)
+            self._coarse_for, self._coarse = hybrid, nodes
+        return self._coarse
 
     # ---------------------------------------------------------------------------------------------- input
     def _pointer(self, psim) -> None:
@@ -185,7 +210,7 @@ class ViewerApp:
             if psim.IsKeyPressed(key, False):
                 self.controller.key(name)
                 if name == "r":
-                    self._topology = None
+                    self._topology, self._home_view = None, True
 
     # ---------------------------------------------------------------------------------------------- panel
     def _panel(self, psim) -> None:
@@ -206,7 +231,7 @@ class ViewerApp:
         self._timing(psim)
         if psim.Button("reset (R)"):
             c.reset()
-            self._topology = None
+            self._topology, self._home_view = None, True
         psim.SameLine()
         if psim.Button("stop recording" if self.recorder else "record"):
             self._toggle_recording()
@@ -230,11 +255,10 @@ class ViewerApp:
         changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
         if changed:
             self._configure(stiffness=k)
-        if hasattr(self.controller.pin, "radius"):
-            radius_mm = 1e3 * (s.radius or 0.0)
-            changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
-            if changed:
-                self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
+        radius_mm = 1e3 * (s.radius or 0.0)  # 0: one node
+        changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
+        if changed:
+            self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
         if "iterations" in solver_options(s.method):
             current = s.iterations or solver_options(s.method)["iterations"]
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),

@@ -8,7 +8,8 @@ with the wall time that passed. Everything else happens here, so it is tested wi
   (:meth:`PinHead.grab`); moving drags the cursor in the *camera plane* (the plane through the grab point facing
   the camera), so f = k (x − x0) (eq 24) lies in the screen plane as on a haptic-free desktop; pointer up releases;
 * **scalpel mode** (§8.4): pointer down, move and up call ``Scalpel.press / move / release``, with the picked
-  surface point (or, off the surface, the camera-plane point through the last blade point);
+  surface point lifted toward the camera by :data:`BLADE_LIFT` of the blade depth, so the blade (along the inward
+  normal) sweeps across the surface (off the surface: the camera-plane point through the last blade point);
 * **settings** (method, E, ν, k, contact radius, iterations, dt) change live: a change that alters the solver
   (method, material, iterations) builds a new one over the current mesh and re-applies a held pin-head;
 * **time**: the simulation runs at its own fixed dt (:meth:`advance`), as many steps as the wall time asks, at most
@@ -23,7 +24,6 @@ the pin-head free and says why in :attr:`Controller.notice`, instead of raising 
 
 from __future__ import annotations
 
-import inspect
 import time
 from dataclasses import dataclass, replace
 
@@ -36,6 +36,8 @@ from ..solvers.base import available_solvers, make_solver, positive_number, solv
 DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
+BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picked point, toward the camera, so
+# that every sweep of the blade crosses the surface (a tip exactly on it would sweep only just below it)
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
@@ -50,7 +52,7 @@ class Settings:
         method: solver name (``tissuesim.available_solvers()``).
         youngs_modulus: E [Pa]. poisson_ratio: ν [-].
         stiffness: pin-head k of eq 24 [N/m].
-        radius: pin-head contact radius [m], or None for a point load (only where PinHead takes one).
+        radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
         iterations: PBD iterations per step, or None where the method has none (or keeps its default).
         dt: simulation time step [s].
     """
@@ -160,12 +162,13 @@ class Controller:
                 return
             self.cursor, self.force = hit, np.zeros(3)
         else:
+            tip = self._lifted(hit, ray_direction)
             try:
-                self.last_cut = self.scalpel.press(hit)  # the blade along the inward normal there
+                self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
             except SolverError as error:
                 self.notice = str(error)
                 return
-            self._cutting, self._blade = True, hit
+            self._cutting, self._blade = True, tip
 
     def pointer_move(self, hit, ray_origin, ray_direction) -> None:
         """Cursor moved: drag the held pin-head in the camera plane, or move the blade."""
@@ -177,7 +180,10 @@ class Controller:
             if point is not None:
                 self.cursor, self.force = point, self.pin.drag(point)
         elif self._cutting:
-            point = hit if hit is not None else camera_plane_point(ray_origin, ray_direction, self._blade)
+            if hit is not None:
+                point = self._lifted(np.asarray(hit, dtype=np.float64), ray_direction)
+            else:
+                point = camera_plane_point(ray_origin, ray_direction, self._blade)
             if point is not None:
                 self._blade = np.asarray(point, dtype=np.float64)
                 self.last_cut = self.scalpel.move(self._blade)
@@ -220,18 +226,26 @@ class Controller:
 
     def configure(self, **changes) -> None:
         """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
-        settings = self._checked(replace(self.settings, **changes))
-        rebuild = any(getattr(settings, name) != getattr(self.settings, name) for name in _REBUILD)
+        settings, old = self._checked(replace(self.settings, **changes)), self.settings
+        rebuild = any(getattr(settings, name) != getattr(old, name) for name in _REBUILD)
         self.settings = settings
-        if rebuild:
-            self._build(self.solver.hybrid, carry=True)
-        else:
-            self.solver.dt = settings.dt
-            self.pin.stiffness = settings.stiffness
-            if self.pin.grabbed and self.cursor is not None:
-                self.force = self.pin.drag(self.cursor)
-            if _accepts(PinHead, "radius"):
-                self.pin.radius = settings.radius
+        try:
+            if rebuild:
+                self._build(self.solver.hybrid, carry=True)
+            else:
+                self._apply_live()
+        except TissuesimError:  # e.g. a contact radius reaching the fixed region
+            self.settings = old
+            if not rebuild:
+                self._apply_live()
+            raise
+
+    def _apply_live(self) -> None:
+        """The settings that need no new solver: dt, k, the contact radius (re-applied to a held pin-head)."""
+        self.solver.dt = self.settings.dt
+        self.pin.stiffness, self.pin.radius = self.settings.stiffness, self.settings.radius
+        if self.pin.grabbed and self.cursor is not None:
+            self.force = self.pin.drag(self.cursor)
 
     # ---------------------------------------------------------------------------------------------- time
     def advance(self, elapsed: float) -> FrameStats:
@@ -254,6 +268,11 @@ class Controller:
         return FrameStats(steps, self._step_seconds, self._step_seconds > dt, dropped)
 
     # ---------------------------------------------------------------------------------------------- internals
+    def _lifted(self, point: np.ndarray, ray_direction) -> np.ndarray:
+        """``point`` moved back along the camera ray by BLADE_LIFT × the blade depth."""
+        direction = np.asarray(ray_direction, dtype=np.float64)
+        return point - BLADE_LIFT * self.scalpel.depth * direction / np.linalg.norm(direction)
+
     def _checked(self, settings: Settings) -> Settings:
         if settings.method not in available_solvers():
             raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
@@ -277,10 +296,7 @@ class Controller:
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
         solver = make_solver(self.settings.method, hybrid, **self._solver_options())  # raises before any change
         self.solver = solver
-        pin_options = {"stiffness": self.settings.stiffness}
-        if self.settings.radius is not None and _accepts(PinHead, "radius"):
-            pin_options["radius"] = self.settings.radius
-        self.pin = PinHead(solver, **pin_options)
+        self.pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
         if self._scalpel_factory is not None:
             try:
@@ -298,7 +314,3 @@ class Controller:
             self.force = np.zeros(3)
             if self.mode == "pin":
                 self.cursor = None
-
-
-def _accepts(cls, name: str) -> bool:
-    return name in inspect.signature(cls).parameters
