@@ -88,3 +88,16 @@ def test_bad_contact_argument_is_a_one_line_error(arguments, message, tmp_path, 
     code = main(["experiment", *arguments, "--output", str(tmp_path / "out"), "--quiet"])
     error = capsys.readouterr().err
     assert code == 1 and message in error and error.count("\n") == 1
+
+
+def test_paper_report_shows_the_single_node_load_diverging():
+    from tissuesim.experiments.report import report_markdown
+    from tissuesim.experiments.run import ExperimentConfig, run_experiment
+
+    data = run_experiment(ExperimentConfig.quick(models=("cube",), forces=(1.0,), loads=("pressure",),
+                                                 methods=("embedded", "fem")), progress=False)
+    levels = data["metadata"]["models"]["cube"]["point_load_refinement"]
+    assert [row["level"] for row in levels] == [0, 1, 2]
+    assert levels[2]["contact_mm"] > 3 * levels[0]["contact_mm"]  # h_c / 4: the loaded node's value keeps growing
+    text = report_markdown(data)
+    assert "## The single-node load's reference diverges" in text and "| cube | 2 |" in text

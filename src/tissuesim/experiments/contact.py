@@ -99,8 +99,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
     methods = tuple(config.methods or available_solvers())
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
-    for spec in config.models:
-        name = model_name(spec)
+    for spec, name in zip(config.models, _names(config.models, model_name)):
         hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
                                                    scale=config.scales.get(spec, 1.0)))
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
@@ -121,16 +120,33 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
             for case in protocol.load_cases(config.forces, config.loads):
                 reference = rest + ref.displacements(case.vector)
                 for method in methods:
-                    positions, solve = _equilibrium(solvers[method], node, case.vector, 1e-3 * radius_mm,
-                                                    config.max_steps)
-                    metrics = contact_metrics(positions, reference, rest, ref.samples, *patch)
-                    records.append({"model": name, "load": case.load, "force_N": case.force_N,
-                                    "radius_mm": float(radius_mm), "method": method,
-                                    "role": role(name, case.load, case.force_N, radius_mm), **metrics, **solve,
-                                    "reference_converged": ref.converged})
+                    record = {"model": name, "load": case.load, "force_N": case.force_N,
+                              "radius_mm": float(radius_mm), "method": method,
+                              "role": role(name, case.load, case.force_N, radius_mm),
+                              "reference_converged": ref.converged}
+                    try:
+                        positions, solve = _equilibrium(solvers[method], node, case.vector, 1e-3 * radius_mm,
+                                                        config.max_steps)
+                    except SolverError as error:  # a solver that refuses or blows up: recorded, the run goes on
+                        records.append({**record, **_no_metrics(), "converged": False, "error": str(error)})
+                        continue
+                    records.append({**record, **contact_metrics(positions, reference, rest, ref.samples, *patch),
+                                    **solve})
             say(f"{name}: R = {radius_mm:g} mm done")
     return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
             "records": records}
+
+
+def _names(specs, model_name) -> list[str]:
+    """Report names: a file's stem, prefixed with its folder where two models would share one (the shared
+    softbodyliver/liver.obj beside the built-in liver)."""
+    names = []
+    for spec in specs:
+        name = model_name(spec)
+        if name in names or (spec != name and name in builtin_models.MODELS):
+            name = f"{Path(spec).parent.name}-{name}"
+        names.append(name)
+    return names
 
 
 def role(model: str, load: str, force_N: float, radius_mm: float) -> str:
@@ -162,6 +178,11 @@ def contact_metrics(positions, reference, rest, samples, patch_nodes, patch_weig
                 for key, value in values.items()})
     out["reference_rms_mm"] = 1e3 * scale
     return out
+
+
+def _no_metrics() -> dict:
+    keys = [f"{m}_mm" for m in METRICS] + [f"relative_{m}" for m in METRICS] + ["reference_rms_mm"]
+    return {**dict.fromkeys(keys), "equilibrium_ms": None}
 
 
 def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, dict]:

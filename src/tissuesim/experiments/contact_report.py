@@ -30,10 +30,12 @@ def method_table(data: dict, *, role: str = "held out") -> str:
         for metric in ("rmse", "rmse_outside", "contact_error"):
             values = [r[f"relative_{metric}"] for r in records if r[f"relative_{metric}"] is not None]
             row.append(f"{fmt(float(np.median(values)), 3)} / {fmt(max(values), 3)}" if values else "–")
-        row.append(fmt(float(np.median([r["rmse_mm"] for r in records])), 3))
+        rmse = [r["rmse_mm"] for r in records if r["rmse_mm"] is not None]
+        row.append(fmt(float(np.median(rmse)), 3) if rmse else "–")
+        row.append(str(sum("error" in r for r in records)))
         rows.append(row)
     headers = ["Method", "Rows"] + [f"{METRIC_LABELS[m]}, median / max (rel.)" for m in METRIC_LABELS]
-    return markdown_table(headers + ["RMSE median (mm)"], rows)
+    return markdown_table(headers + ["RMSE median (mm)", "Failed"], rows)
 
 
 def case_table(data: dict) -> str:
@@ -43,7 +45,7 @@ def case_table(data: dict) -> str:
         rows.append([r["model"], f"{r['radius_mm']:g}", r["load"], f"{r['force_N']:g}",
                      LABELS.get(r["method"], r["method"]), r["role"],
                      *(f"{fmt(r[f'{m}_mm'], 3)} ({fmt(r[f'relative_{m}'], 3)})" for m in METRIC_LABELS),
-                     "" if r["converged"] else "unsettled"])
+                     "failed" if "error" in r else ("" if r["converged"] else "unsettled")])
     return markdown_table(["Model", "R (mm)", "Load", "Force (N)", "Method", "Row"]
                           + [f"{METRIC_LABELS[m]}, mm (rel.)" for m in METRIC_LABELS] + ["Note"], rows)
 
@@ -95,7 +97,12 @@ def contact_report_markdown(data: dict) -> str:
     for model, info in meta["models"].items():
         for radius, reason in info.get("skipped", {}).items():
             parts += [f"Skipped: {model}, R = {radius} mm: {reason}", ""]
-    unsettled = [r for r in data["records"] if not r["converged"]]
+    failed = [r for r in data["records"] if "error" in r]
+    if failed:
+        parts += [f"{len(failed)} solves failed and have no figures; the first: {failed[0]['method']} on "
+                  f"{failed[0]['model']}, R = {failed[0]['radius_mm']:g} mm, {failed[0]['load']} "
+                  f"{failed[0]['force_N']:g} N: {failed[0]['error']}", ""]
+    unsettled = [r for r in data["records"] if not r["converged"] and "error" not in r]
     if unsettled:
         parts += [f"{len(unsettled)} solves did not settle within the step cap and are measured at their last "
                   "positions (marked in the table).", ""]
