@@ -127,7 +127,8 @@ class LayerStatics:
         stiffness: ``(3n, 3n)`` layer stiffness [N/m] (:func:`layer_stiffness`).
         prescribed: ``(k,) int`` nodes whose displacements are given.
 
-    Raises SolverError if the free part K_ff is singular (a free node the layer does not hold in some direction).
+    :meth:`displacement` raises SolverError if the free part K_ff is singular (a free node the layer does not hold
+    in some direction, as a cut can leave); :meth:`implicit_step` never needs K_ff alone.
     """
 
     def __init__(self, stiffness: sp.csr_matrix, *, prescribed):
@@ -144,10 +145,7 @@ class LayerStatics:
         self._coupling = stiffness[free_dofs][:, fixed_dofs].tocsr()
         self._free_stiffness = stiffness[free_dofs][:, free_dofs].tocsc()
         self._dof_node = free_dofs // 3
-        try:
-            self._factor = factorise_spd(self._free_stiffness, self._dof_node)
-        except SolverError as error:
-            raise SolverError(f"the surface layer does not hold every free node ({error})") from None
+        self._factor = None  # K_ff's, on the first static solve (a cut can leave it singular; M/dt² + K_ff is not)
         self._dynamic: tuple[float, object] | None = None
 
     def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
@@ -186,5 +184,13 @@ class LayerStatics:
     def displacement(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
         """``(f, 3) float64`` displacements [m] of the free nodes (in :attr:`free_nodes` order) under nodal
         ``forces`` ``(n, 3)`` [N], the prescribed nodes moved by ``prescribed_displacement`` ``(k, 3)`` [m]."""
+        if self._factor is None:
+            from ..fem.linear import factorise_spd
+
+            try:
+                self._factor = factorise_spd(self._free_stiffness, self._dof_node)
+            except SolverError as error:
+                raise SolverError(f"the surface layer does not hold every free node ({error}); a cut may have left "
+                                  "a flap that only its inertia holds") from None
         rhs = forces[self.free_nodes].ravel() - self._coupling @ np.ravel(prescribed_displacement)
         return np.asarray(self._factor.solve(rhs)).reshape(-1, 3)
