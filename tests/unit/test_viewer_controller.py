@@ -231,3 +231,18 @@ def test_a_bundle_opens_as_saved_and_the_fem_method_says_what_it_lacks(tmp_path)
     with pytest.raises(SolverError, match="fine volume"):
         c.configure(method="fem")
     assert c.solver.name == "hybrid"
+
+
+def test_a_step_that_fails_is_reported_and_the_simulation_restarts_at_rest(hybrid, monkeypatch):
+    c = Controller(hybrid, clock=Clock(0.001))
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(None, above(top + [0.01, 0.0, 0.0]), DOWN)
+
+    def fail(dt=None):
+        raise SolverError("the surface turned inside out")
+
+    monkeypatch.setattr(c.solver, "step", fail)
+    c.advance(0.05)  # the window's frame callback must not die with the solver
+    assert "inside out" in c.notice and not c.pin.grabbed and c.solver.load is None
+    np.testing.assert_array_equal(c.solver.positions, hybrid.surface.vertices)

@@ -257,7 +257,15 @@ class Controller:
         steps, began = 0, self.clock()
         while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
             start = self.clock()
-            self.solver.step(dt)
+            try:
+                self.solver.step(dt)
+            except SolverError as error:  # a blow-up, or a mass-spring surface turned inside out: say so, restart
+                self.notice = str(error)
+                self.pin.release()
+                self.solver.reset()
+                self.force = np.zeros(3)
+                self._debt = 0.0
+                break
             took = self.clock() - start
             self._step_seconds = took if self._step_seconds == 0.0 else (
                 (1.0 - SMOOTHING) * self._step_seconds + SMOOTHING * took)
