@@ -58,6 +58,7 @@ def test_the_window_layer_runs_headless_and_records(hybrid, tmp_path):
     replay = ReplayApp(frames, headless=True)
     replay.ps.set_user_callback(replay.frame)
     replay.ps.frame_tick()
+    replay.close()
     assert replay.index == 1 % len(frames)
 
 

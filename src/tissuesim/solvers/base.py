@@ -379,7 +379,7 @@ class Solver(ABC):
         start = time.perf_counter()
         iterations = self._static_solve(rtol)
         if iterations is not None:
-            self._check_blow_up(dt, " in its static solve")
+            self._check_blow_up(dt, " in its static solve", linear=True)
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
                                           *self._largest_displacement())
             return self.state.positions.copy()
@@ -413,10 +413,13 @@ class Solver(ABC):
         """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""
         return float(farthest_node(self.state.positions, self.rest_positions)[1]), self.size
 
-    def _check_blow_up(self, dt: float, when: str = "") -> None:
-        """SolverError naming the cause and the fix when the state is non-finite or ran away (one O(n) pass)."""
+    def _check_blow_up(self, dt: float, when: str = "", *, linear: bool = False) -> None:
+        """SolverError naming the cause and the fix when the state is non-finite or ran away (one O(n) pass).
+
+        ``linear`` (a static linear solve, or a method whose step is one): only non-finite positions count, since a
+        linear answer cannot run away; a large one is reported by :attr:`SolveReport.warning` instead."""
         node, distance = farthest_node(self.state.positions, self.rest_positions)
-        if distance <= self.runaway_distance:
+        if distance <= self.runaway_distance or ((linear or self.static) and np.isfinite(distance)):
             return
         if np.isfinite(distance):
             what = (f"node {node} ran {distance:.3g} m from rest, more than {RUNAWAY_SIZES:g} times the model's "

@@ -75,9 +75,17 @@ class ViewerApp:
         self.ps.frame_tick()
 
     def close(self) -> None:
+        """Finish the recording and let go of polyscope: its callback and every structure of this window.
+
+        Python wrappers of removed polyscope structures must not outlive them: a new structure allocated at the
+        same address would then come back as the stale wrapper's type."""
         if self.recorder is not None:
             self.recorder.close()
             self.recorder = None
+        self.ps.clear_user_callback()
+        self.mesh = self.cut = None
+        self._shown, self._topology, self._home_view = {}, None, True
+        self.ps.remove_all_structures()
 
     def frame(self) -> None:
         """Polyscope's per-frame callback."""
@@ -109,8 +117,8 @@ class ViewerApp:
         x = solver.positions
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
+            self.mesh, self.cut, self._shown = None, None, {}  # drop the wrappers before their structures go
             ps.remove_all_structures()
-            self._shown = {}  # layer name -> polyscope structure
             self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
             cut = border_edges(triangles)
             self.cut = None
@@ -330,14 +338,23 @@ class ReplayApp:
 
     def run(self) -> None:
         self.ps.set_user_callback(self.frame)
-        self.ps.show()
+        try:
+            self.ps.show()
+        finally:
+            self.close()
+
+    def close(self) -> None:
+        """Let go of polyscope (see :meth:`ViewerApp.close`)."""
+        self.ps.clear_user_callback()
+        self.mesh, self._topology = None, None
+        self.ps.remove_all_structures()
 
     def frame(self) -> None:
         import polyscope.imgui as psim
 
         frame = self.frames[self.index]
         if self._topology is not frame.triangles:
-            self._topology = frame.triangles
+            self._topology, self.mesh = frame.triangles, None
             self.ps.remove_all_structures()
             self.mesh = self.ps.register_surface_mesh(SURFACE, frame.positions, frame.triangles, smooth_shade=True,
                                                       material="clay")

@@ -44,6 +44,7 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None,
         focus: ``(p, 3)`` points [m] the camera frames (default: everything); elevation: camera angle [degrees].
     """
     ps = polyscope(headless=True)
+    ps.clear_user_callback()  # a window's callback left behind must not draw into the figures
     _style(ps)
     ps.set_ground_plane_mode("shadow_only" if focus is None else "none")  # close up, the shadow is a grey band
     tris = triangles if isinstance(triangles, list) else [triangles] * len(frames)
@@ -52,20 +53,25 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None,
     look_at_oblique(ps, np.vstack(frames) if focus is None else focus, elevation=elevation)
     images = []
     for index, (x, t, mm) in enumerate(zip(frames, tris, magnitudes)):
-        ps.remove_all_structures()
-        mesh = ps.register_surface_mesh("M_S", x, t, smooth_shade=True, material="clay", edge_width=0.0)
-        mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap=COLORMAP, vminmax=(0.0, vmax))
         marker = markers[index] if index < len(markers) else None
-        if marker is not None:
-            pin = ps.register_point_cloud("pin-head", x[[marker]], color=(0.85, 0.1, 0.1))
-            pin.set_radius(0.012, relative=True)
-        if edges is not None and edges[index] is not None and len(edges[index]):
-            nodes, local = np.unique(edges[index], return_inverse=True)  # only the cut's own nodes are drawn
-            cut = ps.register_curve_network("cut", x[nodes], local.reshape(-1, 2), color=(0.9, 0.05, 0.05))
-            cut.set_radius(0.0015, relative=True)
-        images.append(ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3].copy())
+        cut = None if edges is None else edges[index]
+        images.append(_render_one(ps, x, t, mm, vmax, marker, cut))
     ps.remove_all_structures()
     return _crop(images), vmax
+
+
+def _render_one(ps, x, triangles, mm, vmax, marker, cut_edges) -> np.ndarray:
+    """One panel's RGB image. Polyscope's Python wrappers live only inside this call, so none outlives the
+    structure it wraps (a new structure at the same address would come back as the stale wrapper's type)."""
+    ps.remove_all_structures()
+    mesh = ps.register_surface_mesh("M_S", x, triangles, smooth_shade=True, material="clay", edge_width=0.0)
+    mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap=COLORMAP, vminmax=(0.0, vmax))
+    if marker is not None:
+        ps.register_point_cloud("pin-head", x[[marker]], color=(0.85, 0.1, 0.1), radius=0.012)
+    if cut_edges is not None and len(cut_edges):
+        nodes, local = np.unique(cut_edges, return_inverse=True)  # only the cut's own nodes are drawn
+        ps.register_curve_network("cut", x[nodes], local.reshape(-1, 2), color=(0.9, 0.05, 0.05), radius=0.0015)
+    return ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3].copy()
 
 
 def _crop(images, margin: int = 12) -> list[np.ndarray]:
