@@ -303,6 +303,8 @@ class Controller:
         """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node."""
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
         solver = make_solver(self.settings.method, hybrid, **self._solver_options())  # raises before any change
+        if not held:
+            solver.step(self.settings.dt)  # at rest: builds what the first step needs (a factorisation) while loading
         self.solver = solver
         self.pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
