@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SolverError
-from .solvers.base import positive_number
+from .solvers.checks import positive_number
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0

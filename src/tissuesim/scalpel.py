@@ -30,7 +30,7 @@ from .cutting.solver_update import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap
 from .errors import SolverError
 from .interaction import checked_point
-from .solvers.base import positive_number
+from .solvers.checks import positive_number
 
 #: Default blade length in mean rest edge lengths of M_S.
 DEPTH_EDGES = 2.0

@@ -41,7 +41,7 @@ def run(args) -> int:
     from ..experiments.output import check_output_folder
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
-    from ..solvers.base import available_solvers
+    from ..solvers.registry import available_solvers
     from .build import load_mesh
 
     output = check_output_folder(args.output)

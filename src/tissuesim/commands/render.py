@@ -41,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     from ..viewer.controller import scalpel_class
     from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
     from ..viewer.gl import NoOpenGLError, polyscope
-    from ..solvers.base import solver_class
+    from ..solvers.registry import solver_class
     from .view import load_hybrid
 
     solver_class(args.method)  # an unknown method is refused before any work

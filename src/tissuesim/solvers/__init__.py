@@ -3,19 +3,11 @@
     solver = make_solver("hybrid", hybrid_mesh)             # paper material, bottom fixed, calibrated layer
     positions = solver.solve_static(node, [0.0, 0.0, -1.0])  # (n, 3) M_S positions at equilibrium [m]
 
-Each method lives in its own module and is imported on first use (see :mod:`tissuesim.solvers.base`).
+Each method lives in its own module and is imported on first use (see :mod:`tissuesim.solvers.registry`).
 """
 
-from .base import (
-    SolveReport,
-    Solver,
-    State,
-    available_solvers,
-    make_solver,
-    register,
-    solver_class,
-    solver_options,
-)
+from .base import SolveReport, Solver, State
+from .registry import available_solvers, make_solver, register, solver_class, solver_options
 
 __all__ = [
     "SolveReport", "Solver", "State", "available_solvers", "make_solver", "register", "solver_class",

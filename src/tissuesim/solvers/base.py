@@ -1,4 +1,4 @@
-"""The solver protocol shared by every method, its mutable state, and the name → class registry.
+"""The solver protocol shared by every method and its mutable state (the registry: :mod:`.registry`).
 
 A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
 owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load: a pin-head's force on
@@ -26,12 +26,10 @@ Common options (keyword-only, the same for every method):
 
 from __future__ import annotations
 
-import inspect
 import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from importlib import import_module
 from typing import ClassVar
 
 import numpy as np
@@ -39,6 +37,7 @@ from numba import njit
 
 from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
+from .checks import check_force, fraction, is_integer, node_set, positive_number
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
@@ -206,7 +205,7 @@ class Solver(ABC):
         self.poisson_ratio = self.material.poisson_ratio
         self.density = positive_number("density", density, "kg/m³")
         self.dt = positive_number("dt", dt, "s")
-        self.damping = _fraction("damping", damping)
+        self.damping = fraction("damping", damping)
         self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
         n = len(self.rest_positions)
         self.fixed_from_height = fixed is None
@@ -215,7 +214,7 @@ class Solver(ABC):
             self.fixed = nodes_below(self.rest_positions, self.fixed_height)
         else:
             self.fixed_height = None
-            self.fixed = _node_set("fixed", fixed, n)
+            self.fixed = node_set("fixed", fixed, n)
         self.forces = np.zeros((n, 3))
         self._load_node = -1
         self._load_force = np.zeros(3)
@@ -271,7 +270,7 @@ class Solver(ABC):
         reaches the fixed region is refused (part of the force would vanish into the support).
         """
         node = self._check_node(node)
-        force = _check_force(force)
+        force = check_force(force)
         nodes, shares = self.contact_patch(node, radius)
         self._withdraw_load()
         self.forces[nodes] = shares[:, None] * force[None, :]
@@ -368,11 +367,11 @@ class Solver(ABC):
         """
         tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
         rtol = positive_number("rtol", rtol, "1")
-        if not _is_integer(max_steps) or max_steps < 1:
+        if not is_integer(max_steps) or max_steps < 1:
             raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
         node = self._check_node(node)
-        force = _check_force(force)
+        force = check_force(force)
         if reset:
             self.reset()
         self.set_load(node, force, radius=radius)
@@ -450,7 +449,7 @@ class Solver(ABC):
 
     # ---------------------------------------------------------------------------------------------- validation
     def _check_node(self, node) -> int:
-        if not _is_integer(node):
+        if not is_integer(node):
             raise SolverError(f"load node must be an integer vertex index, got {node!r}")
         index = int(node)
         if not 0 <= index < self.node_count:
@@ -483,139 +482,3 @@ class Solver(ABC):
                 "nodes (hybrid_mesh.control) in `fixed`, or leave `fixed` at its default (the bottom)"
             )
         return mapped
-
-
-# --------------------------------------------------------------------------------------------------- helpers
-def positive_number(name: str, value, unit: str) -> float:
-    """``value`` as a float, or a :class:`SolverError` naming ``name`` and its ``unit`` unless positive and finite."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise SolverError(f"{name} must be a number [{unit}], got {value!r}") from None
-    if not np.isfinite(value) or value <= 0.0:
-        raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
-    return value
-
-
-def _is_integer(value) -> bool:
-    """True for an int or NumPy integer (not a bool: True would otherwise mean node 1), or an integral float."""
-    if isinstance(value, (bool, np.bool_)):
-        return False
-    if isinstance(value, (int, np.integer)):
-        return True
-    return isinstance(value, (float, np.floating)) and float(value).is_integer()
-
-
-def _fraction(name: str, value) -> float:
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise SolverError(f"{name} must be a number in [0, 1), got {value!r}") from None
-    if not (0.0 <= value < 1.0):
-        raise SolverError(f"{name} must lie in [0, 1) (fraction of velocity removed per step), got {value!r}")
-    return value
-
-
-def _check_force(force) -> np.ndarray:
-    try:
-        force = np.asarray(force, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SolverError(f"force must be 3 numbers [N], got {force!r}") from None
-    if force.shape != (3,):
-        raise SolverError(f"force must have shape (3,) [N], got shape {force.shape}")
-    if not np.all(np.isfinite(force)):
-        raise SolverError(f"force must be finite [N], got {force.tolist()}")
-    return force
-
-
-def _node_set(name: str, nodes, count: int) -> np.ndarray:
-    nodes = np.asarray(nodes)
-    if nodes.dtype == bool:
-        if nodes.shape != (count,):
-            raise BoundaryConditionError(f"boolean {name} mask must have shape ({count},), got {nodes.shape}")
-        nodes = np.flatnonzero(nodes)
-    if nodes.size and not np.issubdtype(nodes.dtype, np.integer):
-        raise BoundaryConditionError(f"{name} must be integer M_S vertex indices, got dtype {nodes.dtype}")
-    nodes = nodes.astype(np.int64).ravel()
-    if nodes.size == 0:
-        raise BoundaryConditionError(
-            f"{name} is empty: the body would move freely; pass M_S vertex indices or leave it at its default "
-            "(the model's bottom)"
-        )
-    bad = np.flatnonzero((nodes < 0) | (nodes >= count))
-    if bad.size:
-        raise BoundaryConditionError(
-            f"{bad.size} {name} indices lie outside 0..{count - 1} (first positions in the list: "
-            f"{first_indices(bad)})"
-        )
-    return np.unique(nodes).astype(np.int32)
-
-
-# -------------------------------------------------------------------------------------------------- registry
-# name -> (module, class): imported on first use, so one method's missing dependency does not break the others.
-_BUILTIN = {
-    "hybrid": ("tissuesim.solvers.hybrid", "HybridSolver"),
-    "pbd": ("tissuesim.solvers.pbd", "PBDSolver"),
-    "mass-spring": ("tissuesim.solvers.mass_spring", "MassSpringSolver"),
-    "embedded": ("tissuesim.solvers.embedded", "EmbeddedSolver"),
-    "fem": ("tissuesim.solvers.fine_fem", "FineFEMSolver"),
-}
-_REGISTRY: dict[str, type] = {}
-
-
-def register(name: str):
-    """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
-
-    def decorate(cls):
-        if not (isinstance(cls, type) and issubclass(cls, Solver)):
-            raise SolverError(f"only Solver subclasses can be registered, got {cls!r}")
-        cls.name = name
-        _REGISTRY[name] = cls
-        return cls
-
-    return decorate
-
-
-def available_solvers() -> tuple[str, ...]:
-    """Names accepted by :func:`make_solver`."""
-    return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
-
-
-def solver_class(name: str) -> type:
-    """The :class:`Solver` subclass registered as ``name``."""
-    if name not in _REGISTRY:
-        if name not in _BUILTIN:
-            raise SolverError(f"unknown solver {name!r}; choose one of {', '.join(available_solvers())}")
-        module, cls = _BUILTIN[name]
-        _REGISTRY[name] = getattr(import_module(module), cls)
-    return _REGISTRY[name]
-
-
-def solver_options(name: str) -> dict[str, object]:
-    """Keyword options of solver ``name`` and their defaults (None: calibrated or derived)."""
-    cls = solver_class(name)
-    options = {}
-    for klass in reversed(cls.__mro__):
-        if klass is object or "__init__" not in vars(klass):
-            continue
-        for p in inspect.signature(klass.__init__).parameters.values():
-            if p.kind is p.KEYWORD_ONLY:
-                options[p.name] = p.default
-    return options
-
-
-def make_solver(name: str, hybrid_mesh, **options) -> Solver:
-    """A solver of method ``name`` (hybrid, pbd, mass-spring, embedded, fem) over ``hybrid_mesh``.
-
-    ``options`` are the keyword options of that method (see each class); an unknown option is a SolverError
-    that lists the accepted ones.
-    """
-    cls = solver_class(name)
-    accepted = solver_options(name)
-    unknown = sorted(set(options) - set(accepted))
-    if unknown:
-        raise SolverError(
-            f"unknown option(s) {', '.join(map(repr, unknown))} for solver {name!r}; accepted: "
-            f"{', '.join(sorted(accepted))}"
-        )
-    return cls(hybrid_mesh, **options)

@@ -24,7 +24,7 @@ from scipy.optimize import minimize_scalar
 
 from ..errors import SolverError
 from ..experiments.protocol import RMSE_SAMPLES, load_node, rms_displacement, rmse, sample_nodes
-from .base import make_solver
+from .registry import make_solver
 
 CALIBRATION_MODEL = "cube"
 CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure

@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .base import Solver, register
+from .base import Solver
+from .registry import register
 
 
 @njit(cache=True)

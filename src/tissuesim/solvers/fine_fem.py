@@ -11,7 +11,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from .base import Solver, register
+from .base import Solver
+from .registry import register
 
 
 @register("fem")

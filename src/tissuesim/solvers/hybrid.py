@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import register
+from .registry import register
 from .embedded import map_embedded
 from .pbd import SurfaceLayerSolver
 

@@ -47,7 +47,9 @@ import numpy as np
 from numba import njit
 
 from ..errors import InversionError, SolverError
-from .base import Solver, positive_number, register
+from .base import Solver
+from .checks import positive_number
+from .registry import register
 
 #: Most substeps one step may take: beyond it the step is refused (a stiff material at a large dt would otherwise
 #: run for hours: 5.7e7 substeps at E = 1e15 Pa).

@@ -29,7 +29,9 @@ import numpy as np
 
 from ..errors import SolverError
 from ..pbd.kernels import pbd_step, xpbd_step
-from .base import Solver, positive_number, register
+from .base import Solver
+from .checks import positive_number
+from .registry import register
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")

@@ -17,7 +17,7 @@ import numpy as np
 
 from ..errors import TissuesimError
 from ..recording import Recorder, border_edges, solver_frame
-from ..solvers.base import available_solvers, solver_options
+from ..solvers.registry import available_solvers, solver_options
 from .controller import MODES, Controller
 from .gl import look_at_oblique, polyscope
 

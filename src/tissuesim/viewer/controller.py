@@ -31,7 +31,8 @@ import numpy as np
 
 from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead
-from ..solvers.base import available_solvers, make_solver, positive_number, solver_options
+from ..solvers.checks import positive_number
+from ..solvers.registry import available_solvers, make_solver, solver_options
 
 DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...

@@ -112,7 +112,7 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
                        radius: float | None = None) -> Path:
     """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
     or spread over a contact patch of ``radius`` [m] around it)."""
-    from ..solvers.base import make_solver
+    from ..solvers.registry import make_solver
 
     surface = hybrid.surface
     node = load_node(surface.vertices, surface.triangles)
@@ -131,7 +131,7 @@ def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: f
     """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open by
     ``force`` [N] beside its middle; the camera frames the wound."""
     from ..cutting.wound import open_wound, scripted_incision, wound_gap
-    from ..solvers.base import make_solver
+    from ..solvers.registry import make_solver
 
     solver = make_solver(method, hybrid)
     line = scripted_incision(solver)["line"]

@@ -1,0 +1,77 @@
+"""The name → class registry of deformation methods: built-ins imported on first use, users' own by ``@register``."""
+
+from __future__ import annotations
+
+import inspect
+from importlib import import_module
+
+from ..errors import SolverError
+from .base import Solver
+
+# name -> (module, class): imported on first use, so one method's missing dependency does not break the others.
+_BUILTIN = {
+    "hybrid": ("tissuesim.solvers.hybrid", "HybridSolver"),
+    "pbd": ("tissuesim.solvers.pbd", "PBDSolver"),
+    "mass-spring": ("tissuesim.solvers.mass_spring", "MassSpringSolver"),
+    "embedded": ("tissuesim.solvers.embedded", "EmbeddedSolver"),
+    "fem": ("tissuesim.solvers.fine_fem", "FineFEMSolver"),
+}
+_REGISTRY: dict[str, type] = {}
+
+
+def register(name: str):
+    """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
+
+    def decorate(cls):
+        if not (isinstance(cls, type) and issubclass(cls, Solver)):
+            raise SolverError(f"only Solver subclasses can be registered, got {cls!r}")
+        cls.name = name
+        _REGISTRY[name] = cls
+        return cls
+
+    return decorate
+
+
+def available_solvers() -> tuple[str, ...]:
+    """Names accepted by :func:`make_solver`."""
+    return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
+
+
+def solver_class(name: str) -> type:
+    """The :class:`Solver` subclass registered as ``name``."""
+    if name not in _REGISTRY:
+        if name not in _BUILTIN:
+            raise SolverError(f"unknown solver {name!r}; choose one of {', '.join(available_solvers())}")
+        module, cls = _BUILTIN[name]
+        _REGISTRY[name] = getattr(import_module(module), cls)
+    return _REGISTRY[name]
+
+
+def solver_options(name: str) -> dict[str, object]:
+    """Keyword options of solver ``name`` and their defaults (None: calibrated or derived)."""
+    cls = solver_class(name)
+    options = {}
+    for klass in reversed(cls.__mro__):
+        if klass is object or "__init__" not in vars(klass):
+            continue
+        for p in inspect.signature(klass.__init__).parameters.values():
+            if p.kind is p.KEYWORD_ONLY:
+                options[p.name] = p.default
+    return options
+
+
+def make_solver(name: str, hybrid_mesh, **options) -> Solver:
+    """A solver of method ``name`` (hybrid, pbd, mass-spring, embedded, fem) over ``hybrid_mesh``.
+
+    ``options`` are the keyword options of that method (see each class); an unknown option is a SolverError
+    that lists the accepted ones.
+    """
+    cls = solver_class(name)
+    accepted = solver_options(name)
+    unknown = sorted(set(options) - set(accepted))
+    if unknown:
+        raise SolverError(
+            f"unknown option(s) {', '.join(map(repr, unknown))} for solver {name!r}; accepted: "
+            f"{', '.join(sorted(accepted))}"
+        )
+    return cls(hybrid_mesh, **options)
