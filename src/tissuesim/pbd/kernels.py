@@ -87,6 +87,23 @@ def _project_stretch(x, w, i, j, rest, scale, alpha, lam):
 
 
 @njit(cache=True, inline="always")
+def _move_hinge(x, i1, i2, i3, i4, s1, s2, s3, s4, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z):
+    """A hinge's correction in place: node i_k moves by s_k ∇_k C (s_k = w_k Δλ)."""
+    x[i1, 0] += s1 * g1x
+    x[i1, 1] += s1 * g1y
+    x[i1, 2] += s1 * g1z
+    x[i2, 0] += s2 * g2x
+    x[i2, 1] += s2 * g2y
+    x[i2, 2] += s2 * g2z
+    x[i3, 0] += s3 * g3x
+    x[i3, 1] += s3 * g3y
+    x[i3, 2] += s3 * g3z
+    x[i4, 0] += s4 * g4x
+    x[i4, 1] += s4 * g4y
+    x[i4, 2] += s4 * g4z
+
+
+@njit(cache=True, inline="always")
 def _bend_gradient(x, i1, i2, i3, i4):
     """Eq 10's θ on hinge (P1, P2 | P3, P4) of ``x`` and its gradient ∇θ per node, in closed form.
 
@@ -190,18 +207,8 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     move = abs(dlam) * largest
     if move > limit:
         dlam *= limit / move
-    x[i1, 0] += w1 * dlam * g1x
-    x[i1, 1] += w1 * dlam * g1y
-    x[i1, 2] += w1 * dlam * g1z
-    x[i2, 0] += w2 * dlam * g2x
-    x[i2, 1] += w2 * dlam * g2y
-    x[i2, 2] += w2 * dlam * g2z
-    x[i3, 0] += w3 * dlam * g3x
-    x[i3, 1] += w3 * dlam * g3y
-    x[i3, 2] += w3 * dlam * g3z
-    x[i4, 0] += w4 * dlam * g4x
-    x[i4, 1] += w4 * dlam * g4y
-    x[i4, 2] += w4 * dlam * g4z
+    _move_hinge(x, i1, i2, i3, i4, w1 * dlam, w2 * dlam, w3 * dlam, w4 * dlam,
+                g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z)
     return dlam
 
 
@@ -290,18 +297,8 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     if denom <= 0.0:
         return 0.0
     dlam = scale * (-(beta - rest) - alpha * lam) / denom
-    x[i1, 0] += w1 * dlam * g1x
-    x[i1, 1] += w1 * dlam * g1y
-    x[i1, 2] += w1 * dlam * g1z
-    x[i2, 0] += w2 * dlam * g2x
-    x[i2, 1] += w2 * dlam * g2y
-    x[i2, 2] += w2 * dlam * g2z
-    x[i3, 0] += w3 * dlam * g3x
-    x[i3, 1] += w3 * dlam * g3y
-    x[i3, 2] += w3 * dlam * g3z
-    x[i4, 0] += w4 * dlam * g4x
-    x[i4, 1] += w4 * dlam * g4y
-    x[i4, 2] += w4 * dlam * g4z
+    _move_hinge(x, i1, i2, i3, i4, w1 * dlam, w2 * dlam, w3 * dlam, w4 * dlam,
+                g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z)
     return dlam
 
 
