@@ -94,6 +94,7 @@ class _Points:
     n: int
     snap: float
     rest: np.ndarray                              # (n, 3) rest positions: the quality guard measures there
+    now: np.ndarray | None = None                 # (n, 3) current positions: and there
     opposite: dict = field(default_factory=dict)  # (lo, hi) -> opposite vertices of the edge's triangles
     edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
     facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
@@ -121,30 +122,35 @@ class _Points:
 
     def _guard(self, corners, w):
         """Snap further while a piece the point would make in this triangle falls below :data:`GUARD_QUALITY` at
-        rest: a facet point onto the edge of its worst piece, an edge point onto the nearer end (repeated re-cuts
-        would otherwise thin the triangles step by step)."""
-        p = self.rest[corners]
+        rest or at the current positions (a cut on a deformed surface): a facet point onto the edge of its worst
+        piece, an edge point onto the nearer end (repeated re-cuts would otherwise thin the triangles step by step)."""
         while np.count_nonzero(w) > 1:
-            x = w @ p
             inside = np.flatnonzero(w)
-            if inside.size == 3:
-                pieces = [(x, p[i], p[(i + 1) % 3]) for i in range(3)]        # piece i lies on edge (i, i + 1)
-            else:
-                i, j = inside
-                key = tuple(sorted((int(corners[i]), int(corners[j]))))
-                # the pieces in both triangles of the edge (the neighbour gets the point too, Fig 7(a))
-                others = self.opposite.get(key) or [int(corners[3 - i - j])]
-                pieces = [(x, p[e], self.rest[o]) for o in others for e in (i, j)]
-            quality = [_quality3(*piece) for piece in pieces]
+            quality = np.min([self._piece_quality(corners, w, inside, where)
+                              for where in (self.rest, self.now) if where is not None], axis=0)
             if min(quality) >= GUARD_QUALITY:
                 break
             if inside.size == 3:
                 worst = int(np.argmin(quality))
                 w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
             else:
+                i, j = inside
                 w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
             w = w / w.sum()
         return w
+
+    def _piece_quality(self, corners, w, inside, where) -> list:
+        """Qualities of the pieces a point at barycentric ``w`` would make, with vertices at ``where`` ``(n, 3)``:
+        three in its triangle for a facet point (piece i on edge (i, i + 1)), two per triangle of its edge for an edge
+        point (the neighbour gets the point too, Fig 7(a))."""
+        p = where[corners]
+        x = w @ p
+        if inside.size == 3:
+            return [_quality3(x, p[i], p[(i + 1) % 3]) for i in range(3)]
+        i, j = inside
+        key = tuple(sorted((int(corners[i]), int(corners[j]))))
+        others = self.opposite.get(key) or [int(corners[3 - i - j])]
+        return [_quality3(x, p[e], where[o]) for o in others for e in (i, j)]
 
     def same(self, a: tuple, b: tuple) -> bool:
         """Whether two located points are one point after snapping (then the segment between them is dropped)."""
@@ -206,7 +212,7 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
-    points = _Points(n=n, snap=snap, rest=rest, opposite=_opposites(triangles, near))
+    points = _Points(n=n, snap=snap, rest=rest, now=positions, opposite=_opposites(triangles, near))
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
