@@ -104,8 +104,9 @@ def contact_report_markdown(data: dict) -> str:
                   f"{failed[0]['force_N']:g} N: {failed[0]['error']}", ""]
     unsettled = [r for r in data["records"] if not r["converged"] and "error" not in r]
     if unsettled:
-        parts += [f"{len(unsettled)} solves did not settle within the step cap and are measured at their last "
-                  "positions (marked in the table).", ""]
+        parts += [f"{len(unsettled)} solves did not settle within the step cap, or turned the mass-spring surface "
+                  "inside out (which springs cannot undo), and are measured at their last positions (marked in the "
+                  "table).", ""]
     parts += ["## Every case", "", case_table(data), ""]
     return "\n".join(parts)
 

@@ -150,8 +150,9 @@ def _verdict(data: dict) -> list[str]:
     unsettled = [r for r in data["records"] if r.get("converged") is False]
     if unsettled:
         cap = data["metadata"]["options"].get("max_steps")
-        lines.append(f"{len(unsettled)} quasi-static solves did not settle within {cap} steps and are measured at "
-                     "their last positions: " + ", ".join(f"{LABELS.get(r['method'], r['method'])} on {r['model']} "
+        lines.append(f"{len(unsettled)} quasi-static solves did not settle within {cap} steps, or turned the "
+                     "mass-spring surface inside out (which springs cannot undo), and are measured at their last "
+                     "positions: " + ", ".join(f"{LABELS.get(r['method'], r['method'])} on {r['model']} "
                                                           f"{r['load']} {r['force_N']:g} N" for r in unsettled)
                      + ".")
     rel = [r["relative_rmse"] for r in data["records"] if r["method"] == "hybrid" and r["relative_rmse"] is not None]
