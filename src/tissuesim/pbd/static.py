@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from ..errors import SolverError
+from ..fem.linear import factorise_spd
 from .kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
 
 
@@ -132,8 +133,6 @@ class LayerStatics:
     """
 
     def __init__(self, stiffness: sp.csr_matrix, *, prescribed):
-        from ..fem.linear import factorise_spd
-
         n = stiffness.shape[0] // 3
         free = np.ones(n, dtype=bool)
         free[np.asarray(prescribed, dtype=np.int64)] = False
@@ -171,8 +170,6 @@ class LayerStatics:
         implicit_update(solution, positions, velocities, rest, self.free_nodes, self.prescribed, targets, dt)
 
     def _dynamic_factor(self, mass, dt):
-        from ..fem.linear import factorise_spd
-
         inertia = np.repeat(mass[self.free_nodes], 3) / (dt * dt)
         factor = factorise_spd((self._free_stiffness + sp.diags(inertia)).tocsc(), self._dof_node)
         if hasattr(factor, "workspace"):
@@ -185,8 +182,6 @@ class LayerStatics:
         """``(f, 3) float64`` displacements [m] of the free nodes (in :attr:`free_nodes` order) under nodal
         ``forces`` ``(n, 3)`` [N], the prescribed nodes moved by ``prescribed_displacement`` ``(k, 3)`` [m]."""
         if self._factor is None:
-            from ..fem.linear import factorise_spd
-
             try:
                 self._factor = factorise_spd(self._free_stiffness, self._dof_node)
             except SolverError as error:

@@ -82,9 +82,11 @@ class SolveReport:
 
     Attributes:
         steps: time steps taken.
-        converged: whether the largest per-step motion fell below ``tolerance``.
+        converged: whether the solve reached equilibrium (a static solve always; a stepped one when its
+            extrapolated remaining error fell below ``rtol`` × the largest displacement, or its motion below
+            ``tolerance``).
         max_motion: largest node motion [m] in the last step.
-        tolerance: the tolerance asked for [m].
+        tolerance: the absolute motion tolerance asked for [m] (0: none).
         elapsed: wall time of the solve [s].
         largest_displacement: largest node displacement from rest at the end [m].
         model_size: the model's size, the diagonal of M_S's rest bounding box [m].

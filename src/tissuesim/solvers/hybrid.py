@@ -13,8 +13,10 @@ Per time step (§6.5):
    projected by stretch (eq 9) and bending (eq 11) constraints, Gauss–Seidel (eq 17, second case);
 5. eq 18 updates velocities and positions.
 
-Steps 3–5 are one Numba call (:mod:`tissuesim.pbd.kernels`), PBD or XPBD form (see
-:class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`).
+Steps 3–5 are the paper's projection (:mod:`tissuesim.pbd.kernels`, one Numba call) with ``integrator="xpbd"`` or
+``form="pbd"``. By default the layer between the control nodes is the material-derived elastic layer of
+:class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`, stepped by implicit Euler and solved exactly in quasi-static
+solves (:mod:`tissuesim.pbd.static`); steps 1–2 are the same for every form.
 
 Option ``warm_start`` (beyond the paper): when the load changes, the free M_S nodes are moved by the change of
 the embedded FEM displacement (their barycentric embedding in M_V, as the ``embedded`` method), so PBD only relaxes

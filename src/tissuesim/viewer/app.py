@@ -63,11 +63,7 @@ class ViewerApp:
     # ------------------------------------------------------------------------------------------------ running
     def run(self) -> None:
         """Open the window and run until it is closed."""
-        self.ps.set_user_callback(self.frame)
-        try:
-            self.ps.show()
-        finally:
-            self.close()
+        show_window(self.ps, self.frame, self.close)
 
     def tick(self) -> None:
         """One frame without a window: the callback, then polyscope's render (headless scripts)."""
@@ -325,6 +321,15 @@ def style_window(ps) -> None:
     ps.set_right_gui_pane_width(PANEL_WIDTH)
 
 
+def show_window(ps, frame, close) -> None:
+    """Run polyscope's window with ``frame`` as its per-frame callback until it is closed; then ``close()``."""
+    ps.set_user_callback(frame)
+    try:
+        ps.show()
+    finally:
+        close()
+
+
 class ReplayApp:
     """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button."""
 
@@ -337,11 +342,8 @@ class ReplayApp:
         style_window(self.ps)
 
     def run(self) -> None:
-        self.ps.set_user_callback(self.frame)
-        try:
-            self.ps.show()
-        finally:
-            self.close()
+        """Open the window and play until it is closed."""
+        show_window(self.ps, self.frame, self.close)
 
     def close(self) -> None:
         """Let go of polyscope (see :meth:`ViewerApp.close`)."""
