@@ -18,6 +18,12 @@ import numpy as np
 from .errors import SolverError
 
 
+def triangle_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(m,) float64`` area [m²] of each of ``triangles`` ``(m, 3) int`` over ``vertices`` ``(n, 3)`` [m]."""
+    p = vertices[np.asarray(triangles, dtype=np.int64)]
+    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+
+
 def lumped_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """``(n,) float64`` a third of the area of every triangle around each vertex [m²].
 
@@ -26,9 +32,8 @@ def lumped_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
         triangles: ``(m, 3) int`` vertex indices.
     """
     triangles = np.asarray(triangles, dtype=np.int64)
-    a, b, c = (vertices[triangles[:, k]] for k in range(3))
-    areas = 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
-    return np.bincount(triangles.ravel(), weights=np.repeat(areas / 3.0, 3), minlength=len(vertices))
+    share = np.repeat(triangle_areas(vertices, triangles) / 3.0, 3)
+    return np.bincount(triangles.ravel(), weights=share, minlength=len(vertices))
 
 
 def contact_patch(rest_positions: np.ndarray, triangles: np.ndarray, node: int,

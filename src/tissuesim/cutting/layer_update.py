@@ -15,11 +15,12 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ..loads import triangle_areas
 from ..pbd.kernels import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .remap import interpolate
 from .rows import Rows
-from .solver_update import SolverCut, _areas, lumped_masses, register_cut
+from .solver_update import SolverCut, lumped_masses, register_cut
 
 
 class CutConstraints(SimpleNamespace):
@@ -53,7 +54,7 @@ def adjacent_area(result, edge_map, keys) -> np.ndarray:
     """``(k,) float64`` rest area [m²] of the (one or two) triangles around each edge of ``keys``."""
     owners = [edge_map.of(k) for k in keys]
     rows = np.array([r for o in owners for r in o], dtype=np.int64)
-    area = _areas(result.rest, result.triangles[rows])
+    area = triangle_areas(result.rest, result.triangles[rows])
     counts = np.array([len(o) for o in owners], dtype=np.int64)
     return np.add.reduceat(area, np.concatenate([[0], np.cumsum(counts)[:-1]])) if len(keys) else np.zeros(0)
 

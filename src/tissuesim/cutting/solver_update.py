@@ -25,6 +25,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from ..errors import SolverError
+from ..loads import lumped_areas, triangle_areas
 from .core import CutResult, cut_surface
 from .remap import cut_hybrid, interpolate
 from .rows import EdgeMap
@@ -86,7 +87,7 @@ class SolverCut:
         triangles = solver.hybrid.surface.triangles
         self.edges = EdgeMap(triangles)
         self.closed = np.zeros((0, 2), dtype=np.int64)
-        self.lumped = _lumped_area(solver.rest_positions, triangles)
+        self.lumped = lumped_areas(solver.rest_positions, triangles)
         # The cuts as a graph over vertex identities (a duplicate is its original): a piece can only come loose
         # when a cut closes a cycle in it, so the O(m) component count runs only then.
         self.identity = np.arange(len(solver.rest_positions))
@@ -152,10 +153,10 @@ class SolverCut:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""
         lumped = np.zeros(len(result.rest))
         lumped[:n] = self.lumped
-        old_area = _areas(self.solver.rest_positions, old_content)
+        old_area = triangle_areas(self.solver.rest_positions, old_content)
         np.add.at(lumped, old_content.ravel(), -np.repeat(old_area / 3.0, 3))
         new_content = result.triangles[result.changed]
-        np.add.at(lumped, new_content.ravel(), np.repeat(_areas(result.rest, new_content) / 3.0, 3))
+        np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
     def _cut_graph(self, result: CutResult, identity: np.ndarray):
@@ -218,17 +219,6 @@ def _fixed_after(fixed: np.ndarray, result: CutResult, n: int) -> np.ndarray:
 def lumped_masses(lumped_area: np.ndarray, total: float) -> np.ndarray:
     """``(n,) float64`` masses [kg]: ``total`` [kg] spread in proportion to ``lumped_area`` ``(n,)`` [m²]."""
     return total * lumped_area / lumped_area.sum()
-
-
-def _areas(points, triangles):
-    p = points[triangles]
-    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
-
-
-def _lumped_area(points, triangles):
-    lumped = np.zeros(len(points))
-    np.add.at(lumped, triangles.ravel(), np.repeat(_areas(points, triangles) / 3.0, 3))
-    return lumped
 
 
 @register_cut("fem")

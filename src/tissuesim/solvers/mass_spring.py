@@ -47,6 +47,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import InversionError, SolverError
+from ..loads import lumped_areas
 from .base import Solver
 from .checks import positive_number
 from .registry import register
@@ -163,8 +164,7 @@ def spring_network(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def surface_lumped_mass(surface, density: float) -> np.ndarray:
     """``(n,) float64`` node masses [kg]: density × enclosed volume, spread by each node's lumped area."""
-    lumped = np.zeros(surface.vertex_count)
-    np.add.at(lumped, surface.triangles.ravel(), np.repeat(surface.triangle_areas / 3.0, 3))
+    lumped = lumped_areas(surface.vertices, surface.triangles)
     total = density * abs(surface.signed_volume)
     if total <= 0.0 or np.any(lumped <= 0.0):
         raise SolverError(
