@@ -9,8 +9,8 @@ with like:
 * ``set_load(node, force, radius=None)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node,
   or on the contact patch of radius R [m] around it;
 * ``reset()`` returns to rest, at zero velocity and without load;
-* ``solve_static(node, force, radius=None)`` steps with damping until the surface settles and returns the M_S
-  positions.
+* ``solve_static(node, force, radius=None)`` returns the M_S positions at equilibrium: solved directly where the
+  method has a static solver, else by stepping with damping until the surface settles.
 
 Common options (keyword-only, the same for every method):
 
@@ -43,8 +43,8 @@ DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
 DEFAULT_DENSITY = 1000.0  # kg/m³
 DEFAULT_DT = 0.01  # s
-#: Relative accuracy of a quasi-static solve: its remaining error over the largest displacement (stepped methods),
-#: or its force residual over the largest nodal load (static solvers).
+#: Relative accuracy of a stepped quasi-static solve: its remaining error over the largest displacement (methods
+#: with a static solver of their own solve the equilibrium exactly).
 DEFAULT_RTOL = 1e-5
 DEFAULT_MAX_STEPS = 20000
 #: A state has run away when a node lies farther than this many model sizes (the diagonal of M_S's rest bounding
@@ -231,7 +231,8 @@ class Solver(ABC):
         self.size = float(np.linalg.norm(extent))
         self.runaway_distance = RUNAWAY_SIZES * self.size
         self.last_solve: SolveReport | None = None
-        #: Quasi-static solves whose static solver stalled (far beyond small strain) and were finished by stepping.
+        #: Quasi-static solves whose static solver could not answer (a cut left a flap only inertia holds) and were
+        #: finished by stepping.
         self.static_fallbacks = 0
 
     # ----------------------------------------------------------------------------------------------- state access
@@ -359,7 +360,7 @@ class Solver(ABC):
 
         ``radius`` spreads the force over a contact patch (:meth:`set_load`). Methods with a static solver of their
         own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.pbd.static`) solve the equilibrium
-        directly, to a force residual of ``rtol`` × the largest nodal load. The others step (with the solver's
+        directly (a linear solve, exact to round-off). The others step (with the solver's
         damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
         ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
         stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
@@ -378,7 +379,7 @@ class Solver(ABC):
             self.reset()
         self.set_load(node, force, radius=radius)
         start = time.perf_counter()
-        iterations = self._static_solve(rtol)
+        iterations = self._static_solve()
         if iterations is not None:
             self._check_blow_up(dt, " in its static solve", linear=True)
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
@@ -441,7 +442,7 @@ class Solver(ABC):
     def _on_load_changed(self) -> None:
         """Called after the load changed (set, cleared, reset)."""
 
-    def _static_solve(self, rtol: float) -> int | None:
+    def _static_solve(self) -> int | None:
         """Put ``self.state`` at the static equilibrium under the current load and return the iterations taken,
         or None where the method has no static solver (``solve_static`` then steps to equilibrium)."""
         return None

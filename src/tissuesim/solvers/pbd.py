@@ -138,7 +138,7 @@ class SurfaceLayerSolver(Solver):
         self.mass_scale = positive_number("mass_scale", mass_scale, "1")
         self.mass = self.mass * self.mass_scale
 
-    def _static_solve(self, rtol: float) -> int | None:
+    def _static_solve(self) -> int | None:
         """xpbd form: the layer's small-strain static equilibrium, one back-substitution
         (:mod:`tissuesim.pbd.static`); pbd form: None (its equilibrium is only defined by its time stepping)."""
         if self.form != "xpbd":
