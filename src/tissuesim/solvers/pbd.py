@@ -1,15 +1,16 @@
 """Position-based surface methods: the shared surface layer, and the ``pbd`` method (the paper's PBD baseline).
 
 The surface layer is M_S with a stretch constraint per edge (eq 8–9) and a bending constraint per interior edge
-(eq 10–12), stepped by one Numba call per time step (eq 15, 16, prescribed nodes as eq 17's first case,
-Gauss–Seidel projection, eq 18). Two forms (option ``form``):
+(eq 10–12); control nodes (hybrid) and fixed nodes are prescribed (eq 17's first case). Two forms (option ``form``):
 
 * ``"xpbd"`` (default): a physical elastic layer. Compliance from the material (:mod:`tissuesim.pbd.compliance`):
   a membrane + shell of Young's modulus E, Poisson ratio ν and a thickness that is ``thickness_ratio`` β times the
-  constraint's own rest edge length, so the layer is as thick as the mesh is fine, and β is dimensionless. The step
-  is XPBD with multipliers warm-started across steps (:mod:`tissuesim.pbd.xpbd`): its equilibrium is the layer's
-  static equilibrium, the same for every dt, node mass, density and sweep count, proportional to 1/E and
-  responding to ν (through the plate rigidity E h³/(12(1 − ν²))). β is the one free scalar, calibrated once.
+  constraint's own rest edge length, so the layer is as thick as the mesh is fine, and β is dimensionless.
+  ``solve_static`` solves the layer's small-strain equilibrium exactly (:mod:`tissuesim.pbd.static`): the same for
+  every dt, node mass, density and sweep count, proportional to 1/E and responding to ν (through the plate rigidity
+  E h³/(12(1 − ν²))). ``step`` is implicit Euler of that linear layer (``integrator="implicit"``, default: it rests
+  at the same equilibrium) or the XPBD projection (``integrator="xpbd"``: one Numba call with eq 15, 16, 18; it
+  rests off the static answer by an amount set by dt and the sweeps). β is the one free scalar, calibrated once.
 * ``"pbd"``: the paper's stiffness coefficients ``stiffness`` k in (0, 1] for stretch and bending (Müller's
   per-iteration correction makes them independent of the iteration count). **Its equilibrium depends on dt and the
   node masses, and not on E**: a load's push per step is f dt²/m against a projection of strength k, so the
