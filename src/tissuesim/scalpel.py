@@ -70,7 +70,7 @@ class Scalpel:
     def press(self, point, direction=None) -> CutReport:
         """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` (default inward)."""
         start = time.perf_counter()
-        from .mesh.hybrid import closest_on_surface
+        from .mesh.maps import closest_on_surface
         from .mesh.surface import SurfaceMesh
 
         point = checked_point(point)

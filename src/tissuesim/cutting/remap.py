@@ -14,7 +14,8 @@ import dataclasses
 
 import numpy as np
 
-from ..mesh.hybrid import HybridMesh, closest_on_surface
+from ..mesh.hybrid import HybridMesh
+from ..mesh.maps import closest_on_surface
 from ..mesh.surface import SurfaceMesh
 from .core import CutResult
 
