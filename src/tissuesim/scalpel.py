@@ -62,6 +62,7 @@ class Scalpel:
         self.tip: np.ndarray | None = None
         self.direction: np.ndarray | None = None
         self._anchor = -1       # the vertex where the last move's cut stopped
+        self._pressed_on = np.zeros(0, dtype=np.int64)     # corners of the triangle pressed on
 
     @property
     def pressed(self) -> bool:
@@ -90,6 +91,7 @@ class Scalpel:
             raise SolverError("the blade direction must be a non-zero vector")
         self.tip, self.direction = point, direction / length
         self._anchor = -1
+        self._pressed_on = now.triangles[tri[0]].astype(np.int64)
         return CutReport(seconds=time.perf_counter() - start)
 
     def move(self, point) -> CutReport:
@@ -100,8 +102,10 @@ class Scalpel:
         point = checked_point(point)
         if np.linalg.norm(point - self.tip) < self.snap * self._edge:
             return CutReport(seconds=time.perf_counter() - start)
+        # the sweep's triangles are searched outward from where the cut is (see cutting.buffers.CutSurface)
+        seeds = [self._anchor] if self._anchor >= 0 else self._pressed_on
         report, end = self._updater.apply(Sweep.between(self._start(), point, self.depth * self.direction),
-                                          snap=self.snap)
+                                          snap=self.snap, seeds=seeds)
         self.tip = point
         if end >= 0:
             self._anchor = end

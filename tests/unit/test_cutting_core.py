@@ -90,6 +90,12 @@ def test_a_sweep_that_misses_the_surface_changes_nothing(cube):
                        Sweep.between([0, 0, 0.2], [0.01, 0, 0.2], [0, 0, 0.01])) is None
 
 
+def _patch(triangles):
+    from tissuesim.cutting.fans import RowPatch, VertexFans
+
+    return RowPatch(triangles, VertexFans(triangles, 16), 16)
+
+
 def test_separate_duplicates_inner_vertices_of_a_path_not_its_tips():
     # a 3 x 3 grid of quads, each split into two triangles; cut along the middle row's inner edges
     xs, ys = np.meshgrid(np.arange(4), np.arange(4), indexing="ij")
@@ -102,13 +108,13 @@ def test_separate_duplicates_inner_vertices_of_a_path_not_its_tips():
     tris = np.array(tris, dtype=np.int64)
     path = [(index[0, 2], index[1, 2]), (index[1, 2], index[2, 2]), (index[2, 2], index[3, 2])]
     path_inner = [(index[1, 2], index[2, 2]), (index[2, 2], index[3, 2])]
-    copies, closed, _ = separate(tris.copy(), path_inner, 16)
+    copies, closed, _ = separate(_patch(tris), path_inner, 16)
     # the inner vertex and the one on the open border split; the tip index[1, 2] stays whole ...
     assert sorted(copies.tolist()) == [index[2, 2], index[3, 2]]
     assert closed == []
-    copies, _, _ = separate(tris.copy(), path, 16)
+    copies, _, _ = separate(_patch(tris), path, 16)
     assert sorted(copies.tolist()) == sorted(index[:, 2].tolist())     # ... and splits once the path goes on
-    copies, closed, _ = separate(tris.copy(), [(index[1, 1], index[1, 2])], 16)
+    copies, closed, _ = separate(_patch(tris), [(index[1, 1], index[1, 2])], 16)
     assert copies.size == 0 and closed == [(index[1, 1], index[1, 2])]     # one inner edge: nothing opens
 
 

@@ -16,12 +16,14 @@ combination for every vertex of the result, in the numbering before the cut; old
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import MeshError
-from .separate import separate
+from .fans import RowPatch, VertexFans
+from .separate import rows_touching, separate
 from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
@@ -45,9 +47,12 @@ class CutResult:
         old_count: n, the vertex count before the cut.
         parents: ``(n' − n, 3) int64`` old vertices each new vertex n + i interpolates (row i).
         weights: ``(n' − n, 3) float64`` their barycentric weights (sum 1).
-        copy_of: ``(n',) int64`` the vertex (new numbering) a duplicate copies, −1 for the others.
-        triangle_origin: ``(m',) int64`` the old triangle each triangle lies in.
+        new_copy_of: ``(n' − n,) int64`` for each new vertex n + i, the vertex (new numbering) it duplicates, −1 for
+            an inserted point (:attr:`copy_of` is the same over all vertices).
+        new_origin: ``(m' − m,) int64`` the old triangle each appended row lies in (:attr:`triangle_origin` is the
+            same over all rows).
         changed: ``(k,) int64`` rows of ``triangles`` that are new or rewritten.
+        replaced: ``(r, 3) int64`` the content before the cut of the rewritten old rows ``changed[changed < m]``.
         cut_edges: ``(c, 2) int64`` the edges cut by this move (vertex pairs, before duplication).
         closed: ``(p, 2) int64`` cut edges still shared by two triangles (a cut's tips), to pass to the next cut.
         split_count: old triangles split.
@@ -62,13 +67,52 @@ class CutResult:
     old_count: int
     parents: np.ndarray
     weights: np.ndarray
-    copy_of: np.ndarray
-    triangle_origin: np.ndarray
+    new_copy_of: np.ndarray
+    new_origin: np.ndarray
     changed: np.ndarray
+    replaced: np.ndarray
     cut_edges: np.ndarray
     closed: np.ndarray
     split_count: int
     end_vertex: int = -1
+
+    @property
+    def old_triangle_count(self) -> int:
+        """m, the triangle count before the cut."""
+        return len(self.triangles) - len(self.new_origin)
+
+    @property
+    def copy_of(self) -> np.ndarray:
+        """``(n',) int64`` the vertex (new numbering) a duplicate copies, −1 for the others (a new array)."""
+        return np.concatenate([np.full(self.old_count, -1, dtype=np.int64), self.new_copy_of])
+
+    @property
+    def triangle_origin(self) -> np.ndarray:
+        """``(m',) int64`` the old triangle each triangle lies in (a new array)."""
+        return np.concatenate([np.arange(self.old_triangle_count), self.new_origin])
+
+    def origin_of(self, rows: np.ndarray) -> np.ndarray:
+        """``(k,) int64`` the old triangle each of ``rows`` lies in."""
+        rows = np.asarray(rows, dtype=np.int64)
+        m = self.old_triangle_count
+        origin = rows.copy()
+        origin[rows >= m] = self.new_origin[rows[rows >= m] - m]
+        return origin
+
+    def before(self, rows: np.ndarray) -> np.ndarray:
+        """``(k, 3) int64`` the content before the cut of old rows ``rows``."""
+        rows = np.asarray(rows, dtype=np.int64)
+        content = np.array(self.triangles[rows], dtype=np.int64)
+        old = self.changed[self.changed < self.old_triangle_count]
+        where = np.searchsorted(old, rows)
+        hit = where < old.size
+        hit[hit] = old[where[hit]] == rows[hit]
+        content[hit] = self.replaced[where[hit]]
+        return content
+
+    def interpolate(self, values: np.ndarray) -> np.ndarray:
+        """``(n' − n, ...)`` per-vertex ``values`` ``(n, ...)`` at the new vertices (their parents' mix)."""
+        return _mix(self.weights, self.parents, values)
 
     def parents_of(self, vertices: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(parents (k, 3) int64, weights (k, 3))`` of any ``vertices`` (an old vertex is its own parent)."""
@@ -84,7 +128,7 @@ class CutResult:
     @property
     def duplicated(self) -> np.ndarray:
         """``(d,) int64`` vertices (new numbering) that got a copy."""
-        return np.unique(self.copy_of[self.copy_of >= 0])
+        return np.unique(self.new_copy_of[self.new_copy_of >= 0])
 
 
 @dataclass
@@ -95,7 +139,7 @@ class _Points:
     snap: float
     rest: np.ndarray                              # (n, 3) rest positions: the quality guard measures there
     now: np.ndarray | None = None                 # (n, 3) current positions: and there
-    opposite: dict = field(default_factory=dict)  # (lo, hi) -> opposite vertices of the edge's triangles
+    patch: RowPatch | None = None                 # the rows, for the triangles of an edge
     edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
     facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
     parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
@@ -105,7 +149,7 @@ class _Points:
         """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
         from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
         w = np.where(w < self.snap, 0.0, w)
-        w = self._guard(corners, w / w.sum())
+        w = np.array(self._guard(corners.tolist(), (w / w.sum()).tolist()))
         nonzero = np.flatnonzero(w)
         if nonzero.size == 1:
             return ("v", int(corners[nonzero[0]]))
@@ -120,37 +164,40 @@ class _Points:
             return ("e", lo, hi, t)
         return ("f", triangle, w)
 
-    def _guard(self, corners, w):
+    def _guard(self, corners: list, w: list) -> list:
         """Snap further while a piece the point would make in this triangle falls below :data:`GUARD_QUALITY` at
         rest or at the current positions (a cut on a deformed surface): a facet point onto the edge of its worst
-        piece, an edge point onto the nearer end (repeated re-cuts would otherwise thin the triangles step by step)."""
-        while np.count_nonzero(w) > 1:
-            inside = np.flatnonzero(w)
-            quality = np.min([self._piece_quality(corners, w, inside, where)
-                              for where in (self.rest, self.now) if where is not None], axis=0)
+        piece, an edge point onto the nearer end (repeated re-cuts would otherwise thin the triangles step by step).
+        Plain floats: a handful of 3-vectors, where array calls would cost more than the arithmetic."""
+        while sum(x != 0.0 for x in w) > 1:
+            inside = [i for i in range(3) if w[i] != 0.0]
+            quality = [min(q) for q in zip(*(self._piece_quality(corners, w, inside, where)
+                                            for where in (self.rest, self.now) if where is not None))]
             if min(quality) >= GUARD_QUALITY:
                 break
-            if inside.size == 3:
-                worst = int(np.argmin(quality))
+            if len(inside) == 3:
+                worst = quality.index(min(quality))
                 w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
             else:
                 i, j = inside
                 w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
-            w = w / w.sum()
+            total = sum(w)
+            w = [x / total for x in w]
         return w
 
     def _piece_quality(self, corners, w, inside, where) -> list:
         """Qualities of the pieces a point at barycentric ``w`` would make, with vertices at ``where`` ``(n, 3)``:
         three in its triangle for a facet point (piece i on edge (i, i + 1)), two per triangle of its edge for an edge
         point (the neighbour gets the point too, Fig 7(a))."""
-        p = where[corners]
-        x = w @ p
-        if inside.size == 3:
+        p = where[corners].tolist()
+        x = [w[0] * p[0][k] + w[1] * p[1][k] + w[2] * p[2][k] for k in range(3)]
+        if len(inside) == 3:
             return [_quality3(x, p[i], p[(i + 1) % 3]) for i in range(3)]
         i, j = inside
-        key = tuple(sorted((int(corners[i]), int(corners[j]))))
-        others = self.opposite.get(key) or [int(corners[3 - i - j])]
-        return [_quality3(x, p[e], where[o]) for o in others for e in (i, j)]
+        lo, hi = sorted((corners[i], corners[j]))
+        others = [o for r in self.patch.owners(lo, hi) for o in self.patch.row(r).tolist() if o not in (lo, hi)]
+        others = others or [corners[3 - i - j]]
+        return [_quality3(x, p[e], where[o].tolist()) for o in others for e in (i, j)]
 
     def same(self, a: tuple, b: tuple) -> bool:
         """Whether two located points are one point after snapping (then the segment between them is dropped)."""
@@ -192,6 +239,9 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
                 sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=()) -> CutResult | None:
     """Cut M_S along one sweep; None when the sweep crosses no triangle (nothing changes).
 
+    Returns new arrays (O(n + m) copies, and one pass over the triangles to find the sweep's): for a cut every frame
+    use :class:`~tissuesim.cutting.buffers.CutSurface`, which edits capacity buffers in place.
+
     Args:
         rest, positions, velocities: ``(n, 3) float64`` rest positions [m], current positions [m] (the sweep is
             intersected with these), velocities [m/s].
@@ -207,12 +257,66 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     """
     snap = check_snap(snap)
     triangles = np.asarray(triangles, dtype=np.int32)      # no copy for a SurfaceMesh's triangles
-    n = len(rest)
     near = candidate_triangles(positions, triangles, sweep)
+    # the fans of every vertex the cut can touch: the candidates' corners and the earlier tips' ends
+    marked = np.zeros(len(rest), dtype=np.bool_)
+    marked[triangles[near].ravel()] = True
+    marked[np.asarray(closed, dtype=np.int64).ravel()] = True
+    rows = rows_touching(triangles, marked)
+    plan = plan_cut(rest, positions, triangles, sweep, snap=snap, closed=closed,
+                    fans=VertexFans(triangles[rows], len(rest), rows=rows), near=near)
+    if plan is None:
+        return None
+    new_rest, new_pos, new_vel = (np.concatenate([a, plan.interpolate(a)]) for a in (rest, positions, velocities))
+    out = triangles.copy()
+    for r, content in plan.patch.edited.items():
+        out[r] = content
+    out = np.concatenate([out, np.array(plan.patch.added, dtype=np.int32).reshape(-1, 3)])
+    return plan.result(new_rest, new_pos, new_vel, out, sweep)
+
+
+@dataclass
+class CutPlan:
+    """What one cut changes, before any array is written: new vertices by their parents, and the rows edited on a
+    :class:`~tissuesim.cutting.fans.RowPatch`. :func:`cut_surface` and
+    :class:`~tissuesim.cutting.buffers.CutSurface` apply it, to new arrays or in place."""
+
+    old_count: int
+    parents: np.ndarray             # (v, 3) int64 old vertices of each new vertex
+    weights: np.ndarray             # (v, 3) float64
+    new_copy_of: np.ndarray         # (v,) int64
+    patch: RowPatch
+    origin: list                    # old triangle of each appended row
+    changed: np.ndarray             # (k,) int64 sorted rows new or rewritten
+    replaced: np.ndarray            # (r, 3) int64 content before the cut of changed[changed < m]
+    cut_list: list
+    still_closed: list
+    split_count: int
+    segments: dict
+
+    def interpolate(self, values: np.ndarray) -> np.ndarray:
+        """``(v, ...)`` per-vertex ``values`` ``(n, ...)`` at the new vertices (their parents' barycentric mix)."""
+        return _mix(self.weights, self.parents, values)
+
+    def result(self, rest, positions, velocities, triangles, sweep) -> CutResult:
+        return CutResult(rest=rest, positions=positions, velocities=velocities, triangles=triangles,
+                         old_count=self.old_count, parents=self.parents, weights=self.weights,
+                         new_copy_of=self.new_copy_of, new_origin=np.array(self.origin, dtype=np.int64),
+                         changed=self.changed, replaced=self.replaced,
+                         cut_edges=np.array(self.cut_list, dtype=np.int64).reshape(-1, 2),
+                         closed=np.array(self.still_closed, dtype=np.int64).reshape(-1, 2),
+                         split_count=self.split_count, end_vertex=_farthest(self.segments, positions, sweep))
+
+
+def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near) -> CutPlan | None:
+    """The cut of ``sweep`` among the candidate rows ``near`` (arrays as :func:`cut_surface`'s; ``fans`` must
+    cover every vertex of ``near`` and of ``closed``); None if nothing is cut. Writes nothing."""
     found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
-    points = _Points(n=n, snap=snap, rest=rest, now=positions, opposite=_opposites(triangles, near))
+    n, m = len(rest), len(triangles)
+    patch = RowPatch(triangles, fans, n)
+    points = _Points(n=n, snap=snap, rest=rest, now=positions, patch=patch)
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
@@ -224,24 +328,21 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
             segments[crossing.triangle] = (a, b)
     if not points.parents and not segments:
         return None
-    affected = _affected(positions, triangles, sweep, segments, points, near)
+    affected = _affected(segments, points, patch)
     parents = np.array(points.parents, dtype=np.int64).reshape(-1, 3)
     weights = np.array(points.weights, dtype=np.float64).reshape(-1, 3)
-    tri_rows, origin, cut_edges = [], [], set()
-    out = triangles.copy()
+    origin, cut_edges = [], set()
     for t in affected:
         pieces, cut = _split(t, triangles[t], rest, points, segments.get(t), snap)
-        out[t] = pieces[0]
-        tri_rows.append(pieces[1:])
+        patch.write(t, pieces[0])
+        patch.append(pieces[1:])
         origin += [t] * (len(pieces) - 1)
         cut_edges |= cut
-    extra = np.concatenate(tri_rows).astype(np.int32) if tri_rows else np.zeros((0, 3), dtype=np.int32)
-    out = np.concatenate([out, extra])
-    new_rows = np.concatenate([np.asarray(affected, dtype=np.int64), np.arange(len(triangles), len(out))])
-    _check_edges(out[new_rows], sorted(cut_edges), affected)
+    new_rows = affected + list(range(m, m + len(patch.added)))
+    _check_edges(np.array([patch.row(r) for r in new_rows]), sorted(cut_edges), affected)
     # earlier tips that are no longer edges (a later cut went through them) are ignored by separate()
     cut_list = sorted(cut_edges | _carry_closed(closed, points))
-    copy_of, still_closed, rewritten = separate(out, cut_list, n + len(parents))
+    copy_of, still_closed, rewritten = separate(patch, cut_list, n + len(parents))
     # a copy of an old vertex interpolates that vertex alone; a copy of an inserted point takes its parents
     copy_parents = np.repeat(copy_of[:, None], 3, axis=1)
     copy_weights = np.zeros((len(copy_of), 3))
@@ -249,34 +350,29 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     inserted = copy_of >= n
     copy_parents[inserted] = parents[copy_of[inserted] - n]
     copy_weights[inserted] = weights[copy_of[inserted] - n]
-    parents = np.concatenate([parents, copy_parents])
-    weights = np.concatenate([weights, copy_weights])
-    new_rest, new_pos, new_vel = (np.concatenate([a, np.einsum("ij,ijk->ik", weights, a[parents])])
-                                  for a in (rest, positions, velocities))
-    copies = np.full(len(new_rest), -1, dtype=np.int64)
-    copies[len(new_rest) - copy_of.size:] = copy_of
-    triangle_origin = np.concatenate([np.arange(len(triangles)), np.array(origin, dtype=np.int64)])
-    changed = np.unique(np.concatenate([new_rows, rewritten]))
-    return CutResult(rest=new_rest, positions=new_pos, velocities=new_vel, triangles=out, old_count=n,
-                     end_vertex=_farthest(segments, new_pos, sweep), parents=parents, weights=weights,
-                     copy_of=copies, triangle_origin=triangle_origin, changed=changed,
-                     cut_edges=np.array(cut_list, dtype=np.int64).reshape(-1, 2),
-                     closed=np.array(still_closed, dtype=np.int64).reshape(-1, 2), split_count=len(affected))
+    changed = np.unique(np.concatenate([np.array(new_rows, dtype=np.int64), rewritten]))
+    return CutPlan(old_count=n, parents=np.concatenate([parents, copy_parents]),
+                   weights=np.concatenate([weights, copy_weights]),
+                   new_copy_of=np.concatenate([np.full(len(parents), -1, dtype=np.int64), copy_of]),
+                   patch=patch, origin=origin, changed=changed,
+                   replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
+                   still_closed=still_closed, split_count=len(affected), segments=segments)
 
 
-def _opposites(triangles, rows) -> dict:
-    """For each edge of ``rows``: the opposite vertex in each of those triangles holding it."""
-    opposite: dict = {}
-    for a, b, c in triangles[rows].tolist():
-        for u, v, w in ((a, b, c), (b, c, a), (c, a, b)):
-            opposite.setdefault((u, v) if u < v else (v, u), []).append(w)
-    return opposite
+def _mix(weights, parents, values):
+    return np.einsum("ij,ij...->i...", weights, values[parents])
 
 
 def _quality3(a, b, c) -> float:
-    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate)."""
-    squares = np.sum((b - a) ** 2) + np.sum((c - b) ** 2) + np.sum((a - c) ** 2)
-    return 2.0 * np.sqrt(3.0) * np.linalg.norm(np.cross(b - a, c - a)) / squares if squares > 0.0 else 0.0
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate); corners as 3-sequences."""
+    u = [b[k] - a[k] for k in range(3)]
+    v = [c[k] - a[k] for k in range(3)]
+    w = [c[k] - b[k] for k in range(3)]
+    squares = sum(x * x for x in u) + sum(x * x for x in v) + sum(x * x for x in w)
+    if squares <= 0.0:
+        return 0.0
+    cross = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+    return 2.0 * math.sqrt(3.0) * math.sqrt(sum(x * x for x in cross)) / squares
 
 
 def _farthest(segments, positions, sweep) -> int:
@@ -287,33 +383,12 @@ def _farthest(segments, positions, sweep) -> int:
     return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
 
 
-def _affected(positions, triangles, sweep, segments, points, near) -> list[int]:
-    """Triangles with a segment, or with an edge point on a side. Searched among the sweep's candidates ``near``;
-    only when an edge point's edge shows fewer than two triangles there (a point snapped just outside the sweep's
-    box, or an edge on an opening) is the search widened by the longest edge of the cut triangles."""
+def _affected(segments, points, patch) -> list[int]:
+    """Triangles with a segment, or with an edge point on a side (both triangles of its edge, from the fans)."""
     affected = set(segments)
-    if not points.edge:
-        return sorted(affected)
-    owners = _edge_owners(triangles, near, points.edge)
-    if any(len(owners.get(key, ())) < 2 for key in points.edge):
-        t = np.array(sorted(affected | set(points.facet)) or [0])
-        p = positions[triangles[t]]
-        reach = float(np.linalg.norm(p - p[:, [1, 2, 0]], axis=2).max())
-        owners = _edge_owners(triangles, candidate_triangles(positions, triangles, sweep, pad=reach), points.edge)
-    for rows in owners.values():
-        affected |= set(rows)
+    for lo, hi in points.edge:
+        affected.update(patch.owners(lo, hi))
     return sorted(affected)
-
-
-def _edge_owners(triangles, rows, edges) -> dict:
-    """Among ``rows``, the triangles having each of ``edges`` (sorted vertex pairs)."""
-    owners: dict = {}
-    for r, (a, b, c) in zip(rows.tolist(), triangles[rows].tolist()):
-        for u, v in ((a, b), (b, c), (c, a)):
-            key = (u, v) if u < v else (v, u)
-            if key in edges:
-                owners.setdefault(key, []).append(r)
-    return owners
 
 
 def _split(t, corners, rest, points, segment, snap):

@@ -18,9 +18,8 @@ import numpy as np
 from ..loads import triangle_areas
 from ..pbd.kernels import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
-from .remap import interpolate
 from .rows import Rows
-from .solver_update import SolverCut, lumped_masses, register_cut
+from .solver_update import SolverCut, register_cut
 
 
 class CutConstraints(SimpleNamespace):
@@ -36,14 +35,13 @@ class CutConstraints(SimpleNamespace):
         return len(self.bending)
 
 
-def new_edge_constraints(result, old_rest, old_triangles, edge_map, keys, n):
+def new_edge_constraints(result, edge_map, keys):
     """Stretch data of edges ``keys`` (vertex pairs) of the cut mesh: ``(edges (k, 2), rest lengths (k,) [m],
     areas (k,) [m²])``; rest lengths by eq 19–23 in the parent triangle."""
     edges = np.array(keys, dtype=np.int64).reshape(-1, 2)
     owner = np.array([edge_map.of(k)[0] for k in keys], dtype=np.int64)
-    origin = result.triangle_origin[owner]
-    corners = old_triangles[origin]                                     # (k, 3) old vertex ids
-    p = old_rest[corners]
+    corners = result.before(result.origin_of(owner))                    # (k, 3) old vertex ids
+    p = result.rest[corners]
     side = np.linalg.norm(p - p[:, [1, 2, 0]], axis=2)                  # l_AB, l_BC, l_CA
     bary = [_in_corners(result, edges[:, j], corners) for j in (0, 1)]
     rest = barycentric_distance(side, bary[0], bary[1])
@@ -74,6 +72,11 @@ def new_hinges(triangles, edge_map, keys):
         hinges.append((p1, p2, p3, p4))
         kept.append(key)
     return np.array(hinges, dtype=np.int64).reshape(-1, 4), kept
+
+
+def _new_of(sorted_nodes: np.ndarray, n: int) -> np.ndarray:
+    """``(k,) int64`` the entries ≥ n of the ascending ``sorted_nodes`` (the vertices a cut added to them)."""
+    return np.asarray(sorted_nodes[np.searchsorted(sorted_nodes, n):], dtype=np.int64)
 
 
 def _in_corners(result, vertices, corners):
@@ -132,14 +135,12 @@ class SurfaceLayerCut(SolverCut):
             s.stretch_compliance, s._lambda_stretch = a["compliance"], a["multiplier"]
             s.bend_compliance, s._lambda_bend = b["compliance"], b["multiplier"]
 
-    def update(self, result, n, old_triangles, old_content, released) -> None:
+    def update(self, result, n, released, touched) -> None:
         s = self.solver
-        old_rest = result.rest[:n]
-        old_triangles = np.asarray(old_triangles, dtype=np.int64)
-        keys = touched_edges(old_content, result.triangles[result.changed])
+        keys = touched_edges(result.replaced, result.triangles[result.changed])
         self._retire(keys)
         live = [k for k in keys if self.edges.of(k)]
-        edges, rest, area = new_edge_constraints(result, old_rest, old_triangles, self.edges, live, n)
+        edges, rest, area = new_edge_constraints(result, self.edges, live)
         rows, _ = self.stretch.take(len(live))
         a = self.stretch.arrays
         a["edges"][rows], a["rest_length"][rows], a["edge_area"][rows] = edges, rest, area
@@ -155,9 +156,13 @@ class SurfaceLayerCut(SolverCut):
         if s.form == "xpbd":
             self._compliance(rows, hrows)
         self._bind()
-        s.mass = lumped_masses(self.lumped, self.mass_total)
-        s._predicted = np.zeros_like(s.state.positions)
+        self.local_masses(touched, self.mass_total)
+        added = len(result.parents)
+        s._predicted = self.spare.extend("predicted", s._predicted, np.zeros((added, 3)))
+        s._statics = None       # the layer changed: the static solve and implicit step factorise it again
         self.prescribe(result, n, released)
+        s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
+        s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
 
     def _retire(self, keys) -> None:
         gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
@@ -182,44 +187,80 @@ class SurfaceLayerCut(SolverCut):
         a["compliance"][rows] = stretch[: len(rows)]
         b["compliance"][hrows] = bend
 
+    @property
+    def is_prescribed(self) -> np.ndarray:
+        """``(n,) bool`` whether each vertex is prescribed (kept per cut: new vertices appended, changes set)."""
+        s = self.solver
+        mask = getattr(self, "_is_prescribed", None)
+        if mask is None:
+            mask = np.zeros(len(s.rest_positions), dtype=bool)
+            mask[s.prescribed] = True
+        elif len(mask) < len(s.rest_positions):
+            mask = self.spare.extend("is_prescribed", mask, np.zeros(len(s.rest_positions) - len(mask), bool))
+        self._is_prescribed = mask
+        return mask
+
+    def prescribe_more(self, nodes: np.ndarray) -> None:
+        """Prescribe new vertices ``nodes`` too (at rest), after the ones already prescribed."""
+        s = self.solver
+        if nodes.size:
+            s.prescribed = self.spare.extend("prescribed", s.prescribed, nodes.astype(np.int64))
+            s.targets = self.spare.extend("targets", s.targets, s.rest_positions[nodes])
+            self.is_prescribed[nodes] = True
+
     def prescribe(self, result, n, released) -> None:
-        """pbd: the fixed nodes; the hybrid overrides this."""
-        self.solver._set_prescribed(self.solver.fixed)
+        """pbd: the fixed nodes (the new vertices that are fixed are appended); the hybrid overrides this."""
+        s = self.solver
+        self.prescribe_more(_new_of(s.fixed, n))
 
 
 @register_cut("hybrid")
 class HybridCut(SurfaceLayerCut):
     """The hybrid's extra arrays: control nodes (released ones dropped), load map, embedding for warm start."""
 
-    def held_nodes(self, result, fixed, released):
+    def held_nodes(self, fixed, released):
         control = np.setdiff1d(self.solver.hybrid.control, released)
         return np.concatenate([np.asarray(fixed, dtype=np.int64), control.astype(np.int64)])
 
     def prescribe(self, result, n, released) -> None:
+        s, h, spare = self.solver, self.solver.hybrid, self.spare
+        if released.size:
+            self._release(released)
+        else:
+            self.prescribe_more(_new_of(s.fixed, n))
+        new = slice(n, None)
+        coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
+        volume_nodes = np.asarray(h.coarse_volume_nodes, dtype=np.int64)[coarse_nodes[h.coarse_triangle[new]]]
+        s.load_volume_nodes = spare.extend("load_volume_nodes", s.load_volume_nodes, volume_nodes)
+        s.load_weights = h.coarse_barycentric
+        s._tet_of = spare.extend("tet_of", s._tet_of, h.embedding_tet[new].astype(np.int64))
+        s._weights = h.embedding_barycentric
+        embedded = result.interpolate(s._embedded)
+        s._embedded = spare.extend("embedded", s._embedded, embedded)
+        s._embedded_new = spare.extend("embedded_new", s._embedded_new, embedded)
+        s._delta = spare.extend("delta", s._delta, np.zeros_like(embedded))
+        s._dirty = True
+
+    def _release(self, released) -> None:
+        """Control nodes ``released`` (and their copies) are no longer prescribed: the prescribed list is made
+        again (O(control + fixed) nodes, only on the moves that release some)."""
         s, h = self.solver, self.solver.hybrid
         control = np.asarray(h.control, dtype=np.int64)
         control_volume = np.asarray(h.control_volume, dtype=np.int64)
-        if released.size:
-            rest_nodes = s.output_nodes[~np.isin(s.output_nodes, control_volume)]
-            s.output_nodes = np.concatenate([control_volume, rest_nodes]).astype(np.int64)
-            s._slot[:] = -1
-            s._slot[s.output_nodes] = np.arange(s.output_nodes.size)
-            s._u = np.zeros((s.output_nodes.size, 3))
-            s.control_displacement = s._u[: control.size]
+        rest_nodes = s.output_nodes[~np.isin(s.output_nodes, control_volume)]
+        s.output_nodes = np.concatenate([control_volume, rest_nodes]).astype(np.int64)
+        s._slot[:] = -1
+        s._slot[s.output_nodes] = np.arange(s.output_nodes.size)
+        s._u = np.zeros((s.output_nodes.size, 3))
+        s.control_displacement = s._u[: control.size]
         s.control, s.control_count = control, control.size
-        is_control = np.zeros(len(s.rest_positions), dtype=bool)
-        is_control[control] = True
-        pinned = s.fixed[~is_control[s.fixed]].astype(np.int64)
-        s._set_prescribed(np.concatenate([control, pinned]))
-        coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
-        s.load_volume_nodes = np.asarray(h.coarse_volume_nodes, dtype=np.int64)[coarse_nodes[h.coarse_triangle]]
-        s.load_weights = np.asarray(h.coarse_barycentric, dtype=np.float64)
-        s._tet_of = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
-        s._weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
-        s._embedded = interpolate(s._embedded, result, n)
-        s._embedded_new = np.array(s._embedded)
-        s._delta = np.zeros_like(s._embedded)
-        s._dirty = True
+        fixed = np.asarray(s.fixed, dtype=np.int64)
+        pinned = fixed[~np.isin(fixed, control)]
+        s.prescribed = np.concatenate([control, pinned])
+        s.targets = np.array(s.rest_positions[s.prescribed])
+        mask = self.is_prescribed
+        mask[released] = False
+        mask[s.prescribed] = True
 
 
 @register_cut("embedded")
@@ -228,9 +269,9 @@ class EmbeddedCut(SolverCut):
 
     keeps_loose = True
 
-    def update(self, result, n, old_triangles, old_content, released) -> None:
+    def update(self, result, n, released, touched) -> None:
         s, h = self.solver, self.solver.hybrid
-        s.tet_of = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
-        s.weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
+        s.tet_of = self.spare.extend("tet_of", s.tet_of, h.embedding_tet[n:].astype(np.int64))
+        s.weights = h.embedding_barycentric
         s._dirty = True
 

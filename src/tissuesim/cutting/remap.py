@@ -17,51 +17,50 @@ import numpy as np
 from ..mesh.hybrid import HybridMesh
 from ..mesh.maps import closest_on_surface
 from ..mesh.surface import SurfaceMesh
+from .buffers import Spare
 from .core import CutResult
 
 
-def new_vertex_order(result: CutResult, old_count: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(points, copies)``: indices of the inserted points and of the duplicates among the new vertices."""
-    new = np.arange(old_count, len(result.rest))
-    copies = new[result.copy_of[new] >= 0]
-    return new[result.copy_of[new] < 0], copies
-
-
-def interpolate(values: np.ndarray, result: CutResult, old_count: int) -> np.ndarray:
-    """``values`` ``(n, ...)`` per old vertex extended to the cut mesh by the parents' barycentric weights."""
-    extra = np.einsum("ij,ij...->i...", result.weights, values[result.parents])
-    return np.concatenate([values, extra])
-
-
-def extend(values: np.ndarray, result: CutResult, old_count: int, fresh: np.ndarray) -> np.ndarray:
-    """``values`` per old vertex, then ``fresh`` for the inserted points, then each duplicate's original's."""
-    points, copies = new_vertex_order(result, old_count)
-    out = np.empty((len(result.rest),) + values.shape[1:], dtype=values.dtype)
-    out[:old_count] = values
+def new_rows(values: np.ndarray, result: CutResult, fresh: np.ndarray) -> np.ndarray:
+    """``(v, ...)`` rows of per-vertex ``values`` ``(n, ...)`` for the new vertices: ``fresh`` for the inserted
+    points (in order), each duplicate its original's (an old vertex or an inserted point)."""
+    n = result.old_count
+    copy_of = result.new_copy_of
+    points = copy_of < 0
+    out = np.empty((len(copy_of),) + values.shape[1:], dtype=values.dtype)
     out[points] = fresh
-    out[copies] = out[result.copy_of[copies]]
+    copies = np.flatnonzero(~points)
+    of = copy_of[copies]
+    old = of < n
+    out[copies[old]] = values[of[old]]
+    out[copies[~old]] = out[of[~old] - n]
     return out
 
 
-def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray) -> HybridMesh:
-    """The hybrid mesh after ``result``, with the control nodes ``released`` ``(r,) int`` no longer prescribed."""
-    n = hybrid.surface.vertex_count
-    points, _ = new_vertex_order(result, n)
-    rest = result.rest[points]
-    parents = result.parents[points - n]
+def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray, spare: Spare) -> HybridMesh:
+    """The hybrid mesh after ``result``, with the control nodes ``released`` ``(r,) int`` no longer prescribed.
+
+    Its surface and per-vertex maps are views of the capacity buffers ``spare`` (their rows before the cut are
+    shared with ``hybrid``'s, see :mod:`tissuesim.cutting.buffers`); the surface is not validated again (the cut
+    keeps its invariants: :func:`~tissuesim.cutting.invariants.check_cut_invariants`)."""
+    points = np.flatnonzero(result.new_copy_of < 0)
+    rest = result.rest[result.old_count + points]
+    parents = result.parents[points]
     coarse_tri, coarse_bary = _load_map(hybrid, rest, parents)
     tet, tet_bary = _embedding(hybrid, rest, parents)
-    keep = ~np.isin(hybrid.control, released, kind="table") if released.size else np.ones(len(hybrid.control), bool)
+    control, control_volume = hybrid.control, hybrid.control_volume
+    if released.size:
+        keep = ~np.isin(control, released)
+        control, control_volume = control[keep], control_volume[keep]
     info = dict(hybrid.info)
     info["cuts"] = int(info.get("cuts", 0)) + 1
+    maps = {name: spare.extend(name, getattr(hybrid, name), new_rows(getattr(hybrid, name), result, fresh))
+            for name, fresh in (("coarse_triangle", coarse_tri), ("coarse_barycentric", coarse_bary),
+                                ("embedding_tet", tet), ("embedding_barycentric", tet_bary))}
     return dataclasses.replace(
-        hybrid, surface=SurfaceMesh(result.rest, result.triangles), control=hybrid.control[keep],
-        control_volume=hybrid.control_volume[keep], coarse_volume=hybrid.coarse_volume_nodes,
-        coarse_triangle=extend(hybrid.coarse_triangle, result, n, coarse_tri),
-        coarse_barycentric=extend(hybrid.coarse_barycentric, result, n, coarse_bary),
-        embedding_tet=extend(hybrid.embedding_tet, result, n, tet),
-        embedding_barycentric=extend(hybrid.embedding_barycentric, result, n, tet_bary),
-        fine_volume=None, fine_surface_nodes=None, info=info)
+        hybrid, surface=SurfaceMesh.trusted(result.rest, result.triangles), control=control,
+        control_volume=control_volume, coarse_volume=hybrid.coarse_volume_nodes, fine_volume=None,
+        fine_surface_nodes=None, info=info, **maps)
 
 
 def _load_map(hybrid, rest, parents):

@@ -22,13 +22,13 @@ def rows_touching(triangles, marked):
     return np.flatnonzero(keep)
 
 
-def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
-    """Duplicate the vertices of ``cut_edges`` (pairs of vertex indices) per wedge, in place on ``triangles``.
+def separate(patch, cut_edges, vertex_count: int):
+    """Duplicate the vertices of ``cut_edges`` (pairs of vertex indices) per wedge, on the rows of ``patch``.
 
     Args:
-        triangles: ``(m, 3) int32 or int64`` triangles, rewritten in place where a wedge gets a copy.
-        cut_edges: iterable of ``(u, v)`` vertex pairs; a pair that is not an edge of ``triangles`` is ignored.
-        vertex_count: n, the number of vertices; copies are numbered n, n + 1, ...
+        patch: the cut's :class:`~tissuesim.cutting.fans.RowPatch`; rows given a copy are rewritten there.
+        cut_edges: iterable of ``(u, v)`` vertex pairs; a pair that is not an edge of the patch's rows is ignored.
+        vertex_count: the number of vertices so far; copies are numbered from it on.
 
     Returns:
         ``(copy_of (c,) int64, still_closed list of (u, v), rewritten (r,) int64)``: the vertex each new copy
@@ -38,15 +38,7 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
     cut = {_key(u, v) for u, v in cut_edges}
     if not cut:
         return np.zeros(0, dtype=np.int64), [], np.zeros(0, dtype=np.int64)
-    ends = np.unique(np.array(sorted(cut), dtype=np.int64).ravel())
-    marked = np.zeros(vertex_count, dtype=np.bool_)
-    marked[ends] = True
-    rows = rows_touching(triangles, marked)
-    fans: dict[int, list[int]] = {int(v): [] for v in ends}
-    for r in rows:
-        for v in triangles[r]:
-            if int(v) in fans:
-                fans[int(v)].append(int(r))
+    fans = {v: patch.fan(v) for v in sorted({x for edge in cut for x in edge})}
     copies: list[int] = []
     rewritten: list[int] = []
 
@@ -55,19 +47,20 @@ def separate(triangles: np.ndarray, cut_edges, vertex_count: int):
         return copies[x - vertex_count] if x >= vertex_count else int(x)
 
     for v, fan in fans.items():
-        wedges = _wedges(triangles, v, fan, cut, base)
+        wedges = _wedges(patch, v, fan, cut, base)
         for wedge in wedges[1:]:
             new = vertex_count + len(copies)
             copies.append(v)
             for r in wedge:
-                row = triangles[r]
+                row = patch.row(r).copy()
                 row[row == v] = new
+                patch.write(r, row)
             rewritten += wedge
-    return (np.array(copies, dtype=np.int64), _still_closed(triangles, cut, fans),
+    return (np.array(copies, dtype=np.int64), _still_closed(patch, cut, fans),
             np.unique(np.array(rewritten, dtype=np.int64)))
 
 
-def _wedges(triangles, v, fan, cut, base):
+def _wedges(patch, v, fan, cut, base):
     """Groups of ``fan`` (rows around v) joined across v's uncut edges (union-find over a handful of rows)."""
     parent = {r: r for r in fan}
 
@@ -79,8 +72,7 @@ def _wedges(triangles, v, fan, cut, base):
 
     by_edge: dict[int, list[int]] = {}
     for r in fan:
-        for x in triangles[r]:
-            x = int(x)
+        for x in patch.row(r).tolist():
             if x != v:
                 by_edge.setdefault(x, []).append(r)
     for x, rs in by_edge.items():
@@ -92,11 +84,11 @@ def _wedges(triangles, v, fan, cut, base):
     return sorted(groups.values(), key=min)
 
 
-def _still_closed(triangles, cut, fans):
+def _still_closed(patch, cut, fans):
     """Cut edges (u, v) still shared by two triangles after the duplication."""
     closed = []
     for u, v in cut:
-        rows = [r for r in fans[u] if v in triangles[r] and u in triangles[r]]
+        rows = [r for r in fans[u] if v in patch.row(r) and u in patch.row(r)]
         if len(rows) == 2:
             closed.append((u, v))
     return closed

@@ -26,8 +26,9 @@ from scipy.sparse.csgraph import connected_components
 
 from ..errors import SolverError
 from ..loads import lumped_areas, triangle_areas
-from .core import CutResult, cut_surface
-from .remap import cut_hybrid, interpolate
+from .buffers import CutSurface
+from .core import CutResult
+from .remap import cut_hybrid
 from .rows import EdgeMap
 
 _REGISTRY: dict[str, type] = {}
@@ -77,7 +78,12 @@ def cut_updater(solver) -> "SolverCut":
 
 
 class SolverCut:
-    """Base updater: the parts every surface method shares. Subclasses edit their own arrays."""
+    """Base updater: the parts every surface method shares. Subclasses edit their own arrays.
+
+    Every per-vertex array a move extends lives in a capacity buffer (:class:`~tissuesim.cutting.buffers.Spare`),
+    and a move writes only the rows of the new vertices and of the vertices whose triangles changed, so its cost
+    grows with the triangles it splits, not with the mesh (see :mod:`tissuesim.cutting.buffers` for what sharing
+    storage means for arrays held from before a cut)."""
 
     #: whether a piece cut loose from every prescribed node is kept (by its embedding) instead of refused
     keeps_loose = False
@@ -85,83 +91,108 @@ class SolverCut:
     def __init__(self, solver):
         self.solver = solver
         triangles = solver.hybrid.surface.triangles
+        self.surface = CutSurface(solver.rest_positions, solver.positions, solver.velocities, triangles)
+        self.spare = self.surface.spare
         self.edges = EdgeMap(triangles)
         self.closed = np.zeros((0, 2), dtype=np.int64)
         self.lumped = lumped_areas(solver.rest_positions, triangles)
+        self.lumped_total = float(self.lumped.sum())        # conserved by every cut (area only moves)
         # The cuts as a graph over vertex identities (a duplicate is its original): a piece can only come loose
         # when a cut closes a cycle in it, so the O(m) component count runs only then.
         self.identity = np.arange(len(solver.rest_positions))
         self.cut_parent: dict[int, int] = {}
         self.cut_seen: set[tuple[int, int]] = set()
 
-    def apply(self, sweep, *, snap: float) -> tuple[CutReport, int]:
-        """Cut along ``sweep`` and carry the solver over: a report of what changed, and the vertex where the cut
-        stopped (−1 if nothing was cut)."""
+    def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
+        """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
+        the vertex where the cut stopped (−1 if nothing was cut)."""
         start = time.perf_counter()
         s = self.solver
-        result = cut_surface(s.rest_positions, s.positions, s.velocities, s.hybrid.surface.triangles, sweep,
-                             snap=snap, closed=self.closed)
-        if result is None:
+        self.surface.sync(s.state.positions, s.state.velocities)
+        plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)
+        if plan is None:
             return CutReport(seconds=time.perf_counter() - start), -1
-        n, m = len(s.rest_positions), len(s.hybrid.surface.triangles)
-        originals = np.unique(result.copy_of[result.copy_of >= 0])
-        released = originals[np.isin(originals, s.hybrid.control, kind="table")]
-        fixed = _fixed_after(s.fixed, result, n)
-        identity = np.concatenate([self.identity, np.arange(n, len(result.rest))])
-        copies = np.flatnonzero(result.copy_of >= 0)
-        identity[copies] = identity[result.copy_of[copies]]
-        parent, seen, cycle = self._cut_graph(result, identity)
-        loose = self._loose(result, n, self.held_nodes(result, fixed, released)) if cycle else 0
-        old_triangles = s.hybrid.surface.triangles
-        old_rows = result.changed[result.changed < m]
-        old_content = np.array(old_triangles[old_rows], dtype=np.int64)
-        self.edges.remove(old_rows, old_content)
+        n = plan.old_count
+        originals = np.unique(plan.new_copy_of[plan.new_copy_of >= 0])
+        released = originals[_members(originals, s.hybrid.control)]
+        new_fixed = n + np.flatnonzero(np.sum(plan.weights * _members(plan.parents, s.fixed), axis=1)
+                                       >= 1.0 - 1e-12)
+        new_identity = self._new_identity(plan)
+        parent, seen, cycle = self._cut_graph(plan.cut_list, new_identity, n)
+        if cycle:
+            fixed = np.concatenate([s.fixed, new_fixed]).astype(np.int64)
+            loose = self._loose(_preview(self.surface.triangles, plan), n + len(plan.parents),
+                                self.held_nodes(fixed, released))
+        else:
+            loose = 0
+        result = self.surface.apply(plan, sweep)
+        self.edges.remove(result.changed[: len(result.replaced)], result.replaced)
         self.edges.add(result.changed, result.triangles[result.changed])
-        self._update_lumped(result, old_rows, old_content, n)
-        s.hybrid = cut_hybrid(s.hybrid, result, released)
-        self._carry_state(result, n, fixed)
-        self.update(result, n, old_triangles, old_content, released)
+        self._update_lumped(result)
+        s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
+        self._carry_state(result, new_fixed)
+        self.update(result, n, released, self.touched(result))
         self._reload()
         self.closed = result.closed
-        self.identity, self.cut_parent, self.cut_seen = identity, parent, seen
+        self.identity = self.spare.extend("identity", self.identity, new_identity)
+        self.cut_parent, self.cut_seen = parent, seen
         return CutReport(triangles_split=result.split_count, vertices_added=len(result.rest) - n,
                          control_released=int(released.size), loose_vertices=loose,
                          seconds=time.perf_counter() - start), result.end_vertex
 
     # ------------------------------------------------------------------------------------ shared steps
-    def _carry_state(self, result: CutResult, n: int, fixed: np.ndarray) -> None:
-        s = self.solver
+    def _new_identity(self, plan) -> np.ndarray:
+        """``(v,) int64`` the original vertex of each new vertex: itself for an inserted point, its original's
+        for a copy."""
+        n = plan.old_count
+        identity = np.arange(n, n + len(plan.parents))
+        copies = np.flatnonzero(plan.new_copy_of >= 0)
+        of = plan.new_copy_of[copies]
+        identity[copies] = np.where(of < n, self.identity[np.minimum(of, n - 1)], of)
+        return identity
+
+    def _carry_state(self, result: CutResult, new_fixed: np.ndarray) -> None:
+        s, spare = self.solver, self.spare
+        added = len(result.parents)
         s.rest_positions = s.hybrid.surface.vertices
-        s.state.positions = np.ascontiguousarray(result.positions)
-        s.state.velocities = np.ascontiguousarray(result.velocities)
-        forces = np.zeros_like(s.state.positions)
-        forces[:n] = s.forces
-        s.forces = forces
-        s._previous = np.array(s.state.positions)
-        s.fixed = fixed
+        s.state.positions, s.state.velocities = result.positions, result.velocities
+        s.forces = spare.extend("forces", s.forces, np.zeros((added, 3)))
+        s._previous = spare.extend("previous", s._previous, result.positions[result.old_count:])
+        if new_fixed.size:
+            s.fixed = spare.extend("fixed", s.fixed, new_fixed.astype(s.fixed.dtype))
+
+    @staticmethod
+    def touched(result: CutResult) -> np.ndarray:
+        """``(k,) int64`` vertices whose triangles changed (their lumped areas did), the new ones included."""
+        return np.unique(np.concatenate([result.replaced.ravel(), result.triangles[result.changed].ravel()]))
+
+    def local_masses(self, touched: np.ndarray, mass_total: float) -> None:
+        """The method's lumped masses (``mass_total`` [kg] by lumped area), rewritten at ``touched`` vertices."""
+        s = self.solver
+        s.mass = self.spare.extend("mass", s.mass, np.zeros(len(s.rest_positions) - len(s.mass)))
+        s.mass[touched] = mass_total * self.lumped[touched] / self.lumped_total
 
     def _reload(self) -> None:
         """Contact patches are cached per node on the uncut surface: drop them and re-apply a held load, so a
         patch that now borders the cut loses the nodes across it."""
         s = self.solver
         s._patches.clear()
-        s._lumped_areas = None
+        s._lumped_areas = self.lumped
         if s._load_node >= 0:
             s.set_load(s._load_node, s._load_force.copy(), radius=s.load_radius)
 
-    def _update_lumped(self, result, old_rows, old_content, n) -> None:
+    def _update_lumped(self, result) -> None:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""
-        lumped = np.zeros(len(result.rest))
-        lumped[:n] = self.lumped
-        old_area = triangle_areas(self.solver.rest_positions, old_content)
-        np.add.at(lumped, old_content.ravel(), -np.repeat(old_area / 3.0, 3))
+        lumped = self.spare.extend("lumped", self.lumped, np.zeros(len(result.parents)))
+        old_area = triangle_areas(result.rest, result.replaced)
+        np.add.at(lumped, result.replaced.ravel(), -np.repeat(old_area / 3.0, 3))
         new_content = result.triangles[result.changed]
         np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
-    def _cut_graph(self, result: CutResult, identity: np.ndarray):
-        """The cut graph with this cut's edges added (new copies, the caller keeps them if the cut is applied),
-        and whether one of them closed a cycle."""
+    def _cut_graph(self, cut_edges, new_identity, n):
+        """The cut graph with this cut's edges ``cut_edges`` (vertex pairs, as their originals) added (new copies,
+        the caller keeps them if the cut is applied), and whether one of them closed a cycle."""
         parent, seen, cycle = dict(self.cut_parent), set(self.cut_seen), False
 
         def find(v):
@@ -171,7 +202,8 @@ class SolverCut:
                 v = parent[v]
             return v
 
-        for u, v in identity[result.cut_edges].tolist():
+        for a, b in cut_edges:
+            u, v = (int(self.identity[x] if x < n else new_identity[x - n]) for x in (a, b))
             key = (u, v) if u < v else (v, u)
             if key in seen or u == v:
                 continue
@@ -181,10 +213,10 @@ class SolverCut:
             parent[ru] = rv
         return parent, seen, cycle
 
-    def _loose(self, result: CutResult, n: int, held_nodes: np.ndarray) -> int:
-        """Vertices of pieces without a prescribed node (0 if none); refuses unless :attr:`keeps_loose`."""
-        tri = result.triangles.astype(np.int64)
-        n = len(result.rest)
+    def _loose(self, triangles: np.ndarray, n: int, held_nodes: np.ndarray) -> int:
+        """Vertices of pieces of ``triangles`` (n vertices) without a prescribed node (0 if none); refuses unless
+        :attr:`keeps_loose`."""
+        tri = triangles.astype(np.int64)
         rows = np.repeat(np.arange(len(tri)), 3)
         incidence = coo_matrix((np.ones(rows.size), (tri.ravel(), rows)), shape=(n, len(tri))).tocsr()
         count, label = connected_components(incidence @ incidence.T, directed=False)
@@ -200,25 +232,29 @@ class SolverCut:
                 "the embedded method, which keeps such pieces)")
         return loose
 
-    def held_nodes(self, result: CutResult, fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
-        """Vertices (new numbering) that hold a piece in place after ``result``: the fixed ones here."""
+    def held_nodes(self, fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
+        """Vertices (new numbering) that hold a piece in place after a cut: the ``fixed`` ones here."""
         return np.asarray(fixed, dtype=np.int64)
 
-    def update(self, result, n, old_triangles, old_content, released) -> None:
-        """Method-specific arrays (subclasses)."""
+    def update(self, result, n, released, touched) -> None:
+        """Method-specific arrays (subclasses); ``touched`` are the vertices whose triangles changed."""
         raise NotImplementedError
 
 
-def _fixed_after(fixed: np.ndarray, result: CutResult, n: int) -> np.ndarray:
-    """``(k,) int32`` fixed vertices after a cut: a new vertex is fixed when all its parents are."""
-    mask = np.zeros(n)
-    mask[fixed] = 1.0
-    return np.flatnonzero(interpolate(mask, result, n) >= 1.0 - 1e-12).astype(np.int32)
+def _members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
+    """``values.shape bool``: whether each value is in ``sorted_set`` (ascending), by binary search."""
+    if len(sorted_set) == 0:
+        return np.zeros(np.shape(values), dtype=bool)
+    where = np.minimum(np.searchsorted(sorted_set, values), len(sorted_set) - 1)
+    return sorted_set[where] == values
 
 
-def lumped_masses(lumped_area: np.ndarray, total: float) -> np.ndarray:
-    """``(n,) float64`` masses [kg]: ``total`` [kg] spread in proportion to ``lumped_area`` ``(n,)`` [m²]."""
-    return total * lumped_area / lumped_area.sum()
+def _preview(triangles: np.ndarray, plan) -> np.ndarray:
+    """``(m', 3)`` the triangles after ``plan`` as a new array (only for the rare loose-piece test)."""
+    out = np.array(triangles, dtype=np.int64)
+    for r, content in plan.patch.edited.items():
+        out[r] = content
+    return np.concatenate([out, np.array(plan.patch.added, dtype=np.int64).reshape(-1, 3)])
 
 
 @register_cut("fem")

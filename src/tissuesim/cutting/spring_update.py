@@ -14,7 +14,7 @@ import numpy as np
 
 from .layer_update import adjacent_area, new_edge_constraints, new_hinges, touched_edges
 from .rows import Rows
-from .solver_update import SolverCut, lumped_masses, register_cut
+from .solver_update import SolverCut, register_cut
 
 
 @register_cut("mass-spring")
@@ -39,17 +39,16 @@ class MassSpringCut(SolverCut):
         s, a = self.solver, self.rows.arrays
         s.springs, s.rest_lengths, s.stiffness = a["springs"], a["rest"], a["stiffness"]
 
-    def update(self, result, n, old_triangles, old_content, released) -> None:
+    def update(self, result, n, released, touched) -> None:
         from ..solvers.mass_spring import _omega_bound
 
         s = self.solver
-        keys = touched_edges(old_content, result.triangles[result.changed])
+        keys = touched_edges(result.replaced, result.triangles[result.changed])
         gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
         gone += [self.bend_row.pop(k) for k in keys if k in self.bend_row]
         self.rows.retire(gone)
         live = [k for k in keys if self.edges.of(k)]
-        edges, rest, area = new_edge_constraints(result, result.rest[:n], np.asarray(old_triangles, dtype=np.int64),
-                                                 self.edges, live, n)
+        edges, rest, area = new_edge_constraints(result, self.edges, live)
         hinges, hinge_keys = new_hinges(result.triangles, self.edges, live)
         across = hinges[:, 2:]
         span = adjacent_area(result, self.edges, hinge_keys)
@@ -62,8 +61,11 @@ class MassSpringCut(SolverCut):
         self.stretch_row.update(zip(live, rows[: len(live)].tolist()))
         self.bend_row.update(zip(hinge_keys, rows[len(live):].tolist()))
         self._bind()
-        s.mass = lumped_masses(self.lumped, self.mass_total)
-        s.inv_mass = 1.0 / s.mass
+        self.local_masses(touched, self.mass_total)
+        added = len(result.parents)
+        s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
+        s.inv_mass[touched] = 1.0 / s.mass[touched]
         s.inv_mass[s.fixed] = 0.0
+        # one pass over the springs: the explicit stability bound follows the new, smaller springs and masses
         s.omega_max = _omega_bound(s.springs, s.stiffness, s.inv_mass)
-        s._accel = np.zeros_like(s.state.positions)
+        s._accel = self.spare.extend("accel", s._accel, np.zeros((added, 3)))

@@ -47,6 +47,18 @@ class SurfaceMesh:
         object.__setattr__(self, "vertices", vertices)
         object.__setattr__(self, "triangles", triangles)
 
+    @classmethod
+    def trusted(cls, vertices: np.ndarray, triangles: np.ndarray) -> "SurfaceMesh":
+        """A mesh of arrays known to be valid (``(n, 3) float64`` and ``(m, 3) int32``, C-contiguous, indices in
+        range), made without the O(n + m) checks and without copying: for code that keeps these invariants itself
+        (a cut, :mod:`tissuesim.cutting`). The arrays are made read-only."""
+        mesh = object.__new__(cls)
+        vertices.flags.writeable = False
+        triangles.flags.writeable = False
+        object.__setattr__(mesh, "vertices", vertices)
+        object.__setattr__(mesh, "triangles", triangles)
+        return mesh
+
     @property
     def vertex_count(self) -> int:
         return len(self.vertices)
