@@ -195,7 +195,7 @@ class _Points:
             return [_quality3(x, p[i], p[(i + 1) % 3]) for i in range(3)]
         i, j = inside
         lo, hi = sorted((corners[i], corners[j]))
-        others = [o for r in self.patch.owners(lo, hi) for o in self.patch.row(r).tolist() if o not in (lo, hi)]
+        others = [o for r in self.patch.owners(lo, hi) for o in self.patch.row_list(r) if o not in (lo, hi)]
         others = others or [corners[3 - i - j]]
         return [_quality3(x, p[e], where[o].tolist()) for o in others for e in (i, j)]
 
@@ -364,15 +364,19 @@ def _mix(weights, parents, values):
 
 
 def _quality3(a, b, c) -> float:
-    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate); corners as 3-sequences."""
-    u = [b[k] - a[k] for k in range(3)]
-    v = [c[k] - a[k] for k in range(3)]
-    w = [c[k] - b[k] for k in range(3)]
-    squares = sum(x * x for x in u) + sum(x * x for x in v) + sum(x * x for x in w)
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate); corners as 3-sequences
+    (unrolled: it runs a few times per cut point, where array calls would cost more than the arithmetic)."""
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    wx, wy, wz = c[0] - b[0], c[1] - b[1], c[2] - b[2]
+    squares = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
     if squares <= 0.0:
         return 0.0
-    cross = (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
-    return 2.0 * math.sqrt(3.0) * math.sqrt(sum(x * x for x in cross)) / squares
+    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    return _TWO_ROOT3 * math.sqrt(cx * cx + cy * cy + cz * cz) / squares
+
+
+_TWO_ROOT3 = 2.0 * math.sqrt(3.0)
 
 
 def _farthest(segments, positions, sweep) -> int:

@@ -37,9 +37,12 @@ class VertexFans:
         base = self._rows[self._start[v]:self._start[v + 1]].tolist() if v < self._built else []
         return base + self._extra.get(v, [])
 
-    def fan(self, v: int, rows) -> list[int]:
-        """Rows holding ``v`` now; ``rows(r)`` gives row r's current ``(3,)`` content."""
-        return [r for r in dict.fromkeys(self.candidates(v)) if v in rows(r)]
+    def fan(self, v: int, triangles: np.ndarray, edited=None) -> list[int]:
+        """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content) for the rows it has."""
+        edited = edited or {}
+        m = len(triangles)
+        return [r for r in dict.fromkeys(self.candidates(v))
+                if r < m and v in (edited[r].tolist() if r in edited else triangles[r].tolist())]
 
     def record(self, rows, contents, copies=()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
@@ -96,6 +99,7 @@ class RowPatch:
         self.m, self.n = len(triangles), vertex_count
         self.edited: dict[int, np.ndarray] = {}
         self.added: list[np.ndarray] = []
+        self._fans: dict[int, list[int]] = {}       # fans read since the last write
 
     def row(self, r: int) -> np.ndarray:
         """``(3,)`` current content of row ``r``."""
@@ -103,7 +107,12 @@ class RowPatch:
             return self.edited[r]
         return self.base[r] if r < self.m else self.added[r - self.m]
 
+    def row_list(self, r: int) -> list[int]:
+        """Row ``r``'s current content as a list (cheap membership tests)."""
+        return self.row(r).tolist()
+
     def write(self, r: int, content) -> None:
+        self._fans.clear()
         content = np.asarray(content, dtype=np.int64)
         if r < self.m:
             self.edited[r] = content
@@ -111,14 +120,41 @@ class RowPatch:
             self.added[r - self.m] = content
 
     def append(self, contents) -> None:
+        self._fans.clear()
         self.added += [np.asarray(c, dtype=np.int64) for c in contents]
 
     def fan(self, v: int) -> list[int]:
         """Rows holding vertex ``v`` now. A rewritten row only loses old vertices (a piece keeps its triangle's
         corners; a copy is new), so an old vertex's rows are its fan before the cut and the appended rows."""
-        rows = self.fans.fan(v, self.row) if v < self.n else [r for r, c in self.edited.items() if v in c]
-        return rows + [self.m + i for i, c in enumerate(self.added) if v in c]
+        rows = self._fans.get(v)
+        if rows is None:
+            rows = (self.fans.fan(v, self.base, self.edited) if v < self.n
+                    else [r for r, c in self.edited.items() if v in c])
+            rows = self._fans[v] = rows + [self.m + i for i, c in enumerate(self.added) if v in c]
+        return rows
 
     def owners(self, lo: int, hi: int) -> list[int]:
         """Rows holding the edge (lo, hi) now."""
-        return [r for r in self.fan(lo) if hi in self.row(r)]
+        return [r for r in self.fan(lo) if hi in self.row_list(r)]
+
+
+class EdgeOwners:
+    """Edge → triangle rows of a :class:`~tissuesim.cutting.buffers.CutSurface`'s current triangles, read from its
+    fans (no table of every edge: a Python dict of the whole mesh's edges slows every garbage collection).
+    Cached until :meth:`clear` (call it after each cut)."""
+
+    def __init__(self, surface):
+        self.surface = surface
+        self._fans: dict[int, list[int]] = {}
+
+    def clear(self) -> None:
+        self._fans.clear()
+
+    def of(self, key) -> list[int]:
+        """Rows holding the edge ``key`` = (lo, hi)."""
+        lo, hi = int(key[0]), int(key[1])
+        fan = self._fans.get(lo)
+        if fan is None:
+            fan = self._fans[lo] = self.surface.fans.fan(lo, self.surface.triangles)
+        triangles = self.surface.triangles
+        return [r for r in fan if hi in triangles[r].tolist()]

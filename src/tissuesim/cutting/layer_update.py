@@ -18,7 +18,7 @@ import numpy as np
 from ..loads import triangle_areas
 from ..pbd.kernels import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
-from .rows import Rows
+from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, register_cut
 
 
@@ -118,9 +118,9 @@ class SurfaceLayerCut(SolverCut):
         self.bend = Rows(bend, len(c.bending), {"bending": 0, "rest_angle": np.pi, "rest_signed_angle": 0.0,
                                                 "hinge_area": 1.0, "compliance": 1.0, "multiplier": 0.0})
         edges = c.edges.astype(np.int64)
-        self.stretch_row = {(int(min(u, v)), int(max(u, v))): r for r, (u, v) in enumerate(edges.tolist())}
+        self.stretch_row = EdgeRows(edges, np.arange(len(edges)))
         hinge_edges = edges[c.hinge_edge]
-        self.hinge_row = {(int(min(u, v)), int(max(u, v))): r for r, (u, v) in enumerate(hinge_edges.tolist())}
+        self.hinge_row = EdgeRows(hinge_edges, np.arange(len(hinge_edges)))
         self._bind()
 
     def _bind(self) -> None:

@@ -16,29 +16,35 @@ GROWTH = 1.05
 MIN_GROWTH = 64
 
 
-class EdgeMap:
-    """Edge → triangle rows of a surface, built once and updated locally per cut."""
+class EdgeRows:
+    """Edge → constraint row, for the edges of the whole mesh. Keyed by one int per edge (lo · 2³² + hi): a dict of
+    ints is not tracked by Python's garbage collector, while one of tuples over a whole mesh is traversed by every
+    full collection (measured: +1–2 ms per cutting move at 100k vertices).
 
-    def __init__(self, triangles: np.ndarray):
-        self.triangles: dict[tuple[int, int], list[int]] = {}
-        self.add(np.arange(len(triangles)), triangles)
+    Args:
+        edges: ``(k, 2) int`` vertex pairs (any order within a pair).
+        rows: ``(k,) int`` their rows.
+    """
 
-    def add(self, rows, content) -> None:
-        for r, (a, b, c) in zip(np.asarray(rows).tolist(), np.asarray(content).tolist()):
-            for u, v in ((a, b), (b, c), (c, a)):
-                self.triangles.setdefault((u, v) if u < v else (v, u), []).append(r)
+    def __init__(self, edges: np.ndarray, rows: np.ndarray):
+        edges = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
+        self._row = dict(zip(((edges[:, 0] << 32) | edges[:, 1]).tolist(), np.asarray(rows).tolist()))
 
-    def remove(self, rows, content) -> None:
-        for r, (a, b, c) in zip(np.asarray(rows).tolist(), np.asarray(content).tolist()):
-            for u, v in ((a, b), (b, c), (c, a)):
-                key = (u, v) if u < v else (v, u)
-                owners = self.triangles[key]
-                owners.remove(r)
-                if not owners:
-                    del self.triangles[key]
+    @staticmethod
+    def _code(key) -> int:
+        lo, hi = int(key[0]), int(key[1])
+        return (lo << 32) | hi if lo < hi else (hi << 32) | lo
 
-    def of(self, key) -> list[int]:
-        return self.triangles.get(key, [])
+    def __contains__(self, key) -> bool:
+        return self._code(key) in self._row
+
+    def pop(self, key) -> int:
+        return self._row.pop(self._code(key))
+
+    def update(self, pairs) -> None:
+        """Add ``(key, row)`` pairs."""
+        for key, row in pairs:
+            self._row[self._code(key)] = int(row)
 
 
 class Rows:

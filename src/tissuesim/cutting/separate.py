@@ -72,7 +72,7 @@ def _wedges(patch, v, fan, cut, base):
 
     by_edge: dict[int, list[int]] = {}
     for r in fan:
-        for x in patch.row(r).tolist():
+        for x in patch.row_list(r):
             if x != v:
                 by_edge.setdefault(x, []).append(r)
     for x, rs in by_edge.items():
@@ -88,7 +88,7 @@ def _still_closed(patch, cut, fans):
     """Cut edges (u, v) still shared by two triangles after the duplication."""
     closed = []
     for u, v in cut:
-        rows = [r for r in fans[u] if v in patch.row(r) and u in patch.row(r)]
+        rows = [r for r in fans[u] if {u, v} <= set(patch.row_list(r))]
         if len(rows) == 2:
             closed.append((u, v))
     return closed

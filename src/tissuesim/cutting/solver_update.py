@@ -29,7 +29,7 @@ from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
 from .core import CutResult
 from .remap import cut_hybrid
-from .rows import EdgeMap
+from .fans import EdgeOwners
 
 _REGISTRY: dict[str, type] = {}
 
@@ -93,7 +93,7 @@ class SolverCut:
         triangles = solver.hybrid.surface.triangles
         self.surface = CutSurface(solver.rest_positions, solver.positions, solver.velocities, triangles)
         self.spare = self.surface.spare
-        self.edges = EdgeMap(triangles)
+        self.edges = EdgeOwners(self.surface)
         self.closed = np.zeros((0, 2), dtype=np.int64)
         self.lumped = lumped_areas(solver.rest_positions, triangles)
         self.lumped_total = float(self.lumped.sum())        # conserved by every cut (area only moves)
@@ -126,8 +126,7 @@ class SolverCut:
         else:
             loose = 0
         result = self.surface.apply(plan, sweep)
-        self.edges.remove(result.changed[: len(result.replaced)], result.replaced)
-        self.edges.add(result.changed, result.triangles[result.changed])
+        self.edges.clear()
         self._update_lumped(result)
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
         self._carry_state(result, new_fixed)

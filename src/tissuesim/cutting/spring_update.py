@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .layer_update import adjacent_area, new_edge_constraints, new_hinges, touched_edges
-from .rows import Rows
+from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, register_cut
 
 
@@ -28,11 +28,14 @@ class MassSpringCut(SolverCut):
         self.rows = Rows({"springs": springs, "rest": np.array(solver.rest_lengths),
                           "stiffness": np.array(solver.stiffness)}, len(springs),
                          {"springs": 0, "rest": 1.0, "stiffness": 0.0})
-        edges = np.asarray(solver.hybrid.surface.edges, dtype=np.int64)
-        self.stretch_row = {(int(u), int(v)): r for r, (u, v) in enumerate(edges.tolist())}
+        surface = solver.hybrid.surface
+        edges = np.asarray(surface.edges, dtype=np.int64)
+        self.stretch_row = EdgeRows(edges, np.arange(len(edges)))
         # spring_network: stretch springs in edge order, then one bending spring per interior edge in that order
-        interior = [k for k in self.stretch_row if len(self.edges.of(k)) == 2]
-        self.bend_row = {k: len(edges) + r for r, k in enumerate(interior)}
+        directed = np.sort(surface.triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+        _, count = np.unique(directed, axis=0, return_counts=True)      # per edge, in the same (sorted) order
+        interior = edges[count == 2]
+        self.bend_row = EdgeRows(interior, len(edges) + np.arange(len(interior)))
         self._bind()
 
     def _bind(self) -> None:
