@@ -6,9 +6,12 @@ cuts, and the fine FEM's cost for the same cut (re-tetrahedralize + re-factorize
 Prints figures and ratios; asserts nothing (timings belong here, not in tests). Move costs are CPU time of this
 process (the code is single-threaded, so it equals wall time on an idle machine and is not inflated by other jobs).
 
-1. **one move**: a progressive 3 cm cut over the cube's flat top in moves of 0.5–4 edge lengths (so each crosses
-   about k triangles), on cubes of 1k, 10k and 100k vertices: the pure core (:func:`tissuesim.cutting.cut_surface`)
-   and the whole scalpel move on a pbd solver (core + the solver's arrays). Medians over the moves.
+1. **one move**: a progressive 3 cm cut over the cube's flat top in moves of 0.5–3 edge lengths (so each crosses
+   about k triangles), on cubes of 1k, 10k and 100k vertices: the pure function
+   :func:`tissuesim.cutting.cut_surface` (new arrays: O(n) copies by design), the in-place core
+   (:class:`tissuesim.cutting.buffers.CutSurface`: plan + apply on capacity buffers, what the scalpel runs), and the
+   whole scalpel move on a pbd solver (core + the solver's arrays). Medians over the moves but the first (which
+   builds the buffers and fans).
 2. **step after 50 cuts**: hybrid step time on the Table-1 cube before and after 50 progressive moves in five
    strokes (the kernels also sweep the retired rows).
 3. **fine FEM for the same cut**: TetGen on the cut M_S (fine switches) + assembly and factorization of K, the
@@ -24,7 +27,8 @@ import time
 import numpy as np
 
 import tissuesim
-from tissuesim.cutting import Sweep, cut_surface
+from tissuesim.cutting import DEFAULT_SNAP, Sweep, cut_surface
+from tissuesim.cutting.buffers import CutSurface
 from tissuesim.cutting.wound import incision_line, scripted_incision
 from tissuesim.mesh import models
 
@@ -41,14 +45,18 @@ def _line(surface):
     return start, start + [0.03, 0.0, 0.0]
 
 
-def bench_core(surface, step):
-    """Progressive moves of ``step`` [m] along the line with the pure core: (median k, median seconds)."""
+def _moves(step):
+    return np.arange(step, 0.03 + 1e-12, step) / 0.03
+
+
+def bench_pure(surface, step):
+    """Progressive moves of ``step`` [m] along the line with :func:`cut_surface`: (median k, median seconds)."""
     rest, tri = surface.vertices, surface.triangles
     positions, velocities = rest.copy(), np.zeros_like(rest)
     start, end = _line(surface)
     closed = np.zeros((0, 2), dtype=np.int64)
     tip, times, split = start, [], []
-    for f in np.arange(step, 0.03 + 1e-12, step) / 0.03:
+    for f in _moves(step):
         new = start + f * (end - start)
         t = time.process_time()
         r = cut_surface(rest, positions, velocities, tri, Sweep.between(tip, new, [0.0, 0.0, -0.01]), closed=closed)
@@ -62,18 +70,43 @@ def bench_core(surface, step):
     return statistics.median(split), statistics.median(times[1:] or times)
 
 
+def bench_in_place(surface, step):
+    """The same with the in-place core, its next sweep searched from where the last cut stopped."""
+    rest = surface.vertices
+    cut = CutSurface(rest, rest, np.zeros_like(rest), surface.triangles)
+    start, end = _line(surface)
+    closed, seeds = np.zeros((0, 2), dtype=np.int64), []
+    tip, times, split = start, [], []
+    for f in _moves(step):
+        new = start + f * (end - start)
+        t = time.process_time()
+        sweep = Sweep.between(tip, new, [0.0, 0.0, -0.01])
+        plan = cut.plan(sweep, snap=DEFAULT_SNAP, closed=closed, seeds=seeds)
+        r = None if plan is None else cut.apply(plan, sweep)
+        times.append(time.process_time() - t)
+        tip = new
+        if r is not None:
+            if r.end_vertex >= 0:
+                tip, seeds = r.positions[r.end_vertex] + [0.0, 0.0, 1e-3], [r.end_vertex]
+            closed = r.closed
+            split.append(r.split_count)
+    return statistics.median(split), statistics.median(times[1:] or times)
+
+
 def bench_solver_moves(hybrid, step):
-    """The same with the scalpel on a pbd solver (core + the solver's arrays)."""
+    """The same with the scalpel on a pbd solver (core + the solver's arrays): (median k, median seconds)."""
     solver = tissuesim.make_solver("pbd", hybrid)
     start, end = _line(hybrid.surface)
     scalpel = tissuesim.Scalpel(solver, depth=0.01)
     scalpel.press(start, direction=[0, 0, -1])
-    times = []
-    for f in np.arange(step, 0.03 + 1e-12, step) / 0.03:
+    times, split = [], []
+    for f in _moves(step):
         t = time.process_time()
-        scalpel.move(start + f * (end - start))
+        report = scalpel.move(start + f * (end - start))
         times.append(time.process_time() - t)
-    return statistics.median(times[1:] or times)        # the first move builds the edge map
+        if report.triangles_split:
+            split.append(report.triangles_split)
+    return statistics.median(split), statistics.median(times[1:] or times)   # the first move builds the buffers
 
 
 def bench_steps(hybrid, steps):
@@ -128,8 +161,9 @@ def main():
     parser.add_argument("--quick", action="store_true", help="fewer timed steps")
     args = parser.parse_args()
     print("## 1. one move: median time against triangles crossed (k) and M_S size\n")
-    print("| M_S vertices | move (edge lengths) | k (triangles split) | core [ms] | scalpel move, pbd [ms] |")
-    print("|---:|---:|---:|---:|---:|")
+    print("| M_S vertices | move (edge lengths) | k (core) | cut_surface, new arrays [ms] | in-place core [ms] "
+          "| k (scalpel) | scalpel move, pbd [ms] |")
+    print("|---:|---:|---:|---:|---:|---:|---:|")
     for size in args.sizes:
         surface = models.cube(size)
         edge = _edge(surface)
@@ -137,9 +171,12 @@ def main():
         if size <= args.solver_limit:
             hybrid = tissuesim.HybridMesh.build(surface, fine_volume=False)
         for f in (0.5, 1.0, 2.0, 3.0):
-            k, t_core = bench_core(surface, f * edge)
-            move = "-" if hybrid is None else f"{1e3 * bench_solver_moves(hybrid, f * edge):.2f}"
-            print(f"| {size} | {f:g} | {k:g} | {1e3 * t_core:.2f} | {move} |", flush=True)
+            _, t_pure = bench_pure(surface, f * edge)
+            k, t_core = bench_in_place(surface, f * edge)
+            k_move, move = ("-", "-") if hybrid is None else bench_solver_moves(hybrid, f * edge)
+            move = move if hybrid is None else f"{1e3 * move:.2f}"
+            print(f"| {size} | {f:g} | {k:g} | {1e3 * t_pure:.2f} | {1e3 * t_core:.2f} | {k_move} | {move} |",
+                  flush=True)
 
     print("\n## 2. hybrid step after 50 cuts (Table-1 cube)\n")
     cube = tissuesim.HybridMesh.build(models.cube())

@@ -145,16 +145,17 @@ class EdgeOwners:
 
     def __init__(self, surface):
         self.surface = surface
-        self._fans: dict[int, list[int]] = {}
+        self._owners: dict = {}
 
     def clear(self) -> None:
-        self._fans.clear()
+        self._owners.clear()
 
     def of(self, key) -> list[int]:
         """Rows holding the edge ``key`` = (lo, hi)."""
         lo, hi = int(key[0]), int(key[1])
-        fan = self._fans.get(lo)
-        if fan is None:
-            fan = self._fans[lo] = self.surface.fans.fan(lo, self.surface.triangles)
-        triangles = self.surface.triangles
-        return [r for r in fan if hi in triangles[r].tolist()]
+        owners = self._owners.get((lo, hi))
+        if owners is None:
+            triangles = self.surface.triangles
+            owners = [r for r in self.surface.fans.fan(lo, triangles) if hi in triangles[r].tolist()]
+            self._owners[(lo, hi)] = owners
+        return owners
