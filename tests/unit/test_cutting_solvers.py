@@ -213,3 +213,48 @@ def test_new_vertices_get_the_load_map_and_the_embedding_so_a_pin_head_can_pull_
     for _ in range(30):
         solver.step()
     assert solver.positions[pin.node, 2] > h.surface.vertices[pin.node, 2] + 1e-4
+
+
+@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+def test_arrays_edited_per_move_equal_a_fresh_computation(cube, method):
+    from tissuesim.loads import lumped_areas
+
+    solver = tissuesim.make_solver(method, cube)
+    total = solver.mass.sum()
+    scripted_incision(solver)
+    h = solver.hybrid
+    area = lumped_areas(h.surface.vertices, h.surface.triangles)
+    assert np.allclose(solver.mass, total * area / area.sum(), rtol=1e-9)
+    expected = 1.0 / solver.mass
+    expected[solver.prescribed] = 0.0
+    assert np.array_equal(solver.inv_mass, expected)
+    held = solver.control_count if method == "hybrid" else 0     # the fixed nodes after the control nodes
+    assert np.array_equal(solver.targets[held:], solver.rest_positions[solver.prescribed[held:]])
+    assert np.array_equal(solver.fixed, np.sort(solver.fixed))
+    if method == "hybrid":
+        nodes = np.asarray(h.coarse_volume_nodes)[np.asarray(h.coarse_surface.triangles)[h.coarse_triangle]]
+        assert np.array_equal(solver.load_volume_nodes, nodes)
+        assert np.array_equal(solver._tet_of, h.embedding_tet)
+        assert solver._embedded.shape == solver.positions.shape
+
+
+def test_a_move_writes_into_the_buffers_of_the_move_before(cube):
+    # a move costs O(triangles split): the cut mesh and the solver's state are longer views of the same storage
+    # (no whole-mesh copy), while positions stay writeable and every array has the current length
+    solver = tissuesim.make_solver("pbd", cube)
+    start, end = incision_line(solver.rest_positions, length=0.02)
+    scalpel = tissuesim.Scalpel(solver)
+    scalpel.press(start, direction=[0, 0, -1])
+    scalpel.move(start + 0.3 * (end - start))
+    before = (solver.hybrid.surface.vertices, solver.hybrid.surface.triangles, solver.positions, solver.velocities,
+              solver.mass, solver.inv_mass, solver.forces, solver.hybrid.embedding_tet)
+    n = len(before[0])
+    report = scalpel.move(start + 0.6 * (end - start))
+    assert report.vertices_added > 0
+    after = (solver.hybrid.surface.vertices, solver.hybrid.surface.triangles, solver.positions, solver.velocities,
+             solver.mass, solver.inv_mass, solver.forces, solver.hybrid.embedding_tet)
+    for old, new in zip(before, after):
+        assert np.shares_memory(old, new) and len(new) > len(old)
+    assert np.array_equal(before[0], after[0][:n])         # old vertices keep their rows
+    assert solver.positions.flags.writeable and not solver.hybrid.surface.vertices.flags.writeable
+    assert len(solver.positions) == len(solver.rest_positions) == solver.hybrid.surface.vertex_count
