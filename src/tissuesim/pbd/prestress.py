@@ -5,8 +5,9 @@ uniform isotropic membrane tension, the stress of an in-plane prestrain ε,
 
     T = E h̄ ε / (1 − ν)          [N/m],
 
-with h̄ the layer's mean thickness (β times the mean rest edge length of the uncut M_S, fixed when the solver is
-built, so that a cut's smaller triangles carry the same tension). A uniform tension has the energy T × area, so it
+with h̄ the layer's mean thickness: β times M_S's mean rest edge length as built
+(:attr:`~tissuesim.mesh.hybrid.HybridMesh.built_edge_length`), which a cut keeps, so that a cut's smaller
+triangles carry the same tension, and a solver built on a cut mesh the same as the one that cut it. A uniform tension has the energy T × area, so it
 pulls on vertex v with −T ∇_v A.
 
 The rest state is the body's equilibrium: on the uncut surface the tissue underneath reacts that pull everywhere
@@ -68,13 +69,26 @@ def area_gradient(positions: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return gradient
 
 
+def copy_origin(rest: np.ndarray) -> np.ndarray:
+    """``(n,) int64`` for each vertex of a cut surface, the vertex it is a copy of: the first of those sharing its rest
+    position ``(n, 3)`` [m] (a cut duplicates a vertex in place), itself for the others. Read from the mesh alone,
+    so a solver built on an already cut mesh knows its wound too."""
+    from ..cutting.wound import wound_pairs
+
+    origin = np.arange(len(rest))
+    pairs = wound_pairs(rest)
+    origin[pairs[:, 1]] = pairs[:, 0]
+    return origin
+
+
 def release_forces(rest: np.ndarray, triangles: np.ndarray, origin: np.ndarray, tension: float) -> np.ndarray:
     """``(n, 3) float64`` forces [N] the released prestress puts on each vertex of a cut surface (module docstring).
 
     Args:
         rest: ``(n, 3)`` rest positions [m] of the cut surface.
         triangles: ``(m, 3) int`` its triangles.
-        origin: ``(n,) int`` the original vertex each vertex is a copy of (itself if it is none).
+        origin: ``(n,) int`` the original vertex each vertex is a copy of (itself if it is none; see
+            :func:`copy_origin`).
         tension: T [N/m].
     """
     forces = np.zeros((len(rest), 3))

@@ -152,7 +152,7 @@ class SurfaceLayerSolver(Solver):
         if self.form != "xpbd":
             raise SolverError("prestrain needs the xpbd form (the pbd form's stiffness has no unit to make a tension "
                               "from); drop form='pbd' or the prestrain")
-        mean_thickness = self.thickness_ratio * float(self.constraints.rest_length.mean())
+        mean_thickness = self.thickness_ratio * self.hybrid.built_edge_length
         self.prestress_tension = prestress_tension(youngs_modulus=self.youngs_modulus,
                                                    poisson_ratio=self.poisson_ratio, thickness=mean_thickness,
                                                    prestrain=self.prestrain)
@@ -161,15 +161,14 @@ class SurfaceLayerSolver(Solver):
         """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus, with a
         prestrain, the tension a cut released at its lips (:func:`tissuesim.pbd.prestress.release_forces`,
         recomputed once per cut)."""
-        updater = getattr(self, "_cut_updater", None)
-        if self.prestress_tension == 0.0 or updater is None:
+        if self.prestress_tension == 0.0 or not self.hybrid.info.get("cuts"):
             return self.forces
         mesh, release = self._release
         if mesh is not self.hybrid:
-            from ..pbd.prestress import release_forces
+            from ..pbd.prestress import copy_origin, release_forces
 
-            release = release_forces(self.rest_positions, self.hybrid.surface.triangles, updater.identity,
-                                     self.prestress_tension)
+            release = release_forces(self.rest_positions, self.hybrid.surface.triangles,
+                                     copy_origin(self.rest_positions), self.prestress_tension)
             self._release = (self.hybrid, release)
         return self.forces + release
 
