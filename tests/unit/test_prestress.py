@@ -103,3 +103,20 @@ def test_bad_prestrain_is_refused(cube, bad):
 def test_methods_without_a_tension_refuse_a_prestrain(cube, method, options):
     with pytest.raises(SolverError, match="prestrain"):
         tissuesim.make_solver(method, cube, prestrain=0.05, **options)
+
+
+def test_release_and_load_superpose_after_a_cut(cube):
+    """Small strain: the cut, prestrained, loaded wound is the sum of the load's answer and the release's."""
+    tense = tissuesim.make_solver("hybrid", cube, prestrain=0.05)
+    scripted_incision(tense)
+    plain = tissuesim.make_solver("hybrid", tense.hybrid)
+    node = int(np.argmax(tense.rest_positions[:, 2]))
+    rest = tense.rest_positions
+    released = tense.solve_static(node, [0.0, 0.0, 0.0]) - rest
+    loaded = plain.solve_static(node, [0.0, 0.1, -0.1]) - rest
+    both = tense.solve_static(node, [0.0, 0.1, -0.1]) - rest
+    np.testing.assert_allclose(both, released + loaded, atol=1e-12)
+    tense.set_load(node, [0.0, 0.0, 0.0])           # the load withdrawn again: the release alone
+    for _ in range(300):
+        tense.step()
+    np.testing.assert_allclose(tense.positions - rest, released, atol=1e-9)

@@ -57,16 +57,13 @@ def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = I
 
 
 def wound_pairs(rest: np.ndarray) -> np.ndarray:
-    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut)."""
-    _, inverse, counts = np.unique(rest, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    shared = np.flatnonzero(counts[inverse] > 1)
-    order = shared[np.argsort(inverse[shared], kind="stable")]
-    groups = inverse[order]
-    first = np.concatenate([[True], groups[1:] != groups[:-1]])
-    leader = np.repeat(order[first], np.diff(np.append(np.flatnonzero(first), len(order))))
-    pairs = np.stack([leader, order], axis=1)
-    return pairs[pairs[:, 0] != pairs[:, 1]]
+    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut): (the lowest-numbered vertex
+    of the position, another one), in lexicographic order of the position."""
+    order = np.lexsort((rest[:, 2], rest[:, 1], rest[:, 0]))     # stable: a position's vertices stay in index order
+    ordered = rest[order]
+    repeat = np.concatenate([[False], np.all(ordered[1:] == ordered[:-1], axis=1)])
+    leader = order[np.maximum.accumulate(np.where(repeat, 0, np.arange(len(order))))]
+    return np.stack([leader[repeat], order[repeat]], axis=1).astype(np.int64)
 
 
 def wound_openings(solver) -> np.ndarray:

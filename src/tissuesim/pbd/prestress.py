@@ -96,14 +96,17 @@ def release_forces(rest: np.ndarray, triangles: np.ndarray, origin: np.ndarray, 
     copied = np.bincount(origin, minlength=len(rest))[origin] > 1
     if tension == 0.0 or not copied.any():
         return forces
-    gradient = area_gradient(rest, triangles)
-    area = lumped_areas(rest, triangles)
-    group_gradient = np.zeros((len(rest), 3))
-    group_area = np.zeros(len(rest))
     members = np.flatnonzero(copied)
-    np.add.at(group_gradient, origin[members], gradient[members])
-    np.add.at(group_area, origin[members], area[members])
-    g = origin[members]
-    share = np.divide(area[members], group_area[g], out=np.zeros(members.size), where=group_area[g] > 0.0)
-    forces[members] = tension * (share[:, None] * group_gradient[g] - gradient[members])
+    # only the triangles around the copies: the work grows with the wound, not with the mesh
+    triangles = np.asarray(triangles, dtype=np.int64)
+    around = triangles[np.isin(triangles, members).any(axis=1)]
+    gradient = area_gradient(rest, around)[members]
+    area = lumped_areas(rest, around)[members]
+    group = np.unique(origin[members], return_inverse=True)[1]
+    group_gradient = np.zeros((group.max() + 1, 3))
+    group_area = np.zeros(group.max() + 1)
+    np.add.at(group_gradient, group, gradient)
+    np.add.at(group_area, group, area)
+    share = np.divide(area, group_area[group], out=np.zeros(members.size), where=group_area[group] > 0.0)
+    forces[members] = tension * (share[:, None] * group_gradient[group] - gradient)
     return forces

@@ -147,6 +147,7 @@ class SurfaceLayerSolver(Solver):
         self.prestrain = check_prestrain(prestrain)
         self.prestress_tension = 0.0
         self._release = (None, None)    # (the cut hybrid mesh, its release forces (n, 3) [N])
+        self._applied, self._applied_stale = None, True     # forces + release, redone when either changes
         if self.prestrain == 0.0:
             return
         if self.form != "xpbd":
@@ -160,7 +161,7 @@ class SurfaceLayerSolver(Solver):
     def applied_forces(self) -> np.ndarray:
         """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus, with a
         prestrain, the tension a cut released at its lips (:func:`tissuesim.pbd.prestress.release_forces`,
-        recomputed once per cut)."""
+        recomputed once per cut, added once per change of the load)."""
         if self.prestress_tension == 0.0 or not self.hybrid.info.get("cuts"):
             return self.forces
         mesh, release = self._release
@@ -170,7 +171,15 @@ class SurfaceLayerSolver(Solver):
             release = release_forces(self.rest_positions, self.hybrid.surface.triangles,
                                      copy_origin(self.rest_positions), self.prestress_tension)
             self._release = (self.hybrid, release)
-        return self.forces + release
+            self._applied = np.empty_like(release)
+            self._applied_stale = True
+        if self._applied_stale:
+            np.add(self.forces, release, out=self._applied)
+            self._applied_stale = False
+        return self._applied
+
+    def _on_load_changed(self) -> None:
+        self._applied_stale = True
 
     def _init_pbd(self, stiffness, mass_scale) -> None:
         if not (np.isfinite(stiffness) and 0.0 < stiffness <= 1.0):
