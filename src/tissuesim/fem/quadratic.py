@@ -6,8 +6,9 @@ three levels, so the reference uses them; every simulation method keeps its line
 
 * **Nodes.** The mesh's corner nodes keep their indices; a midside node is added on every edge, numbered
   ``n + e`` in the order of :attr:`QuadraticFEM.edges` (straight edges: at the midpoint).
-* **Shape functions** in barycentric coordinates L: corner a, N_a = L_a (2 L_a − 1); edge (a, b), N_ab = 4 L_a L_b.
-  Their gradients are linear, so the stiffness ∫ Bᵀ D B dV is exact with the 4-point rule of degree 2.
+* **Shape functions** in barycentric coordinates L: corner a, N_a = L_a (2 L_a − 1); edge (a, b), N_ab = 4 L_a L_b,
+  so ∇N_a = (4 L_a − 1) ∇L_a and ∇N_ab = 4 (L_b ∇L_a + L_a ∇L_b). The gradients are linear, so the stiffness
+  ∫ Bᵀ D B dV is exact with the 4-point rule of degree 2.
 * **Traction.** A uniform traction on a flat quadratic triangle loads its three midside nodes with a third of the
   force each and its corners with none (∫ N dA: 0 at a corner, A/3 at a midside).
 """
@@ -15,6 +16,7 @@ three levels, so the reference uses them; every simulation method keeps its line
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
@@ -39,35 +41,60 @@ def quadratic_elements(tets: np.ndarray, node_count: int) -> tuple[np.ndarray, n
     return elements, edges
 
 
-def quadratic_gradients(linear_gradients: np.ndarray, point: np.ndarray) -> np.ndarray:
-    """``(m, 10, 3)`` gradients [1/m] of the ten shape functions at barycentric ``point`` ``(4,)``, from the linear
-    ones ∇L ``(m, 4, 3)``: ∇N_a = (4 L_a − 1) ∇L_a, ∇N_ab = 4 (L_b ∇L_a + L_a ∇L_b)."""
-    g = np.empty((len(linear_gradients), 10, 3))
-    g[:, :4] = (4.0 * point - 1.0)[None, :, None] * linear_gradients
-    a, b = TET_EDGES[:, 0], TET_EDGES[:, 1]
-    g[:, 4:] = 4.0 * (point[b][None, :, None] * linear_gradients[:, a]
-                      + point[a][None, :, None] * linear_gradients[:, b])
-    return g
-
-
 def quadratic_element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray:
     """``(m, 30, 30) float64`` element stiffness ∫ Bᵀ D B dV [N/m] of the quadratic tets, node-major local dofs
-    (corners 0–3, then midsides in :data:`TET_EDGES` order)."""
-    linear = shape_gradients(mesh)
-    volume = mesh.volumes
-    d = material.elasticity_matrix()
-    ke = np.zeros((len(volume), 30, 30))
-    b = np.zeros((len(volume), 6, 10, 3))
-    for point in QUADRATURE:
-        g = quadratic_gradients(linear, point)
-        gx, gy, gz = g[..., 0], g[..., 1], g[..., 2]
-        b[:, 0, :, 0], b[:, 1, :, 1], b[:, 2, :, 2] = gx, gy, gz
-        b[:, 3, :, 0], b[:, 3, :, 1] = gy, gx
-        b[:, 4, :, 1], b[:, 4, :, 2] = gz, gy
-        b[:, 5, :, 0], b[:, 5, :, 2] = gz, gx
-        flat = b.reshape(len(volume), 6, 30)
-        ke += (0.25 * volume)[:, None, None] * (flat.transpose(0, 2, 1) @ (d @ flat))
-    return 0.5 * (ke + ke.transpose(0, 2, 1))
+    (corners 0–3, then midsides in :data:`TET_EDGES` order); exactly symmetric."""
+    ke = np.empty((mesh.element_count, 30, 30))
+    _element_kernel(shape_gradients(mesh), mesh.volumes, material.elasticity_matrix(), QUADRATURE, TET_EDGES, ke)
+    return ke
+
+
+@njit(cache=True)
+def _element_kernel(linear_gradients, volumes, d, quadrature, tet_edges, out):
+    """out[e] = Σ_q V/4 Bᵀ D B at the quadrature points (module docstring), without temporaries per element."""
+    g = np.empty((10, 3))
+    b = np.zeros((6, 30))
+    db = np.empty((6, 30))
+    for e in range(volumes.shape[0]):
+        lg = linear_gradients[e]
+        out[e, :, :] = 0.0
+        weight = 0.25 * volumes[e]
+        for q in range(quadrature.shape[0]):
+            point = quadrature[q]
+            for a in range(4):
+                for c in range(3):
+                    g[a, c] = (4.0 * point[a] - 1.0) * lg[a, c]
+            for k in range(6):
+                a, bb = tet_edges[k, 0], tet_edges[k, 1]
+                for c in range(3):
+                    g[4 + k, c] = 4.0 * (point[bb] * lg[a, c] + point[a] * lg[bb, c])
+            for a in range(10):  # B: rows xx, yy, zz, xy, yz, zx
+                gx, gy, gz = g[a, 0], g[a, 1], g[a, 2]
+                col = 3 * a
+                b[0, col] = gx
+                b[1, col + 1] = gy
+                b[2, col + 2] = gz
+                b[3, col] = gy
+                b[3, col + 1] = gx
+                b[4, col + 1] = gz
+                b[4, col + 2] = gy
+                b[5, col] = gz
+                b[5, col + 2] = gx
+            for r in range(6):
+                for col in range(30):
+                    acc = 0.0
+                    for t in range(6):
+                        acc += d[r, t] * b[t, col]
+                    db[r, col] = acc
+            for i in range(30):
+                for j in range(i, 30):
+                    acc = 0.0
+                    for r in range(6):
+                        acc += b[r, i] * db[r, j]
+                    out[e, i, j] += weight * acc
+        for i in range(30):
+            for j in range(i + 1, 30):
+                out[e, j, i] = out[e, i, j]
 
 
 class QuadraticFEM:
