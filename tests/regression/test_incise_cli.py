@@ -30,3 +30,21 @@ def test_incise_unknown_method_is_one_line(tmp_path, capsys):
     assert main(["incise", "cube", "--methods", "scissors", "--output", str(tmp_path / "x")]) == 1
     err = capsys.readouterr().err
     assert "unknown method 'scissors'" in err and "Traceback" not in err
+
+
+def test_incise_with_prestrain_gapes_without_force(tmp_path):
+    out = tmp_path / "cut"
+    assert main(["incise", "cube", "--resolution", "600", "--methods", "pbd", "embedded", "--prestrain", "0.05",
+                 "--output", str(out)]) == 0
+    rows = {r["method"]: r for r in json.loads((out / "incision.json").read_text())}
+    median, largest = rows["pbd"]["unloaded_gap_mm"]
+    assert 0.1 < median <= largest
+    assert rows["embedded"]["unloaded_gap_mm"] is None and rows["embedded"]["prestrain"] == 0.0
+    assert "gap, no force" in (out / "incision.md").read_text()
+
+
+def test_incise_bad_prestrain_is_one_line(tmp_path, capsys):
+    assert main(["incise", "cube", "--prestrain", "0.9", "--output", str(tmp_path / "x")]) == 1
+    err = capsys.readouterr().err
+    assert "prestrain must lie in [0, 0.3]" in err and "Traceback" not in err
+    assert not (tmp_path / "x").exists()

@@ -39,15 +39,27 @@ def test_refinement_that_asks_nothing_changes_nothing(cube):
     assert np.array_equal(same.triangles, surface.triangles) and same.vertex_count == surface.vertex_count
 
 
-def test_level_zero_is_the_default_fine_fem_with_the_solvers_forces(cube):
+def test_linear_level_zero_is_the_default_fine_fem_with_the_solvers_forces(cube):
     from tissuesim import HybridMesh, make_solver
 
     surface, node = cube
     hybrid = HybridMesh.build(surface, fine_volume=True)
-    ref = reference.refinement_levels(hybrid, node, 8e-3, levels=0)
+    ref = reference.refinement_levels(hybrid, node, 8e-3, levels=0,
+                                      settings=reference.RefinementSettings(element="linear"))
     fem = make_solver("fem", hybrid)
     expected = fem.solve_static(node, [0.0, 0.0, -1.0], radius=8e-3) - surface.vertices
     assert np.allclose(ref.displacements([0.0, 0.0, -1.0]), expected, rtol=1e-9, atol=1e-12)
+
+
+def test_quadratic_levels_change_less_than_linear_ones(cube):
+    surface, node = cube
+    last = {}
+    for element in reference.ELEMENTS:
+        ref = reference.refinement_levels(surface, node, 8e-3, levels=3,
+                                          settings=reference.RefinementSettings(element=element))
+        last[element] = ref.levels[-1]
+    # measured on this 400-vertex cube: 2.6 % against 4.2 % at level 3 (18.8k tets)
+    assert last["quadratic"].change < 0.75 * last["linear"].change
 
 
 def test_reference_table_and_response_are_linear(cube):

@@ -246,3 +246,23 @@ def test_a_step_that_fails_is_reported_and_the_simulation_restarts_at_rest(hybri
     c.advance(0.05)  # the window's frame callback must not die with the solver
     assert "inside out" in c.notice and not c.pin.grabbed and c.solver.load is None
     np.testing.assert_array_equal(c.solver.positions, hybrid.surface.vertices)
+
+
+def test_prestrain_reaches_the_methods_that_take_one_and_a_cut_gapes_in_the_viewer(hybrid):
+    from tissuesim.cutting.wound import wound_gap
+
+    c = Controller(hybrid, settings=Settings(prestrain=0.05))
+    assert c.solver.prestrain == 0.05
+    c.key("s")
+    top = top_of(c)
+    c.pointer_down(top + [-0.01, 0.001, 0.0], above(top), DOWN)
+    for dx in np.linspace(-0.01, 0.01, 6)[1:]:
+        c.pointer_move(top + [dx, 0.001, 0.0], above(top), DOWN)
+    c.pointer_up()
+    c.advance(0.5)
+    assert wound_gap(c.solver) > 1e-4                       # open with no force on it
+    c.configure(method="embedded")                          # a method without a surface layer takes none
+    assert c.solver.name == "embedded" and c.settings.prestrain == 0.05
+    with pytest.raises(SolverError, match="prestrain"):
+        c.configure(prestrain=0.9)
+    assert c.settings.prestrain == 0.05

@@ -8,6 +8,9 @@ progressively in 15 moves, then a small force beside the cut, solved to equilibr
 * ``incision.md``: the table of cut timings, vertices added, control nodes released, gap widths and the
   invariant checks; ``incision.json``: the same figures.
 
+With ``--prestrain ε`` the surface-layer methods (hybrid, pbd) carry a prestressed capsule
+(:mod:`tissuesim.pbd.prestress`): the table gives the gap of the wound with no force first, then with the force.
+
 The fem reference cannot be cut (its volume would need re-tetrahedralizing); it is listed as refusing.
 """
 
@@ -34,6 +37,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
     parser.add_argument("--resolution", type=int, default=None,
                         help="vertex count of a built-in model (default: its Table-1 size)")
+    parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
+                        help="in-plane prestrain of the surface (e.g. 0.05), so the wound gapes without force; "
+                             "methods without a surface layer take none (default: 0)")
 
 
 def run(args) -> int:
@@ -41,6 +47,7 @@ def run(args) -> int:
     from ..experiments.output import check_output_folder
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
+    from ..pbd.prestress import check_prestrain
     from ..solvers.registry import available_solvers
     from .build import load_mesh
 
@@ -48,13 +55,14 @@ def run(args) -> int:
     unknown = [m for m in args.methods if m not in available_solvers()]
     if unknown:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
+    prestrain = check_prestrain(args.prestrain)
     rows = []
     for spec in args.models or list(MODELS):
         name = Path(spec).stem if Path(spec).suffix else spec
         print(f"{name}: building the hybrid mesh", file=sys.stderr)
         hybrid = HybridMesh.build(load_mesh(spec, scale=args.scale, resolution=args.resolution), fine_volume=False)
         for method in args.methods:
-            rows.append(_one(name, method, hybrid, output))
+            rows.append(_one(name, method, hybrid, output, prestrain))
     output.mkdir(parents=True, exist_ok=True)
     (output / "incision.json").write_text(json.dumps(rows, indent=1) + "\n")
     (output / "incision.md").write_text(_table(rows))
@@ -66,17 +74,21 @@ def run(args) -> int:
     return 0
 
 
-def _one(model: str, method: str, hybrid, output: Path) -> dict:
+def _one(model: str, method: str, hybrid, output: Path, prestrain: float) -> dict:
     from ..cutting.invariants import check_cut_invariants
     from ..cutting.solver_update import refusal
     from ..cutting.wound import open_wound, scripted_incision
+    from ..cutting.wound import unloaded_openings
     from ..solvers import make_solver
+    from ..solvers.registry import solver_options
 
     print(f"{model}: {method}", file=sys.stderr)
     if refusal(method):
         return {"model": model, "method": method, "refused": refusal(method)}
-    solver = make_solver(method, hybrid)
+    prestressed = prestrain > 0.0 and "prestrain" in solver_options(method)
+    solver = make_solver(method, hybrid, **({"prestrain": prestrain} if prestressed else {}))
     run = scripted_incision(solver)
+    unloaded = unloaded_openings(solver, run["line"]) if prestressed else None
     moves = [r for r in run["moves"][1:-1]]
     move_ms = np.array([1e3 * r.seconds for r in moves])
     mass = getattr(solver, "mass", None)
@@ -90,7 +102,11 @@ def _one(model: str, method: str, hybrid, output: Path) -> dict:
     return {"model": model, "method": method, "moves": len(moves), "move_ms_mean": float(move_ms.mean()),
             "move_ms_max": float(move_ms.max()), "triangles_split": sum(r.triangles_split for r in moves),
             "vertices_added": sum(r.vertices_added for r in moves),
-            "control_released": sum(r.control_released for r in moves), "gap_mm": 1e3 * wound["gap"],
+            "control_released": sum(r.control_released for r in moves),
+            "prestrain": prestrain if prestressed else 0.0,
+            "unloaded_gap_mm": None if unloaded is None else [1e3 * float(np.median(unloaded)),
+                                                              1e3 * float(unloaded.max())],
+            "gap_mm": 1e3 * wound["gap"],
             "settled": wound["settled"], "steps": wound["steps"], "solve_s": time.perf_counter() - start,
             "invariants": problems}
 
@@ -116,15 +132,20 @@ def _write(output: Path, stem: str, solver) -> None:
 
 def _table(rows) -> str:
     lines = ["| model | method | moves | ms per move (mean / max) | triangles split | vertices added | "
-             "control released | gap (mm) | settled (steps) | invariants |",
-             "|---|---|---:|---:|---:|---:|---:|---:|---|---|"]
+             "control released | prestrain | gap, no force, median / max (mm) | gap (mm) | settled (steps) | invariants |",
+             "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|"]
     for r in rows:
         if "refused" in r:
-            lines.append(f"| {r['model']} | {r['method']} | refused: {r['refused']} | | | | | | | |")
+            lines.append(f"| {r['model']} | {r['method']} | refused: {r['refused']} | | | | | | | | | |")
             continue
         check = "all hold" if not r["invariants"] else "; ".join(r["invariants"])
         lines.append(f"| {r['model']} | {r['method']} | {r['moves']} | {r['move_ms_mean']:.1f} / "
                      f"{r['move_ms_max']:.1f} | {r['triangles_split']} | {r['vertices_added']} | "
-                     f"{r['control_released']} | {r['gap_mm']:.3f} | {'yes' if r['settled'] else 'no'} "
+                     f"{r['control_released']} | {r['prestrain']:g} | {_millimetres(r['unloaded_gap_mm'])} | "
+                     f"{r['gap_mm']:.3f} | {'yes' if r['settled'] else 'no'} "
                      f"({r['steps']}) | {check} |")
     return "\n".join(lines) + "\n"
+
+
+def _millimetres(value) -> str:
+    return "–" if value is None else " / ".join(f"{v:.3f}" for v in value)

@@ -23,6 +23,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repair", action="store_true", help="repair safe defects of a surface file")
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of a built-in model")
     parser.add_argument("--stiffness", type=float, default=None, metavar="K", help="pin-head k [N/m] (default 50)")
+    parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
+                        help="in-plane prestrain of the surface, so that a cut gapes by itself (hybrid, pbd; "
+                             "default 0)")
     parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
                         help="record every frame as a ParaView series (FILE.pvd + FILE_frames/)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
@@ -45,8 +48,10 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import read_recording
     from ..viewer.app import ReplayApp, ViewerApp
     from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings
+    from ..pbd.prestress import check_prestrain
     from ..viewer.gl import polyscope
 
+    check_prestrain(args.prestrain)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     if args.replay is not None:
         frames = read_recording(args.replay)
@@ -54,7 +59,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
-    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS)
+    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS, prestrain=args.prestrain)
     controller = Controller(hybrid, settings=settings)
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=args.record)
     app.run()

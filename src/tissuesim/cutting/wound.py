@@ -4,7 +4,8 @@
   [m] in ``steps`` moves (progressive: each move cuts), blade straight down;
 * :func:`wound_gap`: the widest opening [m]: the largest current distance between two vertices that share a rest
   position (the two sides of the cut; both copies start at the same point);
-* :func:`open_wound`: pull a node beside the middle of the cut away from it and solve to equilibrium.
+* :func:`open_wound`: pull a node beside the middle of the cut away from it and solve to equilibrium;
+* :func:`unloaded_openings`: the openings at equilibrium with no force (non-zero only with a prestrained surface).
 """
 
 from __future__ import annotations
@@ -56,25 +57,26 @@ def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = I
 
 
 def wound_pairs(rest: np.ndarray) -> np.ndarray:
-    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut)."""
-    _, inverse, counts = np.unique(rest, axis=0, return_inverse=True, return_counts=True)
-    inverse = inverse.ravel()
-    shared = np.flatnonzero(counts[inverse] > 1)
-    order = shared[np.argsort(inverse[shared], kind="stable")]
-    groups = inverse[order]
-    first = np.concatenate([[True], groups[1:] != groups[:-1]])
-    leader = np.repeat(order[first], np.diff(np.append(np.flatnonzero(first), len(order))))
-    pairs = np.stack([leader, order], axis=1)
-    return pairs[pairs[:, 0] != pairs[:, 1]]
+    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut): (the lowest-numbered vertex
+    of the position, another one), in lexicographic order of the position."""
+    order = np.lexsort((rest[:, 2], rest[:, 1], rest[:, 0]))     # stable: a position's vertices stay in index order
+    ordered = rest[order]
+    repeat = np.concatenate([[False], np.all(ordered[1:] == ordered[:-1], axis=1)])
+    leader = order[np.maximum.accumulate(np.where(repeat, 0, np.arange(len(order))))]
+    return np.stack([leader[repeat], order[repeat]], axis=1).astype(np.int64)
+
+
+def wound_openings(solver) -> np.ndarray:
+    """``(p,) float64`` the current distance [m] between the two sides at each vertex pair of the wound."""
+    pairs = wound_pairs(solver.rest_positions)
+    x = solver.positions
+    return np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
 
 
 def wound_gap(solver) -> float:
     """The widest opening of the wound [m] at the current positions (0 if uncut)."""
-    pairs = wound_pairs(solver.rest_positions)
-    if pairs.size == 0:
-        return 0.0
-    x = solver.positions
-    return float(np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1).max())
+    openings = wound_openings(solver)
+    return float(openings.max()) if openings.size else 0.0
 
 
 def pull_node(rest: np.ndarray, line, *, offset: float = PULL_OFFSET) -> int:
@@ -101,3 +103,10 @@ def open_wound(solver, line, *, force: float = PULL_FORCE, offset: float = PULL_
             raise
     return {"node": node, "gap": wound_gap(solver), "steps": solver.last_solve.steps,
             "settled": bool(solver.last_solve.converged)}
+
+
+def unloaded_openings(solver, line) -> np.ndarray:
+    """``(p,) float64`` the wound's openings [m] (:func:`wound_openings`) at equilibrium with no force: a
+    prestrained capsule retracting (:mod:`tissuesim.pbd.prestress`); zeros without a prestrain."""
+    solver.solve_static(pull_node(solver.rest_positions, line), [0.0, 0.0, 0.0], max_steps=OPEN_MAX_STEPS)
+    return wound_openings(solver)

@@ -78,11 +78,16 @@ def assemble_stiffness(mesh: TetMesh, material: Material) -> sp.csr_matrix:
     materialising 144 m triplets, and it adds each element's (i, j) and (j, i) entries in the same order, so K is
     exactly symmetric.
     """
-    ke = element_stiffness(mesh, material)
-    n = mesh.node_count
-    tets = mesh.tets.astype(np.int64)
-    # Node-pair pattern: all 16 ordered pairs of each tet, deduplicated and sorted row-major.
-    keys = np.sort((tets[:, :, None] * n + tets[:, None, :]).ravel())
+    return scatter_elements(mesh.node_count, mesh.tets, element_stiffness(mesh, material))
+
+
+def scatter_elements(node_count: int, elements: np.ndarray, ke: np.ndarray) -> sp.csr_matrix:
+    """``(3n, 3n)`` CSR sum of element matrices ``ke`` ``(m, 3w, 3w)`` over elements ``(m, w) int`` of any node
+    count w (4: linear tets, 10: quadratic ones), node-major dofs; see :func:`assemble_stiffness`."""
+    n = int(node_count)
+    elements = np.ascontiguousarray(elements, dtype=np.int64)
+    # Node-pair pattern: all w² ordered pairs of each element, deduplicated and sorted row-major.
+    keys = np.sort((elements[:, :, None] * n + elements[:, None, :]).ravel())
     keys = keys[np.r_[True, keys[1:] != keys[:-1]]]  # sort + mask: ~8x faster than np.unique here
     node_rows, node_cols = np.divmod(keys, n)
     node_indptr = np.zeros(n + 1, dtype=np.int64)
@@ -91,7 +96,7 @@ def assemble_stiffness(mesh: TetMesh, material: Material) -> sp.csr_matrix:
     indptr = np.empty(3 * n + 1, dtype=index_type)
     indices = np.empty(9 * keys.size, dtype=index_type)
     data = np.zeros(9 * keys.size)
-    _scatter_kernel(mesh.tets, ke, node_indptr, node_cols, indptr, indices, data)
+    _scatter_kernel(elements, ke, node_indptr, node_cols, indptr, indices, data)
     k = sp.csr_matrix((data, indices, indptr), shape=(3 * n, 3 * n))
     k.has_sorted_indices = True
     return k
@@ -176,11 +181,12 @@ def _scatter_kernel(tets, ke, node_indptr, node_cols, indptr, indices, data):
                 for dd in range(3):
                     indices[row_start + 3 * q + dd] = 3 * j + dd
     indptr[3 * n] = 9 * node_indptr[n]
+    width = tets.shape[1]
     for e in range(tets.shape[0]):
-        for a in range(4):
+        for a in range(width):
             i = tets[e, a]
             start, deg = node_indptr[i], node_indptr[i + 1] - node_indptr[i]
-            for bb in range(4):
+            for bb in range(width):
                 j = tets[e, bb]
                 lo, hi = start, start + deg  # binary search for j among i's neighbours
                 while lo < hi:

@@ -41,6 +41,9 @@ from .surface import SurfaceMesh
 from .maps import closest_on_surface, embed_in_volume, own_corner
 from .tetmesh import TetMesh
 
+#: ``info`` key of M_S's mean edge length [m] at build (:attr:`HybridMesh.built_edge_length`).
+SURFACE_EDGE_KEY = "surface_mean_edge_m"
+
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
 
@@ -68,7 +71,7 @@ class HybridMesh:
         fine_volume: the paper's fine volume mesh, TetGen's tetrahedralization of M_S itself, or None if not built.
         fine_surface_nodes: ``(n_s,) int32`` fine-volume node index of every M_S vertex (identical coordinates), or
             None with ``fine_volume``.
-        info: build report (simplification rounds, collapses skipped, TetGen switches, timings).
+        info: build report (simplification rounds, collapses skipped, TetGen switches, timings, M_S's mean edge).
         coarse_volume: ``(c0,) int32`` M_V node of each M'_S vertex once a cut (§7) has released control nodes
             (then ``control``/``control_volume`` list only the control nodes still prescribed), else None: see
             :attr:`coarse_volume_nodes`.
@@ -87,6 +90,12 @@ class HybridMesh:
     fine_surface_nodes: np.ndarray | None = None
     info: dict = field(default_factory=dict)
     coarse_volume: np.ndarray | None = None
+
+    @property
+    def built_edge_length(self) -> float:
+        """M_S's mean rest edge length [m] as built: a cut keeps it (its shorter new edges do not count), so what
+        it sizes stays a property of the body."""
+        return float(self.info.get(SURFACE_EDGE_KEY) or self.surface.mean_edge_length)
 
     @property
     def coarse_volume_nodes(self) -> np.ndarray:
@@ -158,7 +167,8 @@ class HybridMesh:
                 bar.update()
         timings["total_s"] = sum(timings.values())
         info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
-                "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings}
+                "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings,
+                SURFACE_EDGE_KEY: surface.mean_edge_length}
         return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
                    control_volume=control_volume.astype(np.int32), coarse_triangle=coarse_triangle,
                    coarse_barycentric=coarse_barycentric, embedding_tet=embedding_tet,

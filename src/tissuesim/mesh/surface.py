@@ -74,6 +74,12 @@ class SurfaceMesh:
         return np.unique(np.sort(directed, axis=1), axis=0).astype(np.int32)
 
     @cached_property
+    def mean_edge_length(self) -> float:
+        """Mean length of the edges [m]."""
+        e = self.edges
+        return float(np.linalg.norm(self.vertices[e[:, 0]] - self.vertices[e[:, 1]], axis=1).mean())
+
+    @cached_property
     def triangle_normals(self) -> np.ndarray:
         """``(m, 3) float64`` unit normals (right-hand rule on the vertex order); zero for degenerate triangles."""
         p = self.vertices[self.triangles]

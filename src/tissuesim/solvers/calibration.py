@@ -3,7 +3,7 @@
 The case (DESIGN "free parameters"): the cube model at its default resolution, 1 N of pressure (−z) through a
 pin-head tip of radius 4 mm at the load node (:func:`tissuesim.experiments.protocol.load_node`: the top node nearest the vertical centre axis); metric: eq 26
 (RMSE) over the 50 M_S nodes nearest the load node (:func:`~tissuesim.experiments.protocol.sample_nodes`), against
-the contact protocol's refined linear FEM reference (:func:`tissuesim.experiments.reference.contact_reference`,
+the contact protocol's refined FEM reference (:func:`tissuesim.experiments.reference.contact_reference`,
 cached on disk). A 1-D bounded minimisation (:func:`scipy.optimize.minimize_scalar`, ``bounded``) over
 the logarithm of the scalar finds the value; ``tissuesim calibrate --write`` freezes it in
 :mod:`tissuesim.solvers.calibrated`, and every model and load then uses it unchanged.

@@ -97,6 +97,7 @@ class HybridSolver(SurfaceLayerSolver):
 
     # The FEM part is redone only when the load changes: with a constant load it is constant (linear statics).
     def _on_load_changed(self) -> None:
+        super()._on_load_changed()
         self._dirty = True
 
     def _on_reset(self) -> None:

@@ -21,6 +21,9 @@ The surface layer is M_S with a stretch constraint per edge (eq 8–9) and a ben
 Masses: the body's mass (density × enclosed volume) spread over the surface nodes by lumped area
 (:func:`~tissuesim.solvers.mass_spring.surface_lumped_mass`). In the xpbd form they set the dynamics only.
 
+Option ``prestrain`` (xpbd form, beyond the paper): the layer carries the tension of a stretched capsule, released at
+the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.prestress`).
+
 ``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
 """
 
@@ -67,6 +70,9 @@ class SurfaceLayerSolver(Solver):
             :data:`DEFAULT_STIFFNESS`.
         mass_scale: pbd form: factor on the lumped node masses (> 0); default: the calibrated value of this
             method, or 1.
+        prestrain: xpbd form: in-plane prestrain ε of the surface in [0, 0.3] (default 0), beyond the paper: the
+            layer carries the tension T = E h̄ ε/(1 − ν) of a stretched capsule, so that a cut gapes without a
+            load (:mod:`tissuesim.pbd.prestress`); an uncut surface does not move.
         signed_bending: use the signed bending angle (smooth at flat hinges, beyond the paper) instead of eq 10's
             unsigned one. Default: True in the xpbd form (its energy must be smooth for the static solver: eq 10's
             angle has a cusp at flat hinges, where its gradient is undefined), False in the paper's pbd form.
@@ -76,12 +82,14 @@ class SurfaceLayerSolver(Solver):
         targets: ``(k, 3) float64`` their positions [m].
         mass: ``(n,) float64`` lumped node masses [kg].
         stretch_compliance, bend_compliance: xpbd form: ``(e,)`` [m/N] and ``(b,)`` [1/(N·m)] compliances.
+        prestress_tension: T [N/m] of the prestrain (0 without one).
     """
 
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness_ratio: float | None = None, stiffness: float | None = None,
                  mass_scale: float | None = None, signed_bending: bool | None = None,
-                 integrator: str = DEFAULT_INTEGRATOR, damping: float = DEFAULT_DAMPING, **common):
+                 integrator: str = DEFAULT_INTEGRATOR, prestrain: float = 0.0, damping: float = DEFAULT_DAMPING,
+                 **common):
         super().__init__(hybrid_mesh, damping=damping, **common)
         from ..pbd.topology import SurfaceConstraints
         from . import calibrated as frozen
@@ -115,6 +123,7 @@ class SurfaceLayerSolver(Solver):
             defaults = {"stiffness": DEFAULT_STIFFNESS, "mass_scale": 1.0, option: value}
             self._init_pbd(defaults["stiffness"] if stiffness is None else stiffness,
                            defaults["mass_scale"] if mass_scale is None else mass_scale)
+        self._init_prestress(prestrain)
         self.inv_mass = 1.0 / self.mass
         self.prescribed = np.zeros(0, dtype=np.int64)
         self.targets = np.zeros((0, 3))
@@ -131,6 +140,46 @@ class SurfaceLayerSolver(Solver):
         self.stretch_compliance, self.bend_compliance = relative_shell_compliance(
             self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
             thickness_ratio=self.thickness_ratio)
+
+    def _init_prestress(self, prestrain) -> None:
+        from ..pbd.prestress import check_prestrain, prestress_tension
+
+        self.prestrain = check_prestrain(prestrain)
+        self.prestress_tension = 0.0
+        self._release = (None, None)    # (the cut hybrid mesh, its release forces (n, 3) [N])
+        self._applied, self._applied_stale = None, True     # forces + release, redone when either changes
+        if self.prestrain == 0.0:
+            return
+        if self.form != "xpbd":
+            raise SolverError("prestrain needs the xpbd form (the pbd form's stiffness has no unit to make a tension "
+                              "from); drop form='pbd' or the prestrain")
+        mean_thickness = self.thickness_ratio * self.hybrid.built_edge_length
+        self.prestress_tension = prestress_tension(youngs_modulus=self.youngs_modulus,
+                                                   poisson_ratio=self.poisson_ratio, thickness=mean_thickness,
+                                                   prestrain=self.prestrain)
+
+    def applied_forces(self) -> np.ndarray:
+        """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus, with a
+        prestrain, the tension a cut released at its lips (:func:`tissuesim.pbd.prestress.release_forces`,
+        recomputed once per cut, added once per change of the load)."""
+        if self.prestress_tension == 0.0 or not self.hybrid.info.get("cuts"):
+            return self.forces
+        mesh, release = self._release
+        if mesh is not self.hybrid:
+            from ..pbd.prestress import copy_origin, release_forces
+
+            release = release_forces(self.rest_positions, self.hybrid.surface.triangles,
+                                     copy_origin(self.rest_positions), self.prestress_tension)
+            self._release = (self.hybrid, release)
+            self._applied = np.empty_like(release)
+            self._applied_stale = True
+        if self._applied_stale:
+            np.add(self.forces, release, out=self._applied)
+            self._applied_stale = False
+        return self._applied
+
+    def _on_load_changed(self) -> None:
+        self._applied_stale = True
 
     def _init_pbd(self, stiffness, mass_scale) -> None:
         if not (np.isfinite(stiffness) and 0.0 < stiffness <= 1.0):
@@ -151,7 +200,7 @@ class SurfaceLayerSolver(Solver):
         positions[self.prescribed] = self.targets
         moved = self.targets - self.rest_positions[self.prescribed]
         try:
-            displacement = statics.displacement(self.forces, moved)
+            displacement = statics.displacement(self.applied_forces(), moved)
         except SolverError:
             self.static_fallbacks += 1  # a mechanism left by a cut: time stepping finds the resting state
             return None
@@ -163,7 +212,7 @@ class SurfaceLayerSolver(Solver):
         """Linear implicit Euler on the layer (:meth:`LayerStatics.implicit_step`); damping removes a fraction of the
         velocity before the step, as in the kernels."""
         s = self.state
-        self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.forces,
+        self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.applied_forces(),
                                      self.targets, self.mass, dt, self.damping)
 
     def statics(self):
@@ -195,8 +244,8 @@ class SurfaceLayerSolver(Solver):
         if self.form == "xpbd" and self.integrator == "implicit":
             self._implicit_step(dt)
         elif self.form == "xpbd":
-            xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
-                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
+            xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.applied_forces(),
+                      self.prescribed, self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
                       self.stretch_compliance, c.bending, self._rest_angle, self.bend_compliance,
                       self._lambda_stretch, self._lambda_bend, self.signed_bending)
         else:

@@ -268,6 +268,10 @@ class ViewerApp:
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
                                                             1, 50)
             self._apply_on_release(psim, "iterations")
+        if "prestrain" in solver_options(s.method):
+            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
+                                                             0.0, 0.3, "%.3f")
+            self._apply_on_release(psim, "prestrain")
         changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
         if changed:
             self._configure(dt=dt_ms * 1e-3)

@@ -10,8 +10,9 @@ with the wall time that passed. Everything else happens here, so it is tested wi
 * **scalpel mode** (§8.4): pointer down, move and up call ``Scalpel.press / move / release``, with the picked
   surface point lifted toward the camera by :data:`BLADE_LIFT` of the blade depth, so the blade (along the inward
   normal) sweeps across the surface (off the surface: the camera-plane point through the last blade point);
-* **settings** (method, E, ν, k, contact radius, iterations, dt) change live: a change that alters the solver
-  (method, material, iterations) builds a new one over the current mesh and re-applies a held pin-head;
+* **settings** (method, E, ν, k, contact radius, iterations, dt, prestrain) change live: a change that alters the
+  solver (method, material, iterations, prestrain) builds a new one over the current mesh and re-applies a held
+  pin-head;
 * **time**: the simulation runs at its own fixed dt (:meth:`advance`), as many steps as the wall time asks, at most
   :data:`MAX_STEPS_PER_FRAME` steps and :data:`STEP_BUDGET` seconds per frame so a slow method never freezes the
   window; when one step takes longer than dt of wall time the simulation is slower than real time and
@@ -31,6 +32,7 @@ import numpy as np
 
 from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead
+from ..pbd.prestress import check_prestrain
 from ..solvers.checks import positive_number
 from ..solvers.registry import available_solvers, make_solver, solver_options
 
@@ -42,7 +44,7 @@ BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picke
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
-_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations")
+_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain")
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,8 @@ class Settings:
         radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
         iterations: PBD iterations per step, or None where the method has none (or keeps its default).
         dt: simulation time step [s].
+        prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.pbd.prestress`), on the methods that
+            take one (hybrid, pbd): a cut then gapes by itself.
     """
 
     method: str = "hybrid"
@@ -65,6 +69,7 @@ class Settings:
     radius: float | None = None
     iterations: int | None = None
     dt: float = 0.01
+    prestrain: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -291,6 +296,7 @@ class Controller:
             positive_number("contact radius", settings.radius, "m")
         if settings.iterations is not None and int(settings.iterations) < 1:
             raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
+        check_prestrain(settings.prestrain)
         return settings
 
     def _solver_options(self) -> dict:
@@ -298,6 +304,8 @@ class Controller:
         options = {"youngs_modulus": s.youngs_modulus, "poisson_ratio": s.poisson_ratio, "dt": s.dt}
         if s.iterations is not None and "iterations" in solver_options(s.method):
             options["iterations"] = int(s.iterations)
+        if s.prestrain > 0.0 and "prestrain" in solver_options(s.method):
+            options["prestrain"] = float(s.prestrain)
         return options
 
     def _build(self, hybrid, *, carry: bool = False) -> None:

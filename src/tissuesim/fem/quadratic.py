@@ -1,0 +1,157 @@
+"""Quadratic (10-node) tetrahedra: the accuracy the contact protocol's reference needs (not the paper's method).
+
+Linear tets converge slowly in the whole body's stiffness: the contact reference refined near the load kept drifting
+by 1–2 % per level on linear tets (docs/experiments.md). Quadratic tets on the same meshes converge within 1 % in
+three levels, so the reference uses them; every simulation method keeps its linear tets (§3).
+
+* **Nodes.** The mesh's corner nodes keep their indices; a midside node is added on every edge, numbered
+  ``n + e`` in the order of :attr:`QuadraticFEM.edges` (straight edges: at the midpoint).
+* **Shape functions** in barycentric coordinates L: corner a, N_a = L_a (2 L_a − 1); edge (a, b), N_ab = 4 L_a L_b,
+  so ∇N_a = (4 L_a − 1) ∇L_a and ∇N_ab = 4 (L_b ∇L_a + L_a ∇L_b). The gradients are linear, so the stiffness
+  ∫ Bᵀ D B dV is exact with the 4-point rule of degree 2.
+* **Traction.** A uniform traction on a flat quadratic triangle loads its three midside nodes with a third of the
+  force each and its corners with none (∫ N dA: 0 at a corner, A/3 at a midside).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..errors import SolverError
+from ..mesh.tetmesh import TetMesh
+from .assembly import scatter_elements, shape_gradients
+from .linear import _check_rigid_modes, _fixed_mask, factorise_spd
+from .material import Material
+
+#: Local edges (a, b) of a tet, in the order of its six midside nodes 4..9.
+TET_EDGES = np.array([(0, 1), (1, 2), (0, 2), (0, 3), (1, 3), (2, 3)], dtype=np.int64)
+#: The 4-point rule of degree 2 on a tet: barycentric points (α, β, β, β) and its permutations, weight V/4 each.
+_ALPHA, _BETA = 0.5854101966249685, 0.1381966011250105
+QUADRATURE = np.full((4, 4), _BETA) + np.eye(4) * (_ALPHA - _BETA)
+
+
+def quadratic_elements(tets: np.ndarray, node_count: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(elements (m, 10) int64, edges (e, 2) int64)``: each tet's 4 corners then its 6 midside nodes (node
+    ``node_count + edge index``), and the mesh's unique edges, each sorted."""
+    tets = np.asarray(tets, dtype=np.int64)
+    pairs = np.sort(tets[:, TET_EDGES], axis=2).reshape(-1, 2)
+    edges, which = np.unique(pairs, axis=0, return_inverse=True)
+    elements = np.concatenate([tets, node_count + which.reshape(len(tets), 6)], axis=1)
+    return elements, edges
+
+
+def quadratic_element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray:
+    """``(m, 30, 30) float64`` element stiffness ∫ Bᵀ D B dV [N/m] of the quadratic tets, node-major local dofs
+    (corners 0–3, then midsides in :data:`TET_EDGES` order); exactly symmetric."""
+    ke = np.empty((mesh.element_count, 30, 30))
+    _element_kernel(shape_gradients(mesh), mesh.volumes, material.elasticity_matrix(), QUADRATURE, TET_EDGES, ke)
+    return ke
+
+
+@njit(cache=True)
+def _element_kernel(linear_gradients, volumes, d, quadrature, tet_edges, out):
+    """out[e] = Σ_q V/4 Bᵀ D B at the quadrature points (module docstring), without temporaries per element."""
+    g = np.empty((10, 3))
+    b = np.zeros((6, 30))
+    db = np.empty((6, 30))
+    for e in range(volumes.shape[0]):
+        lg = linear_gradients[e]
+        out[e, :, :] = 0.0
+        weight = 0.25 * volumes[e]
+        for q in range(quadrature.shape[0]):
+            point = quadrature[q]
+            for a in range(4):
+                for c in range(3):
+                    g[a, c] = (4.0 * point[a] - 1.0) * lg[a, c]
+            for k in range(6):
+                a, bb = tet_edges[k, 0], tet_edges[k, 1]
+                for c in range(3):
+                    g[4 + k, c] = 4.0 * (point[bb] * lg[a, c] + point[a] * lg[bb, c])
+            for a in range(10):  # B: rows xx, yy, zz, xy, yz, zx
+                gx, gy, gz = g[a, 0], g[a, 1], g[a, 2]
+                col = 3 * a
+                b[0, col] = gx
+                b[1, col + 1] = gy
+                b[2, col + 2] = gz
+                b[3, col] = gy
+                b[3, col + 1] = gx
+                b[4, col + 1] = gz
+                b[4, col + 2] = gy
+                b[5, col] = gz
+                b[5, col + 2] = gx
+            for r in range(6):
+                for col in range(30):
+                    acc = 0.0
+                    for t in range(6):
+                        acc += d[r, t] * b[t, col]
+                    db[r, col] = acc
+            for i in range(30):
+                for j in range(i, 30):
+                    acc = 0.0
+                    for r in range(6):
+                        acc += b[r, i] * db[r, j]
+                    out[e, i, j] += weight * acc
+        for i in range(30):
+            for j in range(i + 1, 30):
+                out[e, j, i] = out[e, i, j]
+
+
+class QuadraticFEM:
+    """Small-strain linear elasticity on quadratic tets over the corner nodes of ``mesh``, static: K u = f.
+
+    Args:
+        mesh: the tet mesh (its nodes are the corners; midside nodes are added).
+        youngs_modulus, poisson_ratio: the material [Pa], [-].
+        fixed: a callable ``points (N, 3) -> (k,) int`` choosing the fixed nodes among all N = n + e nodes (e.g.
+            ``lambda p: nodes_below(p, height)``), so that midside nodes on the support are fixed with it.
+
+    Attributes:
+        points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
+        edges: ``(e, 2) int64`` the edge of each midside node (node ``n + e``).
+        elements: ``(m, 10) int64`` corners and midsides of each tet.
+        stiffness: the unconstrained K [N/m], ``(3N, 3N)`` CSR, node-major dofs.
+    """
+
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed):
+        material = Material(youngs_modulus, poisson_ratio)
+        n = mesh.node_count
+        self.elements, self.edges = quadratic_elements(mesh.tets, n)
+        midpoints = 0.5 * (mesh.points[self.edges[:, 0]] + mesh.points[self.edges[:, 1]])
+        self.points = np.concatenate([mesh.points, midpoints])
+        mask = _fixed_mask(np.asarray(fixed(self.points), dtype=np.int64), len(self.points))
+        _check_rigid_modes(mesh, mask[:n])
+        self._edge_of = {(int(a), int(b)): n + k for k, (a, b) in enumerate(self.edges.tolist())}
+        self.free_dofs = np.flatnonzero(~mask.ravel())
+        self.stiffness = scatter_elements(len(self.points), self.elements, quadratic_element_stiffness(mesh, material))
+        reduced = self.stiffness[self.free_dofs][:, self.free_dofs].tocsc()
+        self._factor = factorise_spd(reduced, self.free_dofs // 3)
+
+    @property
+    def node_count(self) -> int:
+        return len(self.points)
+
+    def midside(self, a: int, b: int) -> int:
+        """The midside node of the mesh edge between corner nodes ``a`` and ``b``."""
+        key = (int(a), int(b)) if a < b else (int(b), int(a))
+        if key not in self._edge_of:
+            raise SolverError(f"nodes {a} and {b} share no tet edge")
+        return self._edge_of[key]
+
+    def traction_weights(self, triangles: np.ndarray, shares: np.ndarray) -> np.ndarray:
+        """``(N,) float64`` nodal weights of a traction that puts ``shares`` ``(t,)`` of a unit force on the flat
+        boundary triangles ``(t, 3)`` (corner nodes), uniformly over each: a third of each share to its midsides."""
+        weights = np.zeros(self.node_count)
+        for (a, b, c), share in zip(np.asarray(triangles).tolist(), np.asarray(shares).tolist()):
+            for u, v in ((a, b), (b, c), (c, a)):
+                weights[self.midside(u, v)] += share / 3.0
+        return weights
+
+    def solve(self, forces: np.ndarray) -> np.ndarray:
+        """``(N, 3) float64`` displacements [m] of all nodes under nodal forces ``(N, 3)`` [N]."""
+        forces = np.asarray(forces, dtype=np.float64)
+        if forces.shape != (self.node_count, 3):
+            raise SolverError(f"forces must have shape ({self.node_count}, 3) [N], got {forces.shape}")
+        u = np.zeros(3 * self.node_count)
+        u[self.free_dofs] = self._factor.solve(forces.ravel()[self.free_dofs])
+        return u.reshape(-1, 3)
