@@ -71,7 +71,8 @@ class CutSurface:
 
     A cut is planned (:meth:`plan`, nothing written: a caller may still refuse it) and then applied (:meth:`apply`).
     The sweep's candidate triangles are found by walking the fans outward from seed vertices (where the cut is),
-    within the sweep's bounding box (:meth:`VertexFans.near`); only when that finds nothing is every triangle tested.
+    within the sweep's bounding box (:meth:`VertexFans.near`); only when that cuts nothing is every triangle tested
+    (one Numba pass, ~1 ms at 100k triangles).
     A cut therefore follows the sheet of surface it started in: a second sheet that the blade might reach without
     any triangle joining it to the first (a thin fold) is not cut in that move.
     """
@@ -90,19 +91,22 @@ class CutSurface:
         self.velocities = self.spare.adopt("velocities", velocities)
 
     def plan(self, sweep: Sweep, *, snap: float, closed=(), seeds=()) -> CutPlan | None:
-        """The cut of ``sweep`` (see :func:`~tissuesim.cutting.core.plan_cut`), near the vertices ``seeds``."""
+        """The cut of ``sweep`` (see :func:`~tissuesim.cutting.core.plan_cut`) among the triangles found by a walk
+        from the vertices ``seeds``; if that cuts nothing, among every triangle the sweep's box meets."""
         snap = check_snap(snap)
-        return plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed, fans=self.fans,
-                        near=self.near(sweep, seeds))
-
-    def near(self, sweep: Sweep, seeds) -> np.ndarray:
-        """``(k,) int64`` candidate rows of the sweep: the walk from ``seeds``, or every triangle if it finds none."""
         corners = sweep.corners
         pad = 1e-9 * (np.ptp(corners, axis=0).max() + 1e-300)
         rows = [r for v in seeds for r in self.fans.candidates(int(v))]
-        near = self.fans.near(self.triangles, self.positions, corners.min(axis=0) - pad, corners.max(axis=0) + pad,
-                              rows)
-        return near if near.size else candidate_triangles(self.positions, self.triangles, sweep)
+        walked = self.fans.near(self.triangles, self.positions, corners.min(axis=0) - pad,
+                                corners.max(axis=0) + pad, rows)
+        plan = None
+        if walked.size:
+            plan = plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed,
+                            fans=self.fans, near=walked)
+        if plan is None:
+            plan = plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed,
+                            fans=self.fans, near=candidate_triangles(self.positions, self.triangles, sweep))
+        return plan
 
     def apply(self, plan: CutPlan, sweep: Sweep) -> CutResult:
         """Write ``plan`` into the buffers; the result's arrays are views of them."""
