@@ -152,3 +152,40 @@ def test_the_invariant_check_finds_each_defect(cube, defect):
         expected = "total mass"
     problems = check_cut_invariants(rest, triangles, **kwargs)
     assert any(expected in p for p in problems), problems
+
+
+@pytest.mark.parametrize("slit_by", ["the same buffers", "an earlier surface"])
+def test_in_place_cut_finds_what_the_full_search_finds_across_an_earlier_wound(cube, slit_by):
+    # the in-place core searches the sweep's triangles by walking from the cut; a cross cut over an open slit must
+    # reach the slit's far side (through the duplicated vertices, whether it saw them made or not) and cut exactly
+    # what the full search cuts
+    from tissuesim.cutting.buffers import CutSurface
+    from tissuesim.cutting.core import plan_cut
+    from tissuesim.cutting.sweep import candidate_triangles
+
+    rest, triangles = cube
+    top = rest[:, 2].max()
+    if slit_by == "an earlier surface":
+        slit = _stroke(rest, triangles, np.linspace(-0.02, 0.02, 9))[-1]
+        surface = CutSurface(slit.rest, slit.positions, slit.velocities, slit.triangles)
+        closed = slit.closed
+    else:
+        surface = CutSurface(rest, rest, np.zeros_like(rest), triangles)
+        closed, seeds, tip = np.zeros((0, 2), dtype=np.int64), [], np.array([-0.02, 0.0011, top])
+        for x in np.linspace(-0.02, 0.02, 9)[1:]:
+            sweep = Sweep.between(tip, [x, 0.0011, top], [0, 0, -0.01])
+            plan = surface.plan(sweep, snap=0.25, closed=closed, seeds=seeds)
+            tip = np.array([x, 0.0011, top])
+            if plan is not None:
+                done = surface.apply(plan, sweep)
+                closed, seeds = done.closed, [done.end_vertex]
+                tip = np.array([*done.positions[done.end_vertex, :2], top])
+    sweep = Sweep.between([0.0013, -0.006, top], [0.0013, 0.006, top], [0, 0, -0.01])
+    seed = int(np.argmin(np.linalg.norm(surface.rest - [0.0013, -0.006, top], axis=1)))
+    walked = surface.plan(sweep, snap=0.25, closed=closed, seeds=[seed])
+    full = plan_cut(surface.rest, surface.positions, surface.triangles, sweep, snap=0.25, closed=closed,
+                    fans=surface.fans, near=candidate_triangles(surface.positions, surface.triangles, sweep))
+    assert full is not None and full.split_count >= 4
+    assert np.array_equal(walked.changed, full.changed) and np.array_equal(walked.parents, full.parents)
+    applied = surface.apply(walked, sweep)
+    assert check_cut_invariants(applied.rest, applied.triangles) == []
