@@ -15,7 +15,9 @@ closer than that to an existing vertex or edge, which bounds the aspect ratio of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from numba import njit
@@ -59,11 +61,16 @@ class Sweep:
         o, u, v = self.origin, self.u, self.v
         return np.stack([o, o + u, o + u + v, o + v])
 
+    @cached_property
+    def _dual(self) -> np.ndarray:
+        """``(3, 2)`` the dual basis of (u, v) in their plane: (x − origin) @ dual = (s, t) (made once per sweep,
+        which projects a point per crossing)."""
+        gram = np.array([[self.u @ self.u, self.u @ self.v], [self.u @ self.v, self.v @ self.v]])
+        return np.stack([self.u, self.v], axis=1) @ np.linalg.inv(gram)
+
     def plane_coordinates(self, points: np.ndarray) -> np.ndarray:
         """``(k, 2) float64`` (s, t) of ``points`` ``(k, 3)`` [m] projected onto the sweep plane."""
-        gram = np.array([[self.u @ self.u, self.u @ self.v], [self.u @ self.v, self.v @ self.v]])
-        rhs = np.stack([(points - self.origin) @ self.u, (points - self.origin) @ self.v], axis=1)
-        return np.linalg.solve(gram, rhs.T).T
+        return (points - self.origin) @ self._dual
 
 
 @dataclass(frozen=True)
@@ -133,24 +140,27 @@ def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *,
 
 
 def _plane_segment(positions, corners, origin, normal):
-    """``(2, 3)`` barycentric ends of the triangle ∩ plane segment, or None (no crossing, a point, coplanar)."""
-    p = positions[corners]
-    scale = max(np.linalg.norm(p[1] - p[0]), np.linalg.norm(p[2] - p[1]), np.linalg.norm(p[0] - p[2]))
-    d = (p - origin) @ normal
-    d[np.abs(d) <= PLANE_TOLERANCE * scale] = 0.0
-    if not np.any(d):
+    """``(2, 3)`` barycentric ends of the triangle ∩ plane segment, or None (no crossing, a point, coplanar).
+    Plain floats: three points per triangle, where array calls would cost more than the arithmetic."""
+    p = positions[corners].tolist()
+    o, n = origin.tolist(), normal.tolist()
+    scale = max(math.dist(p[1], p[0]), math.dist(p[2], p[1]), math.dist(p[0], p[2]))
+    d = [(x[0] - o[0]) * n[0] + (x[1] - o[1]) * n[1] + (x[2] - o[2]) * n[2] for x in p]
+    d = [0.0 if abs(x) <= PLANE_TOLERANCE * scale else x for x in d]
+    if not any(d):
         return None
-    points = [np.eye(3)[i] for i in range(3) if d[i] == 0.0]
+    points = [[1.0 if k == i else 0.0 for k in range(3)] for i in range(3) if d[i] == 0.0]
+    ids = corners.tolist()
     for i, j in ((0, 1), (1, 2), (2, 0)):
         if d[i] * d[j] < 0.0:
-            lo, hi = (i, j) if corners[i] < corners[j] else (j, i)
+            lo, hi = (i, j) if ids[i] < ids[j] else (j, i)
             t = d[lo] / (d[lo] - d[hi])
-            w = np.zeros(3)
+            w = [0.0, 0.0, 0.0]
             w[lo], w[hi] = 1.0 - t, t
             points.append(w)
     if len(points) != 2:
         return None
-    return np.stack(points)
+    return np.array(points)
 
 
 def _clip(ends, corners_xyz, sweep):
