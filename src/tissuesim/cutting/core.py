@@ -339,7 +339,7 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
         origin += [t] * (len(pieces) - 1)
         cut_edges |= cut
     new_rows = affected + list(range(m, m + len(patch.added)))
-    _check_edges(np.array([patch.row(r) for r in new_rows]), sorted(cut_edges), affected)
+    _check_edges(np.array([patch.row_list(r) for r in new_rows]), sorted(cut_edges), affected)
     # earlier tips that are no longer edges (a later cut went through them) are ignored by separate()
     cut_list = sorted(cut_edges | _carry_closed(closed, points))
     copy_of, still_closed, rewritten = separate(patch, cut_list, n + len(parents))

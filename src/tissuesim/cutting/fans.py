@@ -38,11 +38,11 @@ class VertexFans:
         return base + self._extra.get(v, [])
 
     def fan(self, v: int, triangles: np.ndarray, edited=None) -> list[int]:
-        """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content) for the rows it has."""
+        """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content list) for the rows it has."""
         edited = edited or {}
         m = len(triangles)
         return [r for r in dict.fromkeys(self.candidates(v))
-                if r < m and v in (edited[r].tolist() if r in edited else triangles[r].tolist())]
+                if r < m and v in (edited[r] if r in edited else triangles[r].tolist())]
 
     def record(self, rows, contents, copies=()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
@@ -92,28 +92,27 @@ class RowPatch:
         triangles: ``(m, 3) int`` triangles before the cut.
         fans: their :class:`VertexFans`.
         vertex_count: n, the vertex count before the cut (vertices from n on are this cut's).
+
+    The rewritten (``edited``: row → content) and appended (``added``) rows are kept as lists of three ints: the
+    cut reads them one at a time, where list membership is far cheaper than an array's.
     """
 
     def __init__(self, triangles: np.ndarray, fans: VertexFans, vertex_count: int):
         self.base, self.fans = triangles, fans
         self.m, self.n = len(triangles), vertex_count
-        self.edited: dict[int, np.ndarray] = {}
-        self.added: list[np.ndarray] = []
+        self.edited: dict[int, list[int]] = {}
+        self.added: list[list[int]] = []
         self._fans: dict[int, list[int]] = {}       # fans read since the last write
 
-    def row(self, r: int) -> np.ndarray:
-        """``(3,)`` current content of row ``r``."""
+    def row_list(self, r: int) -> list[int]:
+        """Row ``r``'s current content as a list."""
         if r in self.edited:
             return self.edited[r]
-        return self.base[r] if r < self.m else self.added[r - self.m]
-
-    def row_list(self, r: int) -> list[int]:
-        """Row ``r``'s current content as a list (cheap membership tests)."""
-        return self.row(r).tolist()
+        return self.base[r].tolist() if r < self.m else self.added[r - self.m]
 
     def write(self, r: int, content) -> None:
         self._fans.clear()
-        content = np.asarray(content, dtype=np.int64)
+        content = [int(x) for x in content]
         if r < self.m:
             self.edited[r] = content
         else:
@@ -121,7 +120,7 @@ class RowPatch:
 
     def append(self, contents) -> None:
         self._fans.clear()
-        self.added += [np.asarray(c, dtype=np.int64) for c in contents]
+        self.added += [[int(x) for x in c] for c in contents]
 
     def fan(self, v: int) -> list[int]:
         """Rows holding vertex ``v`` now. A rewritten row only loses old vertices (a piece keeps its triangle's

@@ -52,9 +52,7 @@ def separate(patch, cut_edges, vertex_count: int):
             new = vertex_count + len(copies)
             copies.append(v)
             for r in wedge:
-                row = patch.row(r).copy()
-                row[row == v] = new
-                patch.write(r, row)
+                patch.write(r, [new if x == v else x for x in patch.row_list(r)])
             rewritten += wedge
     return (np.array(copies, dtype=np.int64), _still_closed(patch, cut, fans),
             np.unique(np.array(rewritten, dtype=np.int64)))
