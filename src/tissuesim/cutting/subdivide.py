@@ -19,6 +19,8 @@ which never picks three collinear points while another choice exists.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..errors import MeshError
@@ -26,36 +28,40 @@ from ..errors import MeshError
 SQRT3 = np.sqrt(3.0)
 
 
-def triangle_quality(a: np.ndarray, b: np.ndarray, c: np.ndarray) -> float:
-    """4√3 A / (|ab|² + |bc|² + |ca|²) of a 2-D triangle: 1 equilateral, 0 degenerate, < 0 clockwise."""
-    area = 0.5 * ((b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]))
-    squares = np.sum((b - a) ** 2) + np.sum((c - b) ** 2) + np.sum((a - c) ** 2)
+def triangle_quality(a, b, c) -> float:
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a 2-D triangle (corners as 2-sequences): 1 equilateral, 0 degenerate,
+    < 0 clockwise."""
+    abx, aby, bcx, bcy, cax, cay = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1], a[0] - c[0], a[1] - c[1]
+    area = 0.5 * (abx * (c[1] - a[1]) - aby * (c[0] - a[0]))
+    squares = (abx * abx + aby * aby) + (bcx * bcx + bcy * bcy) + (cax * cax + cay * cay)
     return 4.0 * SQRT3 * area / squares if squares > 0.0 else 0.0
 
 
 def split_uncut(polygon: np.ndarray) -> np.ndarray:
-    """Fig 7(a): triangulate a convex polygon (sides may carry collinear points) at the best smallest quality."""
+    """Fig 7(a): triangulate a convex polygon (sides may carry collinear points) at the best smallest quality.
+    Plain floats and lists: the polygon has a handful of points."""
     k = len(polygon)
     if k < 3:
         raise MeshError(f"a polygon needs at least 3 points to triangulate, got {k}")
-    best = np.full((k, k), np.inf)
-    choice = np.full((k, k), -1, dtype=np.int64)
+    points = np.asarray(polygon, dtype=np.float64).tolist()
+    best = [[math.inf] * k for _ in range(k)]
+    choice = [[-1] * k for _ in range(k)]
     for gap in range(2, k):
         for i in range(k - gap):
             j = i + gap
-            best[i, j] = -np.inf
+            best[i][j] = -math.inf
             for m in range(i + 1, j):
-                q = min(triangle_quality(polygon[i], polygon[m], polygon[j]),
-                        best[i, m] if m - i > 1 else np.inf, best[m, j] if j - m > 1 else np.inf)
-                if q > best[i, j]:
-                    best[i, j], choice[i, j] = q, m
+                q = min(triangle_quality(points[i], points[m], points[j]),
+                        best[i][m] if m - i > 1 else math.inf, best[m][j] if j - m > 1 else math.inf)
+                if q > best[i][j]:
+                    best[i][j], choice[i][j] = q, m
     triangles = []
     stack = [(0, k - 1)]
     while stack:
         i, j = stack.pop()
         if j - i < 2:
             continue
-        m = choice[i, j]
+        m = choice[i][j]
         triangles.append((i, m, j))
         stack += [(i, m), (m, j)]
     return np.array(triangles, dtype=np.int64)
