@@ -3,8 +3,8 @@
 The paper's protocol loads one node, whose reference displacement diverges under refinement (a point load in 3-D
 elasticity), so its RMSE is set by that one node and means little. Here the pin-head has a tip of radius R: the force
 is spread over the M_S nodes within R of the load node (:func:`tissuesim.loads.contact_patch`), the same nodal forces
-for every method (``solve_static(node, force, radius=R)``), and the reference is linear FEM refined near the contact
-until the sample displacements stop changing (:mod:`.reference`).
+for every method (``solve_static(node, force, radius=R)``), and the reference is quadratic-tet FEM refined near the
+contact until the sample displacements stop changing (:mod:`.reference`).
 
 Cases: tension (+z) and pressure (−z) at :data:`FORCES_N`, R in :data:`RADII_MM`, on the built-in models and the
 two clean shared livers (cm, scaled to m). Load node and samples as the paper protocol (:mod:`.protocol`).

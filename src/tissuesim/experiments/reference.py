@@ -1,4 +1,4 @@
-"""A reference that converges: linear FEM on volumes refined level by level near the contact.
+"""A reference that converges: quadratic-tet FEM on volumes refined level by level near the contact.
 
 A load on one node is a point load, singular in 3-D elasticity: the fine FEM's value at that node grows as 1/h under
 refinement and never converges. A pin-head's contact patch of radius R (:func:`tissuesim.loads.contact_patch`) is a
@@ -10,12 +10,14 @@ traction of finite density, whose displacement field has a limit. This module co
   bisection (:func:`tissuesim.mesh.refine.refine_surface`; every M_S vertex stays a node, bit for bit, and the
   surface keeps its shape); TetGen fills the result with the default fine volume's quality switches (``Y``: the
   refined surface is the boundary, so M_S's vertices are the volume's first nodes), which grade the interior from
-  the refined surface inward. Level 0 is the default fine volume itself (what the ``fem`` solver uses). A fixed
+  the refined surface inward. Level 0 is the default fine volume itself (the ``fem`` solver's mesh). A fixed
   grading would leave the farther samples at a fixed error (measured: a 1 % change between levels while the values
   still drift by several %), hence the shrinking slope.
-* **Load.** The contact patch rule applied to the level's surface: the nodes within R of the contact node, weighted
-  by lumped area, so the traction (force / patch area) is resolved ever finer. At level 0 these are exactly the
-  solvers' nodal forces (contact_patch on M_S × force). ``radius=None`` is the single-node load (diverging).
+* **Element.** Quadratic (10-node) tets (:mod:`tissuesim.fem.quadratic`) by default: linear ones kept drifting by
+  1–2 % per level through the slowly refining interior (``element="linear"`` keeps them).
+* **Load.** A uniform traction (force / patch area) on the level's surface triangles whose centroid lies within R of
+  the contact node, resolved ever finer; with linear tets, the solvers' contact patch rule on the level's nodes
+  (at level 0 exactly the solvers' nodal forces). ``radius=None`` is the single-node load (diverging).
 * **Support.** As every solver's fine FEM: the volume nodes at or below the bottom height of M_S are fixed.
 * **Stop.** When the displacements of the sample nodes change by less than ``tolerance`` between two levels:
   RMS over the samples of |u_ℓ − u_ℓ₋₁| divided by the RMS of |u_ℓ| (a vector change, not a change of the RMS), for

@@ -351,6 +351,7 @@ class _Cholmod:
 
         lower = sp.tril(reduced).tocoo()
         a = spmatrix(lower.data, matrix(lower.row.astype(np.int64)), matrix(lower.col.astype(np.int64)), lower.shape)
+        del lower  # the factor needs the memory (a quadratic reference level: ~1 GB here)
         if order is None:
             self._factor = cholmod.symbolic(a, uplo="L")
         else:  # CHOLMOD factorises A(p, p) and permutes in its solve

@@ -49,6 +49,12 @@ def quadratic_element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray
     return ke
 
 
+def quadratic_stiffness(mesh: TetMesh, material: Material, elements: np.ndarray, node_count: int):
+    """The unconstrained K [N/m], ``(3N, 3N)`` CSR, node-major dofs, over the quadratic ``elements`` ``(m, 10)`` of
+    :func:`quadratic_elements` with N = ``node_count`` nodes."""
+    return scatter_elements(node_count, elements, quadratic_element_stiffness(mesh, material))
+
+
 @njit(cache=True)
 def _element_kernel(linear_gradients, volumes, d, quadrature, tet_edges, out):
     """out[e] = Σ_q V/4 Bᵀ D B at the quadrature points (module docstring), without temporaries per element."""
@@ -110,7 +116,6 @@ class QuadraticFEM:
         points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
         edges: ``(e, 2) int64`` the edge of each midside node (node ``n + e``).
         elements: ``(m, 10) int64`` corners and midsides of each tet.
-        stiffness: the unconstrained K [N/m], ``(3N, 3N)`` CSR, node-major dofs.
     """
 
     def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed):
@@ -123,8 +128,10 @@ class QuadraticFEM:
         _check_rigid_modes(mesh, mask[:n])
         self._edge_of = {(int(a), int(b)): n + k for k, (a, b) in enumerate(self.edges.tolist())}
         self.free_dofs = np.flatnonzero(~mask.ravel())
-        self.stiffness = scatter_elements(len(self.points), self.elements, quadratic_element_stiffness(mesh, material))
-        reduced = self.stiffness[self.free_dofs][:, self.free_dofs].tocsc()
+        # K itself is not kept: at the reference's largest level it is ~1 GB, and the factor needs the memory.
+        stiffness = quadratic_stiffness(mesh, material, self.elements, len(self.points))
+        reduced = stiffness[self.free_dofs][:, self.free_dofs].tocsc()
+        del stiffness
         self._factor = factorise_spd(reduced, self.free_dofs // 3)
 
     @property
