@@ -41,6 +41,7 @@ def test_incise_with_prestrain_gapes_without_force(tmp_path):
     assert 0.1 < median <= largest
     assert rows["embedded"]["unloaded_gap_mm"] is None and rows["embedded"]["prestrain"] == 0.0
     assert "gap, no force" in (out / "incision.md").read_text()
+    assert rows["pbd"]["beyond_linear"] == [] and "| small strain |" in (out / "incision.md").read_text()
 
 
 def test_incise_bad_prestrain_is_one_line(tmp_path, capsys):
@@ -48,3 +49,13 @@ def test_incise_bad_prestrain_is_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "prestrain must lie in [0, 0.3]" in err and "Traceback" not in err
     assert not (tmp_path / "x").exists()
+
+
+def test_incise_flags_answers_beyond_small_strain(tmp_path):
+    # a coarse sphere: the released tension swings a lip vertex further than the model is wide (measured 0.21 m)
+    out = tmp_path / "cut"
+    assert main(["incise", "sphere", "--resolution", "300", "--methods", "pbd", "--prestrain", "0.05",
+                 "--output", str(out)]) == 0
+    row = json.loads((out / "incision.json").read_text())[0]
+    assert row["beyond_linear"] and "linear elasticity is not valid" in row["beyond_linear"][0]
+    assert "**beyond small strain**" in (out / "incision.md").read_text()

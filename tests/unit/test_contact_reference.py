@@ -125,3 +125,13 @@ def test_default_cache_dir_follows_the_environment(monkeypatch, tmp_path):
     monkeypatch.delenv("TISSUESIM_CACHE")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
     assert reference.default_cache_dir() == tmp_path / "tissuesim" / "references"
+
+
+@pytest.mark.parametrize("radius", [0.0, -1.0, float("inf"), float("nan")])
+def test_a_bad_radius_is_refused_before_anything_is_computed(cube, radius, tmp_path):
+    surface, node = cube
+    with pytest.raises(SolverError, match="contact radius"):
+        reference.contact_reference(surface, node, radius, cache_dir=tmp_path)
+    assert not any(tmp_path.iterdir())
+    with pytest.raises(SolverError, match="whole numbers"):
+        reference.RefinementSettings(max_levels=1.5)

@@ -258,3 +258,16 @@ def test_a_move_writes_into_the_buffers_of_the_move_before(cube):
     assert np.array_equal(before[0], after[0][:n])         # old vertices keep their rows
     assert solver.positions.flags.writeable and not solver.hybrid.surface.vertices.flags.writeable
     assert len(solver.positions) == len(solver.rest_positions) == solver.hybrid.surface.vertex_count
+
+
+def test_a_cut_mesh_that_released_control_nodes_saves_and_loads(tmp_path):
+    hybrid = tissuesim.HybridMesh.build(models.sphere(), fine_volume=False)
+    solver = tissuesim.make_solver("embedded", hybrid)
+    released = sum(r.control_released for r in scripted_incision(solver)["moves"][1:-1])
+    assert released > 0
+    cut = solver.hybrid
+    loaded = tissuesim.HybridMesh.load(cut.save(tmp_path / "cut.npz"))
+    assert np.array_equal(loaded.surface.triangles, cut.surface.triangles)
+    assert np.array_equal(loaded.control, cut.control)
+    assert np.array_equal(loaded.coarse_volume_nodes, cut.coarse_volume_nodes)
+    assert loaded.built_edge_length == cut.built_edge_length

@@ -93,13 +93,14 @@ def test_unprestrained_wound_stays_closed_without_force(cube):
     assert not unloaded_openings(solver, run["line"]).any()
 
 
-@pytest.mark.parametrize("bad", [-0.01, 0.31, float("nan"), float("inf"), "five"])
+@pytest.mark.parametrize("bad", [-0.01, 0.31, float("nan"), float("inf"), "five", "0.05"])
 def test_bad_prestrain_is_refused(cube, bad):
     with pytest.raises(SolverError, match="prestrain"):
         tissuesim.make_solver("hybrid", cube, prestrain=bad)
 
 
-@pytest.mark.parametrize("method,options", [("hybrid", {"form": "pbd"}), ("embedded", {}), ("mass-spring", {})])
+@pytest.mark.parametrize("method,options", [("hybrid", {"form": "pbd"}), ("pbd", {"integrator": "xpbd"}),
+                                            ("embedded", {}), ("mass-spring", {})])
 def test_methods_without_a_tension_refuse_a_prestrain(cube, method, options):
     with pytest.raises(SolverError, match="prestrain"):
         tissuesim.make_solver(method, cube, prestrain=0.05, **options)

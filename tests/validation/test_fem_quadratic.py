@@ -81,3 +81,19 @@ def test_cantilever_is_close_to_timoshenko_on_a_coarse_mesh():
         ratios.append(tip / timoshenko)
     # measured: 0.976, 0.989
     assert 0.95 < ratios[0] < ratios[1] < 1.0
+
+
+def test_bad_input_is_refused():
+    from tissuesim.errors import SolverError
+
+    mesh = cube_mesh()
+    with pytest.raises(SolverError, match="callable"):
+        QuadraticFEM(mesh, youngs_modulus=E, poisson_ratio=NU, fixed=[0, 1, 2])
+    fem = QuadraticFEM(mesh, youngs_modulus=E, poisson_ratio=NU, fixed=lambda p: p[:, 2] <= p[:, 2].min())
+    forces = np.zeros((fem.node_count, 3))
+    forces[0, 0] = np.nan
+    with pytest.raises(SolverError, match="non-finite"):
+        fem.solve(forces)
+    face = mesh.boundary_triangles[:2]
+    with pytest.raises(SolverError, match="traction_weights"):
+        fem.traction_weights(face, [1.0])

@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import SolverError
-from ..loads import triangle_areas
+from ..loads import contact_radius, triangle_areas
 from ..mesh.refine import refine_surface
 from ..mesh.regions import bottom_height, nodes_below
 from ..mesh.tetrahedralize import FINE_SWITCHES, tetrahedralize
@@ -100,6 +100,12 @@ class RefinementSettings:
         if not (self.grading > 0 and all(0 < r <= 1 for r in ratios) and self.tolerance > 0):
             raise SolverError(f"refinement settings need grading > 0, ratios in (0, 1] and tolerance > 0, got "
                               f"{self.grading}, {ratios}, {self.tolerance}")
+        counts = (self.max_levels, self.min_levels, self.samples, self.max_surface_vertices)
+        if not all(isinstance(c, (int, np.integer)) and not isinstance(c, bool) for c in counts):
+            raise SolverError(f"refinement levels, samples and the surface bound must be whole numbers, got {counts}")
+        if not np.isfinite(self.grading) or self.max_surface_vertices < 1:
+            raise SolverError(f"refinement settings need a finite grading and a positive surface bound, got "
+                              f"{self.grading} and {self.max_surface_vertices}")
         if self.min_levels < 1 or self.max_levels < 0:
             raise SolverError(f"need min_levels ≥ 1 and max_levels ≥ 0, got {self.min_levels} and {self.max_levels}")
         if self.element not in ELEMENTS:
@@ -203,7 +209,7 @@ def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0
     node = int(node)
     if not 0 <= node < surface.vertex_count:
         raise SolverError(f"contact node {node} is outside the surface's vertices 0..{surface.vertex_count - 1}")
-    radii = [None if r is None else float(r) for r in radii]
+    radii = [None if r is None else contact_radius(r) for r in radii]
     keys = [_cache_key(surface, node, r, youngs_modulus, poisson_ratio, settings) for r in radii]
     cached = [_load(cache_dir, key, settings) for key in keys]
     missing = [i for i, ref in enumerate(cached) if ref is None]
@@ -223,6 +229,7 @@ def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, you
     surface = getattr(mesh, "surface", mesh)
     settings = settings or RefinementSettings()
     settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels)})
+    radius = None if radius is None else contact_radius(radius)
     return _compute(surface, int(node), [radius], youngs_modulus, poisson_ratio, settings, progress, stop=False)[0]
 
 

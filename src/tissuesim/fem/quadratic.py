@@ -109,8 +109,9 @@ class QuadraticFEM:
     Args:
         mesh: the tet mesh (its nodes are the corners; midside nodes are added).
         youngs_modulus, poisson_ratio: the material [Pa], [-].
-        fixed: a callable ``points (N, 3) -> (k,) int`` choosing the fixed nodes among all N = n + e nodes (e.g.
-            ``lambda p: nodes_below(p, height)``), so that midside nodes on the support are fixed with it.
+        fixed: a callable ``points (N, 3) -> (k,) int`` (or an ``(N,)`` bool mask) choosing the fixed nodes among
+            all N = n + e nodes (e.g. ``lambda p: nodes_below(p, height)``), so that midside nodes on the support are
+            fixed with it. The rigid-mode check looks at the corner nodes: fix corners, not midsides alone.
 
     Attributes:
         points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
@@ -124,7 +125,10 @@ class QuadraticFEM:
         self.elements, self.edges = quadratic_elements(mesh.tets, n)
         midpoints = 0.5 * (mesh.points[self.edges[:, 0]] + mesh.points[self.edges[:, 1]])
         self.points = np.concatenate([mesh.points, midpoints])
-        mask = _fixed_mask(np.asarray(fixed(self.points), dtype=np.int64), len(self.points))
+        if not callable(fixed):
+            raise SolverError("fixed must be a callable points (N, 3) -> fixed node indices or (N,) mask, e.g. "
+                              "lambda points: nodes_below(points, height)")
+        mask = _fixed_mask(np.asarray(fixed(self.points)), len(self.points))
         _check_rigid_modes(mesh, mask[:n])
         self._edge_of = {(int(a), int(b)): n + k for k, (a, b) in enumerate(self.edges.tolist())}
         self.free_dofs = np.flatnonzero(~mask.ravel())
@@ -148,8 +152,13 @@ class QuadraticFEM:
     def traction_weights(self, triangles: np.ndarray, shares: np.ndarray) -> np.ndarray:
         """``(N,) float64`` nodal weights of a traction that puts ``shares`` ``(t,)`` of a unit force on the flat
         boundary triangles ``(t, 3)`` (corner nodes), uniformly over each: a third of each share to its midsides."""
+        triangles, shares = np.asarray(triangles), np.asarray(shares, dtype=np.float64)
+        if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.dtype.kind not in "iu" \
+                or shares.shape != (len(triangles),) or not np.all(np.isfinite(shares)):
+            raise SolverError(f"traction_weights needs (t, 3) integer triangles and (t,) finite shares, got "
+                              f"{triangles.shape} {triangles.dtype} and {shares.shape}")
         weights = np.zeros(self.node_count)
-        for (a, b, c), share in zip(np.asarray(triangles).tolist(), np.asarray(shares).tolist()):
+        for (a, b, c), share in zip(triangles.tolist(), shares.tolist()):
             for u, v in ((a, b), (b, c), (c, a)):
                 weights[self.midside(u, v)] += share / 3.0
         return weights
@@ -159,6 +168,8 @@ class QuadraticFEM:
         forces = np.asarray(forces, dtype=np.float64)
         if forces.shape != (self.node_count, 3):
             raise SolverError(f"forces must have shape ({self.node_count}, 3) [N], got {forces.shape}")
+        if not np.all(np.isfinite(forces)):
+            raise SolverError("forces contain non-finite values; give finite nodal forces [N]")
         u = np.zeros(3 * self.node_count)
         u[self.free_dofs] = self._factor.solve(forces.ravel()[self.free_dofs])
         return u.reshape(-1, 3)

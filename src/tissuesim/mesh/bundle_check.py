@@ -53,7 +53,12 @@ def check_arrays(where, a: dict, *, fine: bool) -> None:
     if np.any(np.diff(a["control"]) <= 0):
         raise BundleError(f"{where}: array control is not strictly increasing (M_S vertex indices of the control "
                           f"nodes are stored sorted, each once); {REBUILD}")
-    _in_range(where, a, "coarse_triangles", c)
+    # M'_S's vertices: the control nodes, or, once a cut has released some, the M_V nodes kept in coarse_volume
+    coarse_vertices = c
+    if "coarse_volume" in a:
+        coarse_vertices = _rows(where, a, "coarse_volume", "i", None)
+        _in_range(where, a, "coarse_volume", volume_nodes)
+    _in_range(where, a, "coarse_triangles", coarse_vertices)
     _in_range(where, a, "volume_tets", volume_nodes)
     _in_range(where, a, "control_volume", volume_nodes)
     _in_range(where, a, "coarse_triangle", len(a["coarse_triangles"]))

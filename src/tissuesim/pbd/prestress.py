@@ -40,6 +40,8 @@ MAX_PRESTRAIN = 0.3
 def check_prestrain(prestrain) -> float:
     """``prestrain`` ε as a float in [0, :data:`MAX_PRESTRAIN`], or SolverError naming the defect."""
     try:
+        if isinstance(prestrain, (str, bytes)):
+            raise TypeError
         value = float(prestrain)
     except (TypeError, ValueError):
         raise SolverError(f"prestrain must be a number (a strain, e.g. 0.05 for 5 %), got {prestrain!r}") from None

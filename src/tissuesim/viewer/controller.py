@@ -296,8 +296,7 @@ class Controller:
             positive_number("contact radius", settings.radius, "m")
         if settings.iterations is not None and int(settings.iterations) < 1:
             raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
-        check_prestrain(settings.prestrain)
-        return settings
+        return replace(settings, prestrain=check_prestrain(settings.prestrain))
 
     def _solver_options(self) -> dict:
         s = self.settings
