@@ -100,3 +100,15 @@ def test_paper_report_shows_the_single_node_load_diverging():
     assert levels[2]["contact_mm"] > 3 * levels[0]["contact_mm"]  # h_c / 4: the loaded node's value keeps growing
     text = report_markdown(data)
     assert "## The single-node load's reference diverges" in text and "| cube | 2 |" in text
+
+
+def test_a_radius_reaching_the_support_is_skipped_before_its_reference(tmp_path):
+    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), loads=("pressure",),
+                                   radii_mm=(1e6,), methods=("embedded",), cache_dir=str(tmp_path),
+                                   settings=RefinementSettings(max_levels=1))
+    run = contact.run_contact(config, progress=False)
+    cube = run["metadata"]["models"]["cube"]
+    assert run["records"] == [] and "fixed region" in cube["skipped"]["1e+06"]
+    assert cube["references"] == {} and len(cube["samples"]) == 50
+    assert not any(tmp_path.iterdir())      # no reference was computed or cached
+    assert "Skipped: cube, R = 1e+06 mm" in contact_report_markdown(run)

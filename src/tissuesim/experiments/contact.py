@@ -104,19 +104,24 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
                                                    scale=config.scales.get(spec, 1.0)))
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
         node = protocol.load_node(rest, hybrid.surface.triangles)
-        radii = [1e-3 * r for r in config.radii_mm]
-        say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in config.radii_mm)} mm")
-        refs = contact_references(hybrid, node, radii, settings=config.settings, cache_dir=config.cache_dir,
-                                  progress=lambda line: say(f"  {name} {line}"))
-        info[name] = _model_info(spec, hybrid, node, refs, config.radii_mm)
         solvers = {m: make_solver(m, hybrid) for m in methods}
-        for radius_mm, ref in zip(config.radii_mm, refs):
+        patches, skipped = {}, {}
+        for radius_mm in config.radii_mm:
             try:
-                patch = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
+                patches[radius_mm] = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
             except SolverError as error:  # e.g. the patch reaches the support on a small model: say so, go on
-                info[name]["skipped"] = {**info[name].get("skipped", {}), f"{radius_mm:g}": str(error)}
+                skipped[f"{radius_mm:g}"] = str(error)
                 say(f"{name}: R = {radius_mm:g} mm skipped: {error}")
-                continue
+        kept = list(patches)    # a skipped radius costs no reference
+        say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in kept) or 'none'} mm")
+        refs = contact_references(hybrid, node, [1e-3 * r for r in kept], settings=config.settings,
+                                  cache_dir=config.cache_dir,
+                                  progress=lambda line: say(f"  {name} {line}")) if kept else []
+        info[name] = _model_info(spec, hybrid, node, refs, kept, config.settings)
+        if skipped:
+            info[name]["skipped"] = skipped
+        for radius_mm, ref in zip(kept, refs):
+            patch = patches[radius_mm]
             for case in protocol.load_cases(config.forces, config.loads):
                 reference = rest + ref.displacements(case.vector)
                 for method in methods:
@@ -203,9 +208,9 @@ def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, di
     return positions, {"equilibrium_ms": elapsed, "converged": True if report is None else bool(report.converged)}
 
 
-def _model_info(spec, hybrid, node, refs, radii_mm) -> dict:
+def _model_info(spec, hybrid, node, refs, radii_mm, settings) -> dict:
     rest = hybrid.surface.vertices
-    samples = refs[0].samples
+    samples = refs[0].samples if refs else protocol.sample_nodes(rest, node, min(settings.samples, len(rest)))
     return {
         "source": spec, "surface_nodes": int(len(rest)), "load_node": int(node),
         "samples": [int(i) for i in samples],
