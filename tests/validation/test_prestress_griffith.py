@@ -56,7 +56,8 @@ def _opening(spacing: float, offset: float, half_width: float = HALF_WIDTH) -> t
     tension = prestress_tension(youngs_modulus=E, poisson_ratio=NU, thickness=thickness, prestrain=PRESTRAIN)
     statics = LayerStatics(stiffness, prescribed=border)
     x = np.array(rest)
-    x[statics.free_nodes] += statics.displacement(release_forces(rest, tri, origin, tension), np.zeros((len(border), 3)))
+    release = release_forces(rest, tri, origin, tension)
+    x[statics.free_nodes] += statics.displacement(release, np.zeros((len(border), 3)))
     middle = copies[np.argmin(np.abs(rest[copies, 0]))]
     opening = float(np.linalg.norm(x[middle] - x[cut.copy_of[middle]]))
     return opening, 4.0 * tension * HALF_SLIT / (E * thickness)

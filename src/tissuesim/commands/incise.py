@@ -135,8 +135,8 @@ def _write(output: Path, stem: str, solver) -> None:
 
 def _table(rows) -> str:
     lines = ["| model | method | moves | ms per move (mean / max) | triangles split | vertices added | "
-             "control released | prestrain | gap, no force, median / max (mm) | gap (mm) | settled (steps) | invariants | "
-             "linear validity |",
+             "control released | prestrain | gap, no force, median / max (mm) | gap (mm) | settled (steps) | "
+             "invariants | linear validity |",
              "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|"]
     for r in rows:
         if "refused" in r:

@@ -137,31 +137,55 @@ def _element_stiffness_kernel(points, tets, d, out):
         g[3, 0], g[3, 1], g[3, 2] = c20 * inv, c21 * inv, c22 * inv
         for c in range(3):
             g[0, c] = -(g[1, c] + g[2, c] + g[3, c])
-        for a in range(4):  # B of eq (2): rows xx, yy, zz, xy, yz, zx
-            gx, gy, gz = g[a, 0], g[a, 1], g[a, 2]
-            col = 3 * a
-            b[0, col] = gx
-            b[1, col + 1] = gy
-            b[2, col + 2] = gz
-            b[3, col] = gy
-            b[3, col + 1] = gx
-            b[4, col + 1] = gz
-            b[4, col + 2] = gy
-            b[5, col] = gz
-            b[5, col + 2] = gx
-        for r in range(6):
-            for col in range(12):
-                acc = 0.0
-                for s in range(6):
-                    acc += d[r, s] * b[s, col]
-                db[r, col] = acc
-        for i in range(12):
-            for j in range(i, 12):
-                acc = 0.0
-                for r in range(6):
-                    acc += b[r, i] * db[r, j]
-                out[e, i, j] = volume * acc
-                out[e, j, i] = volume * acc  # the lower triangle mirrors the upper: exactly symmetric
+        strain_matrix(g, b)
+        out[e, :, :] = 0.0
+        add_bt_d_b(b, d, db, volume, out[e])
+        mirror_upper(out[e])
+
+
+@njit(cache=True)
+def strain_matrix(gradients, b):
+    """B of eq (2) in place, ``b`` ``(6, 3 w)``, from shape-function gradients ``(w, 3)``: rows xx, yy, zz, xy, yz,
+    zx (engineering shears), column ``3 a + c`` component c of node a. Entries B leaves zero are never written."""
+    for a in range(gradients.shape[0]):
+        gx, gy, gz = gradients[a, 0], gradients[a, 1], gradients[a, 2]
+        col = 3 * a
+        b[0, col] = gx
+        b[1, col + 1] = gy
+        b[2, col + 2] = gz
+        b[3, col] = gy
+        b[3, col + 1] = gx
+        b[4, col + 1] = gz
+        b[4, col + 2] = gy
+        b[5, col] = gz
+        b[5, col + 2] = gx
+
+
+@njit(cache=True)
+def add_bt_d_b(b, d, db, weight, out):
+    """``out`` ``(k, k)`` upper triangle += weight Bᵀ D B (``db`` ``(6, k)`` scratch); :func:`mirror_upper` fills the
+    lower one."""
+    k = b.shape[1]
+    for r in range(6):
+        for col in range(k):
+            acc = 0.0
+            for s in range(6):
+                acc += d[r, s] * b[s, col]
+            db[r, col] = acc
+    for i in range(k):
+        for j in range(i, k):
+            acc = 0.0
+            for r in range(6):
+                acc += b[r, i] * db[r, j]
+            out[i, j] += weight * acc
+
+
+@njit(cache=True)
+def mirror_upper(out):
+    """The lower triangle of ``out`` ``(k, k)`` copied from the upper one: exactly symmetric."""
+    for i in range(out.shape[0]):
+        for j in range(i + 1, out.shape[0]):
+            out[j, i] = out[i, j]
 
 
 @njit(cache=True)

@@ -20,7 +20,7 @@ from numba import njit
 
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
-from .assembly import scatter_elements, shape_gradients
+from .assembly import add_bt_d_b, mirror_upper, scatter_elements, shape_gradients, strain_matrix
 from .linear import _check_rigid_modes, _fixed_mask, factorise_spd
 from .material import Material
 
@@ -74,33 +74,9 @@ def _element_kernel(linear_gradients, volumes, d, quadrature, tet_edges, out):
                 a, bb = tet_edges[k, 0], tet_edges[k, 1]
                 for c in range(3):
                     g[4 + k, c] = 4.0 * (point[bb] * lg[a, c] + point[a] * lg[bb, c])
-            for a in range(10):  # B: rows xx, yy, zz, xy, yz, zx
-                gx, gy, gz = g[a, 0], g[a, 1], g[a, 2]
-                col = 3 * a
-                b[0, col] = gx
-                b[1, col + 1] = gy
-                b[2, col + 2] = gz
-                b[3, col] = gy
-                b[3, col + 1] = gx
-                b[4, col + 1] = gz
-                b[4, col + 2] = gy
-                b[5, col] = gz
-                b[5, col + 2] = gx
-            for r in range(6):
-                for col in range(30):
-                    acc = 0.0
-                    for t in range(6):
-                        acc += d[r, t] * b[t, col]
-                    db[r, col] = acc
-            for i in range(30):
-                for j in range(i, 30):
-                    acc = 0.0
-                    for r in range(6):
-                        acc += b[r, i] * db[r, j]
-                    out[e, i, j] += weight * acc
-        for i in range(30):
-            for j in range(i + 1, 30):
-                out[e, j, i] = out[e, i, j]
+            strain_matrix(g, b)
+            add_bt_d_b(b, d, db, weight, out[e])
+        mirror_upper(out[e])
 
 
 class QuadraticFEM:

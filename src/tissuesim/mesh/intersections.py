@@ -118,6 +118,42 @@ def _segment_triangle(v, p, q, a, b, c):
 
 
 @njit(cache=True)
+def _alone_first(p, q, r, dp, dq, dr):
+    """Devillers and Guigue's branch table: triangle ``pqr`` rotated so that p is alone on its side of the other
+    triangle's plane (signed distances dp, dq, dr); ``(p, q, r, mirror, coplanar)``, where ``mirror`` says the other
+    triangle must swap its last two corners to keep the orientations compatible, and ``coplanar`` that all three
+    distances are zero."""
+    mirror = coplanar = False
+    if dp > 0.0:
+        if dq > 0.0:
+            p, q, r, mirror = r, p, q, True
+        elif dr > 0.0:
+            p, q, r, mirror = q, r, p, True
+    elif dp < 0.0:
+        if dq < 0.0:
+            p, q, r = r, p, q
+        elif dr < 0.0:
+            p, q, r = q, r, p
+        else:
+            mirror = True
+    elif dq < 0.0:
+        if dr >= 0.0:
+            p, q, r, mirror = q, r, p, True
+    elif dq > 0.0:
+        if dr > 0.0:
+            mirror = True
+        else:
+            p, q, r = q, r, p
+    elif dr > 0.0:
+        p, q, r = r, p, q
+    elif dr < 0.0:
+        p, q, r, mirror = r, p, q, True
+    else:
+        coplanar = True
+    return p, q, r, mirror, coplanar
+
+
+@njit(cache=True)
 def _triangle_triangle(v, p1, q1, r1, p2, q2, r2):
     """Closed triangles ``p1q1r1`` and ``p2q2r2`` (rows of ``v``) share a point: Devillers and Guigue (2003),
     "Faster triangle-triangle intersection tests", with their reference code's branch tables."""
@@ -134,63 +170,13 @@ def _triangle_triangle(v, p1, q1, r1, p2, q2, r2):
     coplanar = np.array([p1, q1, r1, p2, q2, r2])
     # Rotate triangle 1 so that p1 is alone on its side of plane 2; "swap" mirrors triangle 2 to keep the
     # orientations compatible (q2 <-> r2 with their signs).
-    swap = False
-    if dp1 > 0.0:
-        if dq1 > 0.0:
-            p1, q1, r1, swap = r1, p1, q1, True
-        elif dr1 > 0.0:
-            p1, q1, r1, swap = q1, r1, p1, True
-    elif dp1 < 0.0:
-        if dq1 < 0.0:
-            p1, q1, r1 = r1, p1, q1
-        elif dr1 < 0.0:
-            p1, q1, r1 = q1, r1, p1
-        else:
-            swap = True
-    elif dq1 < 0.0:
-        if dr1 >= 0.0:
-            p1, q1, r1, swap = q1, r1, p1, True
-    elif dq1 > 0.0:
-        if dr1 > 0.0:
-            swap = True
-        else:
-            p1, q1, r1 = q1, r1, p1
-    elif dr1 > 0.0:
-        p1, q1, r1 = r1, p1, q1
-    elif dr1 < 0.0:
-        p1, q1, r1, swap = r1, p1, q1, True
-    else:
+    p1, q1, r1, swap, coplanar_case = _alone_first(p1, q1, r1, dp1, dq1, dr1)
+    if coplanar_case:
         dp2 = dq2 = dr2 = 0.0  # coplanar: fall through to the single coplanar test below
     if swap:
         q2, r2, dq2, dr2 = r2, q2, dr2, dq2
     # Now rotate triangle 2 so that p2 is alone on its side of plane 1; "flip" swaps q1 and r1.
-    flip = coplanar_case = False
-    if dp2 > 0.0:
-        if dq2 > 0.0:
-            p2, q2, r2, flip = r2, p2, q2, True
-        elif dr2 > 0.0:
-            p2, q2, r2, flip = q2, r2, p2, True
-    elif dp2 < 0.0:
-        if dq2 < 0.0:
-            p2, q2, r2 = r2, p2, q2
-        elif dr2 < 0.0:
-            p2, q2, r2 = q2, r2, p2
-        else:
-            flip = True
-    elif dq2 < 0.0:
-        if dr2 >= 0.0:
-            p2, q2, r2, flip = q2, r2, p2, True
-    elif dq2 > 0.0:
-        if dr2 > 0.0:
-            flip = True
-        else:
-            p2, q2, r2 = q2, r2, p2
-    elif dr2 > 0.0:
-        p2, q2, r2 = r2, p2, q2
-    elif dr2 < 0.0:
-        p2, q2, r2, flip = r2, p2, q2, True
-    else:
-        coplanar_case = True
+    p2, q2, r2, flip, coplanar_case = _alone_first(p2, q2, r2, dp2, dq2, dr2)
     if coplanar_case:  # one call site: each inlined copy of the 2D test costs seconds of compile
         return _coplanar_intersect(v, coplanar, 3)
     if flip:

@@ -7,8 +7,8 @@ uniform isotropic membrane tension, the stress of an in-plane prestrain ε,
 
 with h̄ the layer's mean thickness: β times M_S's mean rest edge length as built
 (:attr:`~tissuesim.mesh.hybrid.HybridMesh.built_edge_length`), which a cut keeps, so that a cut's smaller
-triangles carry the same tension, and a solver built on a cut mesh the same as the one that cut it. A uniform tension has the energy T × area, so it
-pulls on vertex v with −T ∇_v A.
+triangles carry the same tension, and a solver built on a cut mesh the same as the one that cut it. A uniform
+tension has the energy T × area, so it pulls on vertex v with −T ∇_v A.
 
 The rest state is the body's equilibrium: on the uncut surface the tissue underneath reacts that pull everywhere
 (on a flat region the pulls cancel; on a curved one they press the capsule inward). A cut does not change the tissue
