@@ -5,7 +5,8 @@ import pytest
 
 from tissuesim.errors import MeshError
 from tissuesim.mesh import models
-from tissuesim.mesh.simplify import _triangles_intersect, default_target, simplify
+from tissuesim.mesh.collapse import _triangles_intersect
+from tissuesim.mesh.simplify import default_target, simplify
 from tissuesim.mesh.validate import validate_surface
 
 
