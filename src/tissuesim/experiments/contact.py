@@ -34,7 +34,7 @@ import numpy as np
 from ..errors import SolverError
 from ..mesh import models as builtin_models
 from . import protocol
-from .reference import RefinementSettings, contact_references, default_cache_dir
+from .reference import RefinementSettings, contact_references
 
 FORCES_N = (0.5, 1.0, 2.0, 5.0, 10.0)
 RADII_MM = (4.0, 8.0)
