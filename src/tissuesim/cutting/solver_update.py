@@ -72,6 +72,9 @@ def cut_updater(solver) -> "SolverCut":
         if name not in _REGISTRY:
             raise SolverError(f"the {name} method does not support cutting; cut a hybrid, pbd, mass-spring or "
                               "embedded solver")
+        before = getattr(solver, "_before_first_cut", None)
+        if before is not None:
+            before()
         updater = _REGISTRY[name](solver)
         solver._cut_updater = updater
     return updater

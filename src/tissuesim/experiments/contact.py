@@ -33,6 +33,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..mesh import models as builtin_models
+from ..solvers.near_field import NEAR_FIELD_WINDOW
 from . import protocol
 from .reference import RefinementSettings, contact_references
 
@@ -48,6 +49,8 @@ QUICK = dict(models=("cube",), resolution=400, forces=(1.0, 10.0), radii_mm=(8.0
              settings=RefinementSettings(max_levels=2))
 
 METRICS = ("rmse", "rmse_outside", "contact_error")
+#: Measured options run as methods of their own: name -> (solver, options).
+VARIANTS = {"hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW})}
 
 
 @dataclass(frozen=True)
@@ -58,7 +61,7 @@ class ContactConfig:
         models: built-in names, or surface files / bundles; a file's factor to metres is in ``scales``.
         scales: ``{spec: factor to metres}`` for surface files (default 1).
         forces: magnitudes [N]. loads: from :data:`protocol.LOADS`. radii_mm: patch radii R [mm].
-        methods: solver names (default: every registered solver).
+        methods: solver names or :data:`VARIANTS` (default: every registered solver, then the variants).
         resolution: vertices of the built-in models (None: Table-1 size).
         max_steps: cap on one quasi-static solve's steps (unsettled solves are recorded, not fatal).
         settings: the reference's refinement settings.
@@ -91,12 +94,12 @@ def shared_livers(folder=None) -> dict:
 
 def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
     """Run the contact protocol; return its results document (JSON-ready)."""
-    from ..solvers import available_solvers, make_solver
+    from ..solvers import available_solvers
     from .run import ExperimentConfig, load_model, model_name
 
     config = config or ContactConfig()
     start = time.perf_counter()
-    methods = tuple(config.methods or available_solvers())
+    methods = tuple(config.methods or (*available_solvers(), *VARIANTS))
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
     for spec, name in zip(config.models, _names(config.models, model_name)):
@@ -104,7 +107,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
                                                    scale=config.scales.get(spec, 1.0)))
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
         node = protocol.load_node(rest, hybrid.surface.triangles)
-        solvers = {m: make_solver(m, hybrid) for m in methods}
+        solvers = {m: _make_method(m, hybrid) for m in methods}
         patches, skipped = {}, {}
         for radius_mm in config.radii_mm:
             try:
@@ -140,6 +143,13 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
             say(f"{name}: R = {radius_mm:g} mm done")
     return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
             "records": records}
+
+
+def _make_method(method: str, hybrid):
+    from ..solvers import make_solver
+
+    solver, options = VARIANTS.get(method, (method, {}))
+    return make_solver(solver, hybrid, **options)
 
 
 def _names(specs, model_name) -> list[str]:

@@ -38,6 +38,34 @@ def method_table(data: dict, *, role: str = "held out") -> str:
     return markdown_table(headers + ["RMSE median (mm)", "Failed"], rows)
 
 
+def ratio_table(data: dict, *, embedded_ratio: float = 0.5, pbd_ratio: float = 0.3, absolute: float = 0.10) -> str:
+    """Markdown: for each hybrid variant, over the held-out rows, its relative RMSE against Emb.'s and PBD's in the
+    same row (median and largest ratio) and how many rows reach ≤ ``embedded_ratio`` × Emb., ≤ ``pbd_ratio`` ×
+    PBD and ≤ ``absolute``, separately and all three at once."""
+    by_case = {}
+    for r in data["records"]:
+        if r["role"] == "held out" and r["relative_rmse"] is not None:
+            case = (r["model"], r["radius_mm"], r["load"], r["force_N"])
+            by_case.setdefault(case, {})[r["method"]] = r["relative_rmse"]
+    rows = []
+    for method in ("hybrid", "hybrid-near"):
+        cases = [c for c in by_case.values() if {method, "embedded", "pbd"} <= set(c)]
+        if not cases:
+            continue
+        to_emb = np.array([c[method] / c["embedded"] for c in cases])
+        to_pbd = np.array([c[method] / c["pbd"] for c in cases])
+        own = np.array([c[method] for c in cases])
+        met = (to_emb <= embedded_ratio) & (to_pbd <= pbd_ratio) & (own <= absolute)
+        rows.append([LABELS.get(method, method), str(len(cases)),
+                     f"{fmt(float(np.median(to_emb)), 3)} / {fmt(float(to_emb.max()), 3)}",
+                     f"{fmt(float(np.median(to_pbd)), 3)} / {fmt(float(to_pbd.max()), 3)}",
+                     str(int((to_emb <= embedded_ratio).sum())), str(int((to_pbd <= pbd_ratio).sum())),
+                     str(int((own <= absolute).sum())), str(int(met.sum()))])
+    return markdown_table(["Method", "Rows", "÷ Emb., median / max", "÷ PBD, median / max",
+                           f"rows ≤ {embedded_ratio:g}× Emb.", f"rows ≤ {pbd_ratio:g}× PBD",
+                           f"rows ≤ {absolute:g}", "rows meeting all three"], rows)
+
+
 def case_table(data: dict) -> str:
     """Markdown: one row per model × R × load × force × method with the six figures and the row's role."""
     rows = []
@@ -83,6 +111,11 @@ def contact_report_markdown(data: dict) -> str:
         method_table(data),
         "",
     ]
+    ratios = ratio_table(data)
+    if ratios.count("\n") > 1:
+        parts += ["## The hybrid against the embedded surface and PBD, row by row (held out)", "",
+                  "Relative RMSE over all samples, divided by the other method's in the same row. Ours+NF is the "
+                  "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, ""]
     if any(r["role"] == "calibration" for r in data["records"]):
         parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
     parts += ["## References", "",

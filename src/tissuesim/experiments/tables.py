@@ -16,7 +16,8 @@ import numpy as np
 from . import paper
 from .protocol import REFERENCE
 
-LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM"}
+LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM",
+          "hybrid-near": "Ours+NF"}
 COMPARED = ("hybrid", "pbd", "mass-spring", "embedded")
 
 # name -> (table, numerator method, denominator method, quantity): the ratios of the closing summary.

@@ -9,8 +9,10 @@ three levels, so the reference uses them; every simulation method keeps its line
 * **Shape functions** in barycentric coordinates L: corner a, N_a = L_a (2 L_a − 1); edge (a, b), N_ab = 4 L_a L_b,
   so ∇N_a = (4 L_a − 1) ∇L_a and ∇N_ab = 4 (L_b ∇L_a + L_a ∇L_b). The gradients are linear, so the stiffness
   ∫ Bᵀ D B dV is exact with the 4-point rule of degree 2.
-* **Traction.** A uniform traction on a flat quadratic triangle loads its three midside nodes with a third of the
-  force each and its corners with none (∫ N dA: 0 at a corner, A/3 at a midside).
+* **Traction.** A traction linear over a flat quadratic triangle of area A, with densities t_a at its corners, loads
+  corner a with A (t_a/30 − (t_b + t_c)/60) and the midside of edge (a, b) with A (2 (t_a + t_b) + t_c)/15
+  (∫ N L dA with ∫ L_a^i L_b^j L_c^k dA = 2A i! j! k!/(i + j + k + 2)!). A uniform traction loads the three midsides
+  with a third of the force each and the corners with none.
 """
 
 from __future__ import annotations
@@ -128,16 +130,36 @@ class QuadraticFEM:
     def traction_weights(self, triangles: np.ndarray, shares: np.ndarray) -> np.ndarray:
         """``(N,) float64`` nodal weights of a traction that puts ``shares`` ``(t,)`` of a unit force on the flat
         boundary triangles ``(t, 3)`` (corner nodes), uniformly over each: a third of each share to its midsides."""
-        triangles, shares = np.asarray(triangles), np.asarray(shares, dtype=np.float64)
-        if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.dtype.kind not in "iu" \
-                or shares.shape != (len(triangles),) or not np.all(np.isfinite(shares)):
-            raise SolverError(f"traction_weights needs (t, 3) integer triangles and (t,) finite shares, got "
-                              f"{triangles.shape} {triangles.dtype} and {shares.shape}")
+        triangles, shares = _check_triangles(triangles), np.asarray(shares, dtype=np.float64)
+        if shares.shape != (len(triangles),) or not np.all(np.isfinite(shares)):
+            raise SolverError(f"traction_weights needs (t,) finite shares for its (t, 3) triangles, got "
+                              f"{shares.shape}")
+        areas = self._areas(triangles)
+        return self.linear_traction_weights(triangles, np.repeat((shares / areas)[:, None], 3, axis=1))
+
+    def linear_traction_weights(self, triangles: np.ndarray, densities: np.ndarray) -> np.ndarray:
+        """``(N,) float64`` nodal weights of a traction linear over each flat boundary triangle ``(t, 3)`` (corner
+        nodes), with ``densities`` ``(t, 3) float64`` [1/m²] at its corners: the fraction of a unit force per unit
+        area (module docstring). The weights sum to ∫ t dA."""
+        triangles, densities = _check_triangles(triangles), np.asarray(densities, dtype=np.float64)
+        if densities.shape != triangles.shape or not np.all(np.isfinite(densities)):
+            raise SolverError(f"linear_traction_weights needs (t, 3) finite corner densities for its (t, 3) "
+                              f"triangles, got {densities.shape}")
+        areas = self._areas(triangles)[:, None]
         weights = np.zeros(self.node_count)
-        for (a, b, c), share in zip(triangles.tolist(), shares.tolist()):
-            for u, v in ((a, b), (b, c), (c, a)):
-                weights[self.midside(u, v)] += share / 3.0
+        corner = areas * (densities / 30.0 - (densities.sum(axis=1, keepdims=True) - densities) / 60.0)
+        np.add.at(weights, triangles.ravel(), corner.ravel())
+        for a, b in ((0, 1), (1, 2), (2, 0)):
+            c = 3 - a - b
+            side = areas[:, 0] * (2.0 * (densities[:, a] + densities[:, b]) + densities[:, c]) / 15.0
+            mids = [self.midside(u, v) for u, v in zip(triangles[:, a].tolist(), triangles[:, b].tolist())]
+            np.add.at(weights, np.asarray(mids, dtype=np.int64), side)
         return weights
+
+    def _areas(self, triangles: np.ndarray) -> np.ndarray:
+        p = self.points
+        a, b, c = p[triangles[:, 0]], p[triangles[:, 1]], p[triangles[:, 2]]
+        return 0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1)
 
     def solve(self, forces: np.ndarray) -> np.ndarray:
         """``(N, 3) float64`` displacements [m] of all nodes under nodal forces ``(N, 3)`` [N]."""
@@ -149,3 +171,10 @@ class QuadraticFEM:
         u = np.zeros(3 * self.node_count)
         u[self.free_dofs] = self._factor.solve(forces.ravel()[self.free_dofs])
         return u.reshape(-1, 3)
+
+
+def _check_triangles(triangles) -> np.ndarray:
+    triangles = np.asarray(triangles)
+    if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.dtype.kind not in "iu":
+        raise SolverError(f"traction_weights needs (t, 3) integer triangles, got {triangles.shape} {triangles.dtype}")
+    return triangles.astype(np.int64)

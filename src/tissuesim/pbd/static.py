@@ -156,6 +156,9 @@ class LayerStatics:
         the order of :attr:`prescribed` as given); v = Δx/dt. Its fixed point (x' = x, v = 0) is :meth:`displacement`'s
         equilibrium, for any dt and mass. The matrix is factorised once per dt; with CHOLMOD a step allocates
         nothing."""
+        if self.free_nodes.size == 0:  # every node prescribed (e.g. a near field over the whole surface)
+            implicit_update(np.zeros(0), positions, velocities, rest, self.free_nodes, self.prescribed, targets, dt)
+            return
         if self._dynamic is None or self._dynamic[0] != dt:
             self._dynamic = (dt, *self._dynamic_factor(mass, dt))
         _, factor, inertia, buffer, rhs = self._dynamic
@@ -181,6 +184,8 @@ class LayerStatics:
     def displacement(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
         """``(f, 3) float64`` displacements [m] of the free nodes (in :attr:`free_nodes` order) under nodal
         ``forces`` ``(n, 3)`` [N], the prescribed nodes moved by ``prescribed_displacement`` ``(k, 3)`` [m]."""
+        if self.free_nodes.size == 0:
+            return np.zeros((0, 3))
         if self._factor is None:
             try:
                 self._factor = factorise_spd(self._free_stiffness, self._dof_node)

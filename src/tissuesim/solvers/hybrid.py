@@ -22,12 +22,20 @@ Option ``warm_start`` (beyond the paper): when the load changes, the free M_S no
 the embedded FEM displacement (their barycentric embedding in M_V, as the ``embedded`` method), so PBD only relaxes
 the local detail instead of propagating the whole motion from the control nodes edge by edge. It changes the path,
 not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after a few steps).
+
+Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
+node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
+the rest. It needs the fine volume, costs one factorisation when built and three back-substitutions per new contact,
+and is switched off by a cut.
 """
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
+from ..errors import SolverError, TissuesimWarning
 from .registry import register
 from .embedded import map_embedded
 from .pbd import SurfaceLayerSolver
@@ -44,6 +52,8 @@ class HybridSolver(SurfaceLayerSolver):
 
     Options (besides those of :class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`):
         warm_start: move free nodes with the embedded FEM displacement when the load changes.
+        near_field: None (default, the paper's method) or a distance W [m]: M_S nodes within W of the contact node
+            follow the fine volume's quadratic-tet response (:mod:`.near_field`).
 
     Attributes:
         fem: the :class:`~tissuesim.fem.linear.LinearFEM` of M_V.
@@ -53,7 +63,7 @@ class HybridSolver(SurfaceLayerSolver):
     """
 
     def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
-                 **options):
+                 near_field: float | None = None, **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
 
@@ -71,7 +81,9 @@ class HybridSolver(SurfaceLayerSolver):
         is_control = np.zeros(self.node_count, dtype=bool)
         is_control[control] = True
         pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
-        self._set_prescribed(np.concatenate([control, pinned]))
+        self._held = np.concatenate([control, pinned])
+        self._set_prescribed(self._held)
+        self._init_near_field(near_field)
         self.control = control
         self.control_count = control.size
         # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle.
@@ -95,6 +107,44 @@ class HybridSolver(SurfaceLayerSolver):
         self._delta = np.zeros_like(self._embedded)
         self._dirty = False
 
+    def _init_near_field(self, near_field) -> None:
+        self.near_field = None
+        self._near = None
+        self._window = self._window_slots = np.zeros(0, dtype=np.int64)
+        if near_field is None:
+            return
+        if isinstance(near_field, bool) or not isinstance(near_field, (int, float, np.floating, np.integer)) \
+                or not np.isfinite(near_field) or near_field <= 0:
+            raise SolverError(f"near_field must be None or a positive, finite distance in metres (e.g. 0.015), "
+                              f"got {near_field!r}")
+        from ..mesh.regions import nodes_below
+        from .near_field import NearField, fixed_corners
+
+        fine = self.hybrid.fine_volume
+        if self.fixed_from_height or fine is None:  # as every solver's volume: the nodes at or below the height
+            fixed = lambda points: nodes_below(points, self.fixed_height)  # noqa: E731
+        else:
+            fixed = fixed_corners(fine, self.fixed_volume_nodes(
+                fine.points, np.asarray(self.hybrid.fine_surface_nodes, dtype=np.int64)))
+        self._near = NearField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                               fixed=fixed)
+        self.near_field = float(near_field)
+        self._is_free = np.ones(self.node_count, dtype=bool)
+        self._is_free[self._held] = False
+        self._is_pinned = np.zeros(self.node_count, dtype=bool)
+        self._is_pinned[self.fixed] = True
+
+    def _before_first_cut(self) -> None:
+        """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
+        if self.near_field is None:
+            return
+        warnings.warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
+                      "volume is not cut; the paper's hybrid carries on", TissuesimWarning, stacklevel=3)
+        self.near_field, self._near = None, None
+        self._window = self._window_slots = np.zeros(0, dtype=np.int64)
+        self._set_prescribed(self._held)
+        self._dirty = True
+
     # The FEM part is redone only when the load changes: with a constant load it is constant (linear statics).
     def _on_load_changed(self) -> None:
         super()._on_load_changed()
@@ -115,8 +165,14 @@ class HybridSolver(SurfaceLayerSolver):
             shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
             self.fem.point_load_response(volume_nodes, shares[:, None] * self._load_force[None, :],
                                          output_nodes=self.output_nodes, out=self._u)
+        if self._near is not None:
+            self._prescribe_window(node)
         c = self.control_count
         np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
+        if self._near is not None and self._window.size:
+            rest = self.rest_positions
+            response = self._near.response(self.load_nodes, self.load_shares, self._window)
+            self.targets[self._window_slots] = rest[self._window] + response @ self._load_force
         if self.warm_start:
             map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
                          self._embedded_new)
@@ -126,6 +182,23 @@ class HybridSolver(SurfaceLayerSolver):
             self.state.positions += self._delta
             self._embedded[:] = self._embedded_new
         self._dirty = False
+
+    def _prescribe_window(self, node: int) -> None:
+        """The window: the M_S nodes within W of the contact node but the pinned ones. Its control nodes keep
+        their slots (their targets become the fine response); the others are prescribed after the held nodes."""
+        rest = self.rest_positions
+        if node < 0:
+            window = np.zeros(0, dtype=np.int64)
+        else:
+            window = np.flatnonzero((np.linalg.norm(rest - rest[node], axis=1) <= self.near_field)
+                                    & ~self._is_pinned)
+        if np.array_equal(window, self._window):
+            return
+        added = window[self._is_free[window]]
+        self._set_prescribed(np.concatenate([self._held, added]))
+        slot = np.full(self.node_count, -1, dtype=np.int64)
+        slot[self.prescribed] = np.arange(self.prescribed.size)
+        self._window, self._window_slots = window, slot[window]
 
     def _prepare_static(self) -> None:
         if self._dirty:

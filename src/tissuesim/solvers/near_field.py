@@ -1,0 +1,97 @@
+"""The hybrid's near field (option ``near_field``, beyond the paper): quadratic FEM on the fine volume near a contact.
+
+The coarse M_V is too stiff under a concentrated load, and the surface layer between its control nodes only
+partly makes up for it (docs/solvers.md). With ``near_field=W`` the M_S nodes within W [m] of the contact node (at
+rest) are prescribed, like control nodes, to the response of quadratic (10-node) tets on the fine volume (TetGen's
+mesh of M_S, the ``fem`` method's mesh), and the layer relaxes the rest between them and the control nodes. The
+structure stays §6's: FEM drives prescribed nodes, the layer relaxes the others; only the prescribed set grows near
+the contact.
+
+* **Load.** The solvers' nodal forces f_i (:func:`tissuesim.loads.contact_patch`) as a traction linear over M_S's
+  triangles, with density f_i / a_i at node i (a_i: its lumped area), which lumps back to exactly f_i. A point
+  force on a quadratic tet's corner is singular (and loads the wrong nodes: a uniform traction puts nothing on the
+  corners), so the force is given its node's area.
+* **Cost.** One factorisation of the quadratic fine volume when the solver is built, and one back-substitution per
+  axis when the contact node or radius changes (cached for the last one); a change of the force alone is three
+  3×3 products per window node.
+* **Validity.** The fine volume is not cut: a cut switches the near field off (with a warning).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SolverError
+from ..loads import lumped_areas
+
+#: W [m] of the contact protocol's ``hybrid-near`` (``make_solver("hybrid", mesh, near_field=W)``), chosen on its
+#: calibration row (cube, 1 N, R = 4 mm): relative RMSE 0.254 / 0.190 / 0.187 / 0.183 at W = 8 / 12 / 16 / 24 mm,
+#: flat beyond 12 mm; the 50 samples reach 22 mm from the contact there.
+NEAR_FIELD_WINDOW = 0.015
+
+
+class NearField:
+    """The fine volume's quadratic-tet response of M_S nodes to a contact load.
+
+    Args:
+        hybrid_mesh: a :class:`~tissuesim.mesh.hybrid.HybridMesh` built with its fine volume.
+        youngs_modulus, poisson_ratio: the material [Pa], [-].
+        fixed: the fixed nodes among the quadratic volume's corner and midside nodes, as
+            :class:`~tissuesim.fem.quadratic.QuadraticFEM` takes them (:func:`fixed_corners` for a list of fixed
+            corner nodes).
+
+    Attributes:
+        surface_nodes: ``(n,) int64`` fine-volume node of each M_S vertex.
+        lumped_area: ``(n,) float64`` [m²] each M_S vertex's third of its triangles' areas.
+    """
+
+    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed):
+        from ..fem.quadratic import QuadraticFEM
+
+        if hybrid_mesh.fine_volume is None or hybrid_mesh.fine_surface_nodes is None:
+            raise SolverError("near_field needs the fine volume mesh, but this hybrid mesh was built without it; "
+                              "rebuild with HybridMesh.build(surface, fine_volume=True) or drop near_field")
+        self.fem = QuadraticFEM(hybrid_mesh.fine_volume, youngs_modulus=youngs_modulus,
+                                poisson_ratio=poisson_ratio, fixed=fixed)
+        surface = hybrid_mesh.surface
+        self.surface_nodes = np.asarray(hybrid_mesh.fine_surface_nodes, dtype=np.int64)
+        self._triangles = np.asarray(surface.triangles, dtype=np.int64)
+        self.lumped_area = lumped_areas(surface.vertices, self._triangles)
+        self._key = None
+        self._response = np.zeros((0, 3, 3))
+
+    def response(self, load_nodes: np.ndarray, load_shares: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+        """``(k, 3, 3) float64`` [m/N]: ``[j, a, b]`` is M_S node ``nodes[j]``'s displacement along a under a unit
+        force along b shared as ``load_shares`` ``(p,)`` by the M_S nodes ``load_nodes`` ``(p,)``."""
+        key = (np.asarray(load_nodes).tobytes(), np.asarray(load_shares).tobytes(), np.asarray(nodes).tobytes())
+        if key != self._key:
+            weights = self._load_weights(np.asarray(load_nodes, dtype=np.int64), np.asarray(load_shares, float))
+            fine = self.surface_nodes[np.asarray(nodes, dtype=np.int64)]
+            response = np.empty((len(fine), 3, 3))
+            forces = np.zeros((self.fem.node_count, 3))
+            for axis in range(3):
+                forces[:] = 0.0
+                forces[:, axis] = weights
+                response[:, :, axis] = self.fem.solve(forces)[fine]
+            self._key, self._response = key, response
+        return self._response
+
+    def _load_weights(self, load_nodes: np.ndarray, load_shares: np.ndarray) -> np.ndarray:
+        density = np.zeros(len(self.lumped_area))
+        density[load_nodes] = load_shares / self.lumped_area[load_nodes]
+        loaded = np.flatnonzero(np.any(density[self._triangles] != 0.0, axis=1))
+        triangles = self._triangles[loaded]
+        return self.fem.linear_traction_weights(self.surface_nodes[triangles], density[triangles])
+
+
+def fixed_corners(volume, fixed_volume: np.ndarray):
+    """The ``fixed`` of the quadratic elements on ``volume`` (a :class:`~tissuesim.mesh.tetmesh.TetMesh`) whose fixed
+    corner nodes are ``fixed_volume`` ``(k,) int``: those corners, and every midside node whose edge has both ends
+    fixed."""
+    from ..fem.quadratic import quadratic_elements
+
+    edges = quadratic_elements(volume.tets, volume.node_count)[1]
+    corners = np.zeros(volume.node_count, dtype=bool)
+    corners[np.asarray(fixed_volume, dtype=np.int64)] = True
+    mask = np.concatenate([corners, corners[edges[:, 0]] & corners[edges[:, 1]]])
+    return lambda points: mask
