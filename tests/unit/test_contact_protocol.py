@@ -7,7 +7,7 @@ import pytest
 
 from tissuesim.cli import main
 from tissuesim.experiments import contact
-from tissuesim.experiments.contact_report import contact_report_markdown, method_table
+from tissuesim.experiments.contact_report import contact_report_markdown, method_table, ratio_table
 from tissuesim.experiments.output import write_contact_outputs
 from tissuesim.experiments.reference import RefinementSettings
 
@@ -36,14 +36,14 @@ def test_roles():
 @pytest.fixture(scope="module")
 def small_run():
     config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0, 2.0), loads=("pressure",),
-                                   radii_mm=(8.0,), methods=("embedded", "fem"),
+                                   radii_mm=(8.0,), methods=("embedded", "fem", "hybrid", "pbd", "hybrid-near"),
                                    settings=RefinementSettings(max_levels=1))
     return contact.run_contact(config, progress=False)
 
 
 def test_small_run_records_and_metrics(small_run):
     records = small_run["records"]
-    assert len(records) == 2 * 2  # two forces × two methods
+    assert len(records) == 2 * 5  # two forces × five methods
     for r in records:
         assert r["role"] == "held out" and r["radius_mm"] == 8.0
         for key in ("rmse", "rmse_outside", "contact_error"):
@@ -57,6 +57,16 @@ def test_small_run_records_and_metrics(small_run):
     assert by[("fem", 1.0)]["relative_rmse"] < by[("embedded", 1.0)]["relative_rmse"]
     levels = small_run["metadata"]["models"]["cube"]["references"]["8"]["levels"]
     assert [row["level"] for row in levels] == [0, 1]
+
+
+def test_the_near_field_beats_the_paper_hybrid_and_the_ratios_are_reported(small_run):
+    by = {(r["method"], r["force_N"]): r["relative_rmse"] for r in small_run["records"]}
+    for force in (1.0, 2.0):
+        assert by[("hybrid-near", force)] < by[("hybrid", force)] < by[("embedded", force)]
+    table = ratio_table(small_run)
+    rows = {line.split(" | ")[0].strip("| "): line.split(" | ") for line in table.splitlines()[2:]}
+    assert set(rows) == {"Ours", "Ours+NF"} and rows["Ours"][1] == "2"
+    assert float(rows["Ours+NF"][2].split(" / ")[0]) < float(rows["Ours"][2].split(" / ")[0])
 
 
 def test_report_prints_convergence_table_and_method_table(small_run, tmp_path):
