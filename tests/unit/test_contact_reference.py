@@ -135,3 +135,44 @@ def test_a_bad_radius_is_refused_before_anything_is_computed(cube, radius, tmp_p
     assert not any(tmp_path.iterdir())
     with pytest.raises(SolverError, match="whole numbers"):
         reference.RefinementSettings(max_levels=1.5)
+
+
+def test_refinement_parents_carry_a_linear_field_to_the_new_vertices(cube):
+    surface, node = cube
+    centre = surface.vertices[node]
+    refined, parents = refine_surface(surface, lambda p: 2e-3 + 0.5 * np.linalg.norm(p - centre, axis=1),
+                                      parents=True)
+    n = surface.vertex_count
+    assert parents.shape == (refined.vertex_count - n, 2) and np.all(parents < n + np.arange(len(parents))[:, None])
+    field = refined.vertices @ np.array([3.0, -2.0, 0.5]) + 1.0     # linear: the cube's faces are flat
+    carried = np.concatenate([field[:n], np.zeros(len(parents))])
+    for k, (a, b) in enumerate(parents):
+        carried[n + k] = 0.5 * (carried[a] + carried[b])
+    assert np.allclose(carried, field, rtol=0, atol=1e-12)
+
+
+def test_level_zero_nodal_response_is_the_near_field_and_the_floor_is_measured(cube):
+    from tissuesim import HybridMesh, make_solver
+
+    surface, node = cube
+    hybrid = HybridMesh.build(surface, fine_volume=True)
+    ref = reference.refinement_levels(hybrid, node, 8e-3, levels=1)
+    solver = make_solver("hybrid", hybrid, near_field=1.0)
+    solver.set_load(node, [0.0, 0.0, -1.0], radius=8e-3)
+    every = np.arange(surface.vertex_count)
+    level0 = reference.refinement_levels(hybrid, node, 8e-3, levels=0)
+    near = solver._near.response(solver.load_nodes, solver.load_shares, every)
+    assert np.allclose(level0.nodal_response, near, rtol=0, atol=1e-9 * np.abs(near).max())
+    # The nodal forces and the uniform traction are different loads: the floor is positive, and below one.
+    assert 0.01 < ref.load_rule_floor < 0.5
+    linear = reference.refinement_levels(hybrid, node, 8e-3, levels=0,
+                                         settings=reference.RefinementSettings(element="linear"))
+    assert linear.nodal_response is None and linear.load_rule_floor is None
+
+
+def test_the_cache_keeps_the_nodal_response(cube, tmp_path):
+    surface, node = cube
+    first = reference.contact_reference(surface, node, 8e-3, settings=QUICK, cache_dir=tmp_path)
+    again = reference.contact_reference(surface, node, 8e-3, settings=QUICK, cache_dir=tmp_path)
+    assert first.nodal_response is not None and np.array_equal(again.nodal_response, first.nodal_response)
+    assert again.load_rule_floor == first.load_rule_floor

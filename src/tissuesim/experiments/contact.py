@@ -225,7 +225,8 @@ def _model_info(spec, hybrid, node, refs, radii_mm, settings) -> dict:
         "source": spec, "surface_nodes": int(len(rest)), "load_node": int(node),
         "samples": [int(i) for i in samples],
         "sample_radius_mm": float(1e3 * np.linalg.norm(rest[samples] - rest[node], axis=1).max()),
-        "references": {f"{r:g}": {"converged": ref.converged, "levels": [asdict(row) for row in ref.levels]}
+        "references": {f"{r:g}": {"converged": ref.converged, "levels": [asdict(row) for row in ref.levels],
+                                   "load_rule_floor": ref.load_rule_floor}
                        for r, ref in zip(radii_mm, refs)},
     }
 

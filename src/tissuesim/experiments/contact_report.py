@@ -66,6 +66,20 @@ def ratio_table(data: dict, *, embedded_ratio: float = 0.5, pbd_ratio: float = 0
                            f"rows ≤ {absolute:g}", "rows meeting all three"], rows)
 
 
+def _floor_lines(meta: dict) -> list[str]:
+    """The range of the load rule floor per R: no method given the solvers' nodal forces gets below it."""
+    floors = {}
+    for info in meta["models"].values():
+        for radius, ref in info["references"].items():
+            if ref.get("load_rule_floor") is not None:
+                floors.setdefault(radius, []).append(ref["load_rule_floor"])
+    if not floors:
+        return []
+    ranges = "; ".join(f"R = {radius} mm: {fmt(min(v), 3)}–{fmt(max(v), 3)}" for radius, v in floors.items())
+    return [f"Load rule floor (the exact response to the solvers' nodal forces against the reference, relative; no "
+            f"method given those forces is more accurate): {ranges}.", ""]
+
+
 def case_table(data: dict) -> str:
     """Markdown: one row per model × R × load × force × method with the six figures and the row's role."""
     rows = []
@@ -115,7 +129,7 @@ def contact_report_markdown(data: dict) -> str:
     if ratios.count("\n") > 1:
         parts += ["## The hybrid against the embedded surface and PBD, row by row (held out)", "",
                   "Relative RMSE over all samples, divided by the other method's in the same row. Ours+NF is the "
-                  "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, ""]
+                  "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, "", *_floor_lines(meta)]
     if any(r["role"] == "calibration" for r in data["records"]):
         parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
     parts += ["## References", "",
@@ -127,6 +141,9 @@ def contact_report_markdown(data: dict) -> str:
                 f"**not converged** (last change {100 * ref['levels'][-1]['change']:.2f} %)"
                 if ref["levels"][-1]["change"] is not None else "**not converged**")
             parts += [f"### {model}, R = {radius} mm: {status}", "", convergence_table(ref["levels"]), ""]
+            if ref.get("load_rule_floor") is not None:
+                parts += [f"Load rule floor: {fmt(ref['load_rule_floor'], 3)} (the exact response to the solvers' "
+                          "nodal forces against this reference, relative).", ""]
     for model, info in meta["models"].items():
         for radius, reason in info.get("skipped", {}).items():
             parts += [f"Skipped: {model}, R = {radius} mm: {reason}", ""]

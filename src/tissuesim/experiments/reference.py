@@ -18,6 +18,12 @@ traction of finite density, whose displacement field has a limit. This module co
 * **Load.** A uniform traction (force / patch area) on the level's surface triangles whose centroid lies within R of
   the contact node, resolved ever finer; with linear tets, the solvers' contact patch rule on the level's nodes
   (at level 0 exactly the solvers' nodal forces). ``radius=None`` is the single-node load (diverging).
+* **The solvers' load, too.** On quadratic tets each level also solves for the load the solvers are given: the
+  nodal forces of :func:`tissuesim.loads.contact_patch` on M_S, each node's share as a traction linear over M_S's
+  triangles (density share / lumped area at the node, carried to the refined vertices by averaging the ends of each
+  split edge), which lumps back to exactly those forces. The difference between the two responses is the **load
+  rule floor** (:attr:`ContactReference.load_rule_floor`): the error of the exact response to the solvers' nodal
+  forces against the reference, which no method given those forces gets below.
 * **Support.** As every solver's fine FEM: the volume nodes at or below the bottom height of M_S are fixed.
 * **Stop.** When the displacements of the sample nodes change by less than ``tolerance`` between two levels:
   RMS over the samples of |u_ℓ − u_ℓ₋₁| divided by the RMS of |u_ℓ| (a vector change, not a change of the RMS), for
@@ -46,7 +52,7 @@ from ..mesh.tetrahedralize import FINE_SWITCHES, tetrahedralize
 from . import protocol
 
 # Bump when the computation changes, so stale cache entries are never read.
-CACHE_FORMAT = 3
+CACHE_FORMAT = 4
 #: Elements of the reference volume (:attr:`RefinementSettings.element`).
 ELEMENTS = ("quadratic", "linear")
 
@@ -152,6 +158,8 @@ class ContactReference:
         levels: the convergence table, one :class:`LevelRow` per level computed.
         converged: whether the last change fell below the tolerance.
         youngs_modulus, poisson_ratio: the material [Pa], [-].
+        nodal_response: ``(n, 3, 3) float64`` [m/N] or None: the same for the solvers' nodal forces (module
+            docstring; quadratic elements only).
     """
 
     node: int
@@ -163,10 +171,21 @@ class ContactReference:
     youngs_modulus: float
     poisson_ratio: float
     settings: RefinementSettings = field(default_factory=RefinementSettings)
+    nodal_response: np.ndarray | None = None
 
     def displacements(self, force) -> np.ndarray:
         """``(n, 3) float64`` M_S displacements [m] under ``force`` ``(3,)`` [N] spread over the patch."""
         return self.response @ np.asarray(force, dtype=np.float64)
+
+    @property
+    def load_rule_floor(self) -> float | None:
+        """Relative RMSE over the samples of the response to the solvers' nodal forces against :attr:`response`,
+        for a force along −z (the same for any force along z: both are linear); None without
+        :attr:`nodal_response`."""
+        if self.nodal_response is None:
+            return None
+        exact, nodal = -self.response[self.samples, :, 2], -self.nodal_response[self.samples, :, 2]
+        return float(np.sqrt(np.mean(np.sum((nodal - exact) ** 2, axis=1)) / np.mean(np.sum(exact ** 2, axis=1))))
 
     @property
     def final_change(self) -> float | None:
@@ -254,6 +273,7 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
     core = max((r for r in radii if r is not None), default=0.0)
     n = len(rest)
     previous = [None] * len(radii)
+    nodal = [None] * len(radii)
     tables = [[] for _ in radii]
     done = [False] * len(radii)
     for level in range(settings.max_levels + 1):
@@ -262,12 +282,13 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
             if progress is not None:
                 progress(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
             break
-        refined, volume = level_mesh
-        solve = _level_solver(volume, refined, rest[node], height, youngs_modulus, poisson_ratio, settings)
+        refined, volume, parents = level_mesh
+        solve = _level_solver(volume, refined, surface, parents, rest[node], height, youngs_modulus, poisson_ratio,
+                              settings)
         for k, radius in enumerate(radii):
             if done[k]:
                 continue
-            response = solve(node, radius)[:n]     # M_S's vertices are the volume's first nodes (TetGen's Y)
+            response, nodal[k] = solve(node, radius)   # M_S's vertices are the volume's first nodes (TetGen's Y)
             change = None if previous[k] is None else _relative_change(response, previous[k], samples)
             previous[k] = response
             row = _row(level, volume, h0, settings, samples, response, node, change)
@@ -280,13 +301,16 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
             break
     return [ContactReference(node, radius, previous[k], samples, tuple(tables[k]),
                              bool(tables[k][-1].change is not None and tables[k][-1].change < settings.tolerance),
-                             float(youngs_modulus), float(poisson_ratio), settings)
+                             float(youngs_modulus), float(poisson_ratio), settings, nodal[k])
             for k, radius in enumerate(radii)]
 
 
-def _level_solver(volume, refined, centre, height, youngs_modulus, poisson_ratio, settings):
-    """``solve(node, radius) -> (N, 3, 3)``: the level's response to a unit force per axis on the contact patch
-    (or on the node alone, radius None), for the settings' element."""
+def _level_solver(volume, refined, surface, parents, centre, height, youngs_modulus, poisson_ratio, settings):
+    """``solve(node, radius) -> (response, nodal)``, ``(n, 3, 3)`` each (nodal None on linear tets): the M_S nodes'
+    response to a unit force per axis on the contact patch (or on the node alone, radius None) and to the solvers'
+    nodal forces (module docstring), for the settings' element."""
+    n = surface.vertex_count
+    nodal_weights = None
     if settings.element == "linear":
         from ..fem.linear import LinearFEM
         from ..loads import contact_patch
@@ -315,32 +339,56 @@ def _level_solver(volume, refined, centre, height, youngs_modulus, poisson_ratio
             areas = triangle_areas(refined.vertices, triangles)
             return fem.traction_weights(triangles, areas / areas.sum())
 
-    def solve(node, radius):
-        w = weights(node, radius)
-        response = np.empty((fem.node_count, 3, 3))
+        def nodal_weights(node, radius):
+            density = _nodal_density(surface, parents, node, radius)
+            loaded = np.any(density[refined.triangles] != 0.0, axis=1)
+            triangles = np.asarray(refined.triangles, dtype=np.int64)[loaded]
+            return fem.linear_traction_weights(triangles, density[triangles])
+
+    def respond(w):
+        response = np.empty((n, 3, 3))
         forces = np.zeros((fem.node_count, 3))
         for axis in range(3):
             forces[:] = 0.0
             forces[:, axis] = w
-            response[:, :, axis] = fem.solve(forces)
+            response[:, :, axis] = fem.solve(forces)[:n]
         return response
 
+    def solve(node, radius):
+        nodal = None if nodal_weights is None else respond(nodal_weights(node, radius))
+        return respond(weights(node, radius)), nodal
+
     return solve
+
+
+def _nodal_density(surface, parents, node, radius) -> np.ndarray:
+    """``(n + k,)`` [1/m²] the solvers' nodal shares of a unit force as traction densities at M_S's vertices
+    (share / lumped area), then at the refined vertices (the mean of the split edge's ends, in creation order)."""
+    from ..loads import contact_patch, lumped_areas
+
+    nodes, shares = contact_patch(surface.vertices, surface.triangles, node, radius)
+    density = np.zeros(surface.vertex_count + len(parents))
+    density[nodes] = shares / lumped_areas(surface.vertices, surface.triangles)[nodes]
+    n = surface.vertex_count
+    for k, (a, b) in enumerate(parents.tolist()):
+        density[n + k] = 0.5 * (density[a] + density[b])
+    return density
 
 
 def _level_volume(surface, centre, core, h0, level, settings):
     """``(surface, volume)`` of a level: M_S refined around ``centre``, then TetGen (with a volume bound if set);
     None when the refined surface exceeds the settings' vertex bound."""
     if level == 0:
-        return surface, tetrahedralize(surface, switches=FINE_SWITCHES)[0]
-    refined = refine_surface(surface, lambda points: level_size(points, centre, core, h0, level, settings))
+        return surface, tetrahedralize(surface, switches=FINE_SWITCHES)[0], np.zeros((0, 2), dtype=np.int64)
+    refined, parents = refine_surface(surface, lambda points: level_size(points, centre, core, h0, level, settings),
+                                      parents=True)
     if refined.vertex_count > settings.max_surface_vertices:
         return None
     if settings.interior_ratio is None:
-        return refined, tetrahedralize(refined, switches=FINE_SWITCHES)[0]
+        return refined, tetrahedralize(refined, switches=FINE_SWITCHES)[0], parents
     interior = h0 * settings.interior_ratio ** level
     max_volume = interior ** 3 / (6.0 * np.sqrt(2.0))  # a regular tet of edge `interior`
-    return refined, tetrahedralize(refined, switches=f"{FINE_SWITCHES}a{max_volume:.6e}")[0]
+    return refined, tetrahedralize(refined, switches=f"{FINE_SWITCHES}a{max_volume:.6e}")[0], parents
 
 
 def level_size(points, centre, core, h0, level, settings) -> np.ndarray:
@@ -413,7 +461,8 @@ def _load(cache_dir, key, settings) -> ContactReference | None:
             meta = json.loads(str(data["meta"]))
             return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
                                     tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
-                                    meta["E"], meta["nu"], settings)
+                                    meta["E"], meta["nu"], settings,
+                                    data["nodal_response"] if "nodal_response" in data else None)
     except (OSError, ValueError, KeyError):
         return None  # a damaged entry is recomputed, never trusted
 
@@ -427,5 +476,6 @@ def _save(cache_dir, key, reference: ContactReference) -> None:
             "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
             "levels": [asdict(row) for row in reference.levels]}
     partial = folder / f".{key}.{os.getpid()}.npz"
-    np.savez(partial, response=reference.response, samples=reference.samples, meta=json.dumps(meta))
+    nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
+    np.savez(partial, response=reference.response, samples=reference.samples, meta=json.dumps(meta), **nodal)
     os.replace(partial, folder / f"{key}.npz")  # atomic: a reader never sees half an entry

@@ -29,18 +29,23 @@ MAX_PASSES = 40
 __all__ = ["refine_surface"]
 
 
-def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray]) -> SurfaceMesh:
+def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray], *, parents: bool = False):
     """The surface refined until no triangle's longest edge exceeds ``size`` at that edge's midpoint.
 
     Args:
         surface: a closed surface (every edge shared by exactly two triangles).
         size: target edge length [m] as a function of points ``(k, 3)`` [m] → ``(k,)`` positive lengths.
+        parents: also return the edge each new vertex splits.
 
     Returns:
-        A new :class:`SurfaceMesh` whose first ``surface.vertex_count`` vertices are ``surface.vertices`` unchanged.
+        A new :class:`SurfaceMesh` whose first ``surface.vertex_count`` vertices are ``surface.vertices`` unchanged;
+        with ``parents``, also ``(k, 2) int64``: the two vertices of the edge split by each of the k new vertices,
+        in order (each created before it), so a field linear over the input's triangles is carried to the new
+        vertices by averaging.
     """
     vertices = np.array(surface.vertices, dtype=np.float64)
     triangles = np.array(surface.triangles, dtype=np.int64)
+    split_edges = [np.zeros((0, 2), dtype=np.int64)]
     for _ in range(MAX_PASSES):
         edges, tri_edges = _edges(triangles)
         lengths = np.linalg.norm(vertices[edges[:, 0]] - vertices[edges[:, 1]], axis=1)
@@ -53,10 +58,12 @@ def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray
         split = np.zeros(len(edges), dtype=bool)
         split[longest_edge[lengths[longest_edge] > target]] = True
         if not split.any():
-            return SurfaceMesh(vertices, triangles.astype(np.int32))
+            mesh = SurfaceMesh(vertices, triangles.astype(np.int32))
+            return (mesh, np.concatenate(split_edges).astype(np.int64)) if parents else mesh
         _close_marking(split, tri_edges, longest_edge)
         new_index = np.full(len(edges), -1, dtype=np.int64)
         new_index[split] = len(vertices) + np.arange(int(split.sum()))
+        split_edges.append(edges[split])
         vertices = np.concatenate([vertices, midpoints[split]])
         triangles = _subdivide(triangles, tri_edges, longest, new_index)
     raise MeshError(f"refine_surface did not reach the target size in {MAX_PASSES} passes; is size() too small?")
