@@ -7,8 +7,10 @@ constant load (the FEM part is cached) and with the load changed before every st
 path evaluation per step). The default of hybrid and pbd is the physical layer stepped by implicit Euler; the XPBD
 integrator and the paper's pbd form are timed beside it. Also printed: the new precomputation of the quasi-static path (the layer's stiffness assembled and
 factorised once per solver, then one back-substitution per load), the contact patch of a newly grabbed node (4 and
-8 mm), and the quasi-static solve on a contact patch per method. CPU time, fastest of several blocks (shared
-machines). Asserts nothing about time.
+8 mm), and the quasi-static solve on a contact patch per method. The hybrid's near field (``near_field``) is timed
+too: its step (constant and dragged load), its build (the quadratic fine volume's factorisation) and the cost of a
+new contact (three back-substitutions and the layer's refactorisation for the new prescribed set). CPU time,
+fastest of several blocks (shared machines). Asserts nothing about time.
 
     python benchmarks/bench_solvers.py [--model sphere] [--iterations 10] [--steps 100] [--bundle FILE]
 """
@@ -28,6 +30,7 @@ import numpy as np
 from tissuesim import HybridMesh, make_solver
 from tissuesim.experiments.protocol import load_node
 from tissuesim.mesh import models
+from tissuesim.solvers.near_field import NEAR_FIELD_WINDOW
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
@@ -64,6 +67,7 @@ def main(argv=None) -> int:
         ("hybrid, xpbd integrator", "hybrid", {"iterations": args.iterations, "integrator": "xpbd"}),
         ("hybrid, paper's pbd form", "hybrid", {"iterations": args.iterations, "form": "pbd"}),
         ("hybrid no warm start", "hybrid", {"iterations": args.iterations, "warm_start": False}),
+        ("hybrid, near field", "hybrid", {"iterations": args.iterations, "near_field": NEAR_FIELD_WINDOW}),
         ("mass-spring", "mass-spring", {}),
         ("embedded", "embedded", {}),
         ("fem", "fem", {}),
@@ -73,7 +77,7 @@ def main(argv=None) -> int:
         solver.step()  # compile, cache FEM columns
         steps = max(5, args.steps // 10) if method == "fem" else args.steps
         times[label] = best_of(solver.step, steps)
-        if label == "hybrid":
+        if label in ("hybrid", "hybrid, near field"):
             forces = [np.array([0.0, 0.0, -1.0 - 1e-3 * k]) for k in range(steps)]
             counter = iter(range(10**9))
 
@@ -87,6 +91,8 @@ def main(argv=None) -> int:
     print(f"hybrid / pbd step:                 {times['hybrid'] / times['pbd']:.2f} (paper 1.6; aim <= 1.2)")
     print(f"hybrid / pbd, xpbd integrator:     {times['hybrid, xpbd integrator'] / times['pbd, xpbd integrator']:.2f}")
     print(f"hybrid (drag) / pbd step:          {times['hybrid (load changed every step)'] / times['pbd']:.2f}")
+    print(f"hybrid near field / pbd step:      {times['hybrid, near field'] / times['pbd']:.2f}; dragged: "
+          f"{times['hybrid, near field (load changed every step)'] / times['pbd']:.2f} (aim <= 1.2)")
     print(f"fem solve / hybrid step:           {times['fem'] / times['hybrid']:.2f}")
     print(f"embedded step / hybrid step:       {times['embedded'] / times['hybrid']:.2f}")
     precomputation(h, node)
@@ -125,6 +131,7 @@ def precomputation(h, node) -> None:
         print(f"{method} layer: stiffness + static factor {1e3 * setup:.1f} ms for {free} free nodes "
               f"({1e6 * setup / free:.1f} µs per node); implicit-step factor {1e3 * dynamic:.1f} ms "
               f"({1e6 * dynamic / free:.1f} µs per node)")
+    near_field(h, node)
     solver = make_solver("hybrid", h)
     for radius in (0.004, 0.008):
         start = time.perf_counter()
@@ -137,6 +144,25 @@ def precomputation(h, node) -> None:
         again = _timed(lambda: solver.solve_static(node, [0.0, 0.0, -2.0], radius=0.008))
         print(f"solve_static, 1 N on an 8 mm patch, {method:12s} first {1e3 * first:8.1f} ms, next load "
               f"{1e3 * again:8.1f} ms")
+
+
+def near_field(h, node) -> None:
+    """The near field's one-off costs: its build, and a new contact (wall time)."""
+    start = time.perf_counter()
+    solver = make_solver("hybrid", h, near_field=NEAR_FIELD_WINDOW)
+    build = time.perf_counter() - start
+    plain = _timed(lambda: make_solver("hybrid", h))
+    fine = h.fine_volume
+    print(f"hybrid near field build: {1e3 * (build - plain):.0f} ms more than the hybrid's ({fine.element_count} "
+          f"fine tets, {solver._near.fem.free_dofs.size} quadratic dofs)")
+    for radius in (0.004, 0.008):
+        solver.set_load(node, [0.0, 0.0, -1.0], radius=radius)
+        first = _timed(solver.step)
+        solver.set_load(node, [0.0, 0.0, -2.0], radius=radius)
+        again = _timed(solver.step)
+        print(f"near field, new contact R = {1e3 * radius:.0f} mm: first step {1e3 * first:.1f} ms "
+              f"({solver._window.size} window nodes, {1e3 * first / max(solver._window.size, 1):.2f} ms per node), "
+              f"next force {1e3 * again:.2f} ms")
 
 
 def _timed(call) -> float:

@@ -92,6 +92,8 @@ def test_cli_contact_protocol(tmp_path, capsys):
     (["--protocol", "magic"], "unknown protocol 'magic'"),
     (["--protocol", "contact", "--radii", "-1"], "--radii takes a positive"),
     (["--protocol", "contact", "--levels", "1.5"], "--levels takes a positive whole number"),
+    (["--protocol", "contact", "--methods", "hybrid-far"], "unknown contact protocol method(s) 'hybrid-far'; "
+                                                          "choose from hybrid, pbd"),
 ])
 def test_bad_contact_argument_is_a_one_line_error(arguments, message, tmp_path, capsys):
     code = main(["experiment", *arguments, "--output", str(tmp_path / "out"), "--quiet"])

@@ -83,6 +83,14 @@ class ContactConfig:
         protocol.load_cases(self.forces, self.loads)  # validates forces and loads
         if not self.radii_mm or not all(np.isfinite(r) and r > 0 for r in self.radii_mm):
             raise SolverError(f"contact radii must be positive numbers of millimetres, got {self.radii_mm}")
+        if self.methods is not None:
+            from ..solvers import available_solvers
+
+            known = (*available_solvers(), *VARIANTS)
+            unknown = [m for m in self.methods if m not in known]
+            if unknown or not self.methods:
+                raise SolverError(f"unknown contact protocol method(s) {', '.join(map(repr, unknown)) or '(none)'}; "
+                                  f"choose from {', '.join(known)}")
 
 
 def shared_livers(folder=None) -> dict:

@@ -67,7 +67,7 @@ def ratio_table(data: dict, *, embedded_ratio: float = 0.5, pbd_ratio: float = 0
 
 
 def _floor_lines(meta: dict) -> list[str]:
-    """The range of the load rule floor per R: no method given the solvers' nodal forces gets below it."""
+    """The range of the load rule floor per R (the error of an exact solve of the solvers' nodal forces)."""
     floors = {}
     for info in meta["models"].values():
         for radius, ref in info["references"].items():
@@ -76,8 +76,8 @@ def _floor_lines(meta: dict) -> list[str]:
     if not floors:
         return []
     ranges = "; ".join(f"R = {radius} mm: {fmt(min(v), 3)}–{fmt(max(v), 3)}" for radius, v in floors.items())
-    return [f"Load rule floor (the exact response to the solvers' nodal forces against the reference, relative; no "
-            f"method given those forces is more accurate): {ranges}.", ""]
+    return [f"Load rule floor (relative RMSE of the exact response to the solvers' nodal forces against the "
+            f"reference: the error a method solving its load exactly would have): {ranges}.", ""]
 
 
 def case_table(data: dict) -> str:
@@ -142,8 +142,8 @@ def contact_report_markdown(data: dict) -> str:
                 if ref["levels"][-1]["change"] is not None else "**not converged**")
             parts += [f"### {model}, R = {radius} mm: {status}", "", convergence_table(ref["levels"]), ""]
             if ref.get("load_rule_floor") is not None:
-                parts += [f"Load rule floor: {fmt(ref['load_rule_floor'], 3)} (the exact response to the solvers' "
-                          "nodal forces against this reference, relative).", ""]
+                parts += [f"Load rule floor: {fmt(ref['load_rule_floor'], 3)} (relative RMSE of the exact response "
+                          "to the solvers' nodal forces against this reference).", ""]
     for model, info in meta["models"].items():
         for radius, reason in info.get("skipped", {}).items():
             parts += [f"Skipped: {model}, R = {radius} mm: {reason}", ""]

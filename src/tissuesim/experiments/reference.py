@@ -21,9 +21,10 @@ traction of finite density, whose displacement field has a limit. This module co
 * **The solvers' load, too.** On quadratic tets each level also solves for the load the solvers are given: the
   nodal forces of :func:`tissuesim.loads.contact_patch` on M_S, each node's share as a traction linear over M_S's
   triangles (density share / lumped area at the node, carried to the refined vertices by averaging the ends of each
-  split edge), which lumps back to exactly those forces. The difference between the two responses is the **load
-  rule floor** (:attr:`ContactReference.load_rule_floor`): the error of the exact response to the solvers' nodal
-  forces against the reference, which no method given those forces gets below.
+  split edge), which lumps back to exactly those forces; on the level the reference stops at. The difference
+  between the two responses is the **load rule floor** (:attr:`ContactReference.load_rule_floor`): the error that
+  a method solving its load exactly would still have against the reference. A method below it is nearer the
+  uniform traction than its own load is, through errors that happen to compensate.
 * **Support.** As every solver's fine FEM: the volume nodes at or below the bottom height of M_S are fixed.
 * **Stop.** When the displacements of the sample nodes change by less than ``tolerance`` between two levels:
   RMS over the samples of |u_ℓ − u_ℓ₋₁| divided by the RMS of |u_ℓ| (a vector change, not a change of the RMS), for
@@ -271,9 +272,9 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
     height = bottom_height(rest)
     h0 = _edge_length_at(surface, node)
     core = max((r for r in radii if r is not None), default=0.0)
-    n = len(rest)
     previous = [None] * len(radii)
     nodal = [None] * len(radii)
+    solve_nodal = None
     tables = [[] for _ in radii]
     done = [False] * len(radii)
     for level in range(settings.max_levels + 1):
@@ -283,12 +284,12 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
                 progress(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
             break
         refined, volume, parents = level_mesh
-        solve = _level_solver(volume, refined, surface, parents, rest[node], height, youngs_modulus, poisson_ratio,
-                              settings)
+        solve, solve_nodal = _level_solver(volume, refined, surface, parents, rest[node], height, youngs_modulus,
+                                           poisson_ratio, settings)
         for k, radius in enumerate(radii):
             if done[k]:
                 continue
-            response, nodal[k] = solve(node, radius)   # M_S's vertices are the volume's first nodes (TetGen's Y)
+            response = solve(node, radius)     # M_S's vertices are the volume's first nodes (TetGen's Y)
             change = None if previous[k] is None else _relative_change(response, previous[k], samples)
             previous[k] = response
             row = _row(level, volume, h0, settings, samples, response, node, change)
@@ -297,8 +298,12 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
                 progress(f"R = {_radius_text(radius)}: " + format_row(row))
             if stop and change is not None and level >= settings.min_levels and change < settings.tolerance:
                 done[k] = True
+                nodal[k] = solve_nodal(node, radius)   # on the level the reference stops at
         if stop and all(done):
             break
+    for k, radius in enumerate(radii):
+        if not done[k] and solve_nodal is not None:    # unconverged or not stopping: on the last level computed
+            nodal[k] = solve_nodal(node, radius)
     return [ContactReference(node, radius, previous[k], samples, tuple(tables[k]),
                              bool(tables[k][-1].change is not None and tables[k][-1].change < settings.tolerance),
                              float(youngs_modulus), float(poisson_ratio), settings, nodal[k])
@@ -306,9 +311,9 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
 
 
 def _level_solver(volume, refined, surface, parents, centre, height, youngs_modulus, poisson_ratio, settings):
-    """``solve(node, radius) -> (response, nodal)``, ``(n, 3, 3)`` each (nodal None on linear tets): the M_S nodes'
-    response to a unit force per axis on the contact patch (or on the node alone, radius None) and to the solvers'
-    nodal forces (module docstring), for the settings' element."""
+    """``(solve, solve_nodal)``, each ``(node, radius) -> (n, 3, 3)``: the M_S nodes' response to a unit force per
+    axis on the contact patch (or on the node alone, radius None), and to the solvers' nodal forces (module
+    docstring; None on linear tets), for the settings' element."""
     n = surface.vertex_count
     nodal_weights = None
     if settings.element == "linear":
@@ -355,10 +360,12 @@ def _level_solver(volume, refined, surface, parents, centre, height, youngs_modu
         return response
 
     def solve(node, radius):
-        nodal = None if nodal_weights is None else respond(nodal_weights(node, radius))
-        return respond(weights(node, radius)), nodal
+        return respond(weights(node, radius))
 
-    return solve
+    def solve_nodal(node, radius):
+        return None if nodal_weights is None else respond(nodal_weights(node, radius))
+
+    return solve, solve_nodal
 
 
 def _nodal_density(surface, parents, node, radius) -> np.ndarray:

@@ -111,6 +111,7 @@ class HybridSolver(SurfaceLayerSolver):
         self.near_field = None
         self._near = None
         self._window = self._window_slots = np.zeros(0, dtype=np.int64)
+        self._window_node = -1
         if near_field is None:
             return
         if isinstance(near_field, bool) or not isinstance(near_field, (int, float, np.floating, np.integer)) \
@@ -186,14 +187,15 @@ class HybridSolver(SurfaceLayerSolver):
     def _prescribe_window(self, node: int) -> None:
         """The window: the M_S nodes within W of the contact node but the pinned ones. Its control nodes keep
         their slots (their targets become the fine response); the others are prescribed after the held nodes."""
+        if node == self._window_node:    # a drag changes the force, not the window
+            return
+        self._window_node = node
         rest = self.rest_positions
         if node < 0:
             window = np.zeros(0, dtype=np.int64)
         else:
             window = np.flatnonzero((np.linalg.norm(rest - rest[node], axis=1) <= self.near_field)
                                     & ~self._is_pinned)
-        if np.array_equal(window, self._window):
-            return
         added = window[self._is_free[window]]
         self._set_prescribed(np.concatenate([self._held, added]))
         slot = np.full(self.node_count, -1, dtype=np.int64)
