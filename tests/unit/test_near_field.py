@@ -119,3 +119,19 @@ def test_a_cut_switches_the_near_field_off_and_the_hybrid_goes_on(cube, node):
     for _ in range(50):
         solver.step()
     assert np.all(np.isfinite(solver.positions))
+
+
+def test_a_cut_mesh_takes_no_near_field(cube):
+    solver = tissuesim.make_solver("hybrid", cube)
+    scripted_incision(solver)
+    with pytest.raises(SolverError, match="uncut mesh"):
+        tissuesim.make_solver("hybrid", solver.hybrid, near_field=0.015)
+
+
+@pytest.mark.parametrize("value", ["-5", "0", "nan"])
+def test_view_refuses_a_bad_near_field_in_one_line(value, capsys):
+    from tissuesim.cli import main
+
+    assert main(["view", "cube", "--near-field", value]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--near-field" in err[0] and "mm" in err[0]

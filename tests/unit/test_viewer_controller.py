@@ -267,3 +267,29 @@ def test_prestrain_reaches_the_methods_that_take_one_and_a_cut_gapes_in_the_view
         with pytest.raises(SolverError, match="prestrain"):
             c.configure(prestrain=bad)
     assert c.settings.prestrain == 0.05
+
+
+def test_the_near_field_is_a_setting_and_a_cut_in_the_viewer_switches_it_off(hybrid):
+    c = Controller(hybrid, settings=Settings(near_field=0.015))
+    assert c.solver.near_field == 0.015 and c.near_field_available()   # the scalpel, built already, cut nothing yet
+    top = top_of(c)
+    c.pointer_down(top, above(top), DOWN)
+    c.pointer_move(top + [0.0, 0.0, 0.005], above(top), DOWN)
+    c.advance(0.1)
+    assert c.solver._window.size > 0                                   # the grab prescribed its window
+    c.pointer_up()
+    c.configure(near_field=None)
+    assert c.solver.near_field is None
+    c.configure(near_field=0.015)
+    c.key("s")
+    with pytest.warns(UserWarning, match="near field"):
+        c.pointer_down(top + [-0.01, 0.001, 0.0], above(top), DOWN)
+        for dx in np.linspace(-0.01, 0.01, 6)[1:]:
+            c.pointer_move(top + [dx, 0.001, 0.0], above(top), DOWN)
+        c.pointer_up()
+    assert c.solver.near_field is None and not c.near_field_available()
+    c.configure(iterations=5)                                          # a rebuild on the cut mesh leaves it off
+    assert c.solver.near_field is None and c.settings.near_field == 0.015
+    for bad in (-1.0, "far"):
+        with pytest.raises(SolverError, match="near field W"):
+            c.configure(near_field=bad)

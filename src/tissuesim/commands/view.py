@@ -26,6 +26,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
                         help="in-plane prestrain of the surface, so that a cut gapes by itself (hybrid, pbd; "
                              "default 0)")
+    parser.add_argument("--near-field", type=float, default=None, metavar="MM",
+                        help="the hybrid's near field: M_S nodes within MM millimetres of the contact follow quadratic "
+                             "tets on the fine volume (e.g. 15; default off)")
     parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
                         help="record every frame as a ParaView series (FILE.pvd + FILE_frames/)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
@@ -49,9 +52,11 @@ def run(args: argparse.Namespace) -> int:
     from ..viewer.app import ReplayApp, ViewerApp
     from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings
     from ..pbd.prestress import check_prestrain
+    from ..solvers.checks import positive_number
     from ..viewer.gl import polyscope
 
     check_prestrain(args.prestrain)
+    near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     if args.replay is not None:
         frames = read_recording(args.replay)
@@ -59,7 +64,8 @@ def run(args: argparse.Namespace) -> int:
         return 0
     print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
-    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS, prestrain=args.prestrain)
+    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS, prestrain=args.prestrain,
+                        near_field=near_field)
     controller = Controller(hybrid, settings=settings)
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=args.record)
     app.run()

@@ -72,9 +72,6 @@ def cut_updater(solver) -> "SolverCut":
         if name not in _REGISTRY:
             raise SolverError(f"the {name} method does not support cutting; cut a hybrid, pbd, mass-spring or "
                               "embedded solver")
-        before = getattr(solver, "_before_first_cut", None)
-        if before is not None:
-            before()
         updater = _REGISTRY[name](solver)
         solver._cut_updater = updater
     return updater
@@ -115,6 +112,10 @@ class SolverCut:
         plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)
         if plan is None:
             return CutReport(seconds=time.perf_counter() - start), -1
+        if not s.hybrid.info.get("cuts"):
+            before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
+            if before is not None:
+                before()
         n = plan.old_count
         originals = np.unique(plan.new_copy_of[plan.new_copy_of >= 0])
         released = originals[_members(originals, s.hybrid.control)]

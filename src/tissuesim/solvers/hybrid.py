@@ -118,6 +118,9 @@ class HybridSolver(SurfaceLayerSolver):
                 or not np.isfinite(near_field) or near_field <= 0:
             raise SolverError(f"near_field must be None or a positive, finite distance in metres (e.g. 0.015), "
                               f"got {near_field!r}")
+        if self.hybrid.info.get("cuts"):
+            raise SolverError("near_field needs an uncut mesh: its fine volume is not cut, so it does not describe "
+                              "this surface; drop near_field on a cut mesh")
         from ..mesh.regions import nodes_below
         from .near_field import NearField, fixed_corners
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..errors import TissuesimError
 from ..recording import Recorder, border_edges, solver_frame
+from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_options
 from .controller import MODES, Controller
 from .gl import look_at_oblique, polyscope
@@ -268,6 +269,14 @@ class ViewerApp:
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
                                                             1, 50)
             self._apply_on_release(psim, "iterations")
+        if "near_field" in solver_options(s.method):
+            if self.controller.near_field_available():
+                changed, on = psim.Checkbox(f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)",
+                                            s.near_field is not None)
+                if changed:
+                    self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
+            elif s.near_field is not None:
+                psim.TextUnformatted("near field off: the mesh is cut, or has no fine volume")
         if "prestrain" in solver_options(s.method):
             _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
                                                              0.0, 0.3, "%.3f")

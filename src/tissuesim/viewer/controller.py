@@ -44,7 +44,7 @@ BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picke
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
-_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain")
+_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field")
 
 
 @dataclass(frozen=True)
@@ -60,6 +60,8 @@ class Settings:
         dt: simulation time step [s].
         prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.pbd.prestress`), on the methods that
             take one (hybrid, pbd): a cut then gapes by itself.
+        near_field: W [m] of the hybrid's near field (:mod:`tissuesim.solvers.near_field`), or None (the paper's
+            hybrid); not on a cut mesh (its fine volume is not cut).
     """
 
     method: str = "hybrid"
@@ -70,6 +72,7 @@ class Settings:
     iterations: int | None = None
     dt: float = 0.01
     prestrain: float = 0.0
+    near_field: float | None = None
 
 
 @dataclass(frozen=True)
@@ -296,21 +299,31 @@ class Controller:
             positive_number("contact radius", settings.radius, "m")
         if settings.iterations is not None and int(settings.iterations) < 1:
             raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
-        return replace(settings, prestrain=check_prestrain(settings.prestrain))
+        near_field = None if settings.near_field is None else positive_number("near field W", settings.near_field, "m")
+        return replace(settings, prestrain=check_prestrain(settings.prestrain), near_field=near_field)
 
-    def _solver_options(self) -> dict:
+    def _solver_options(self, hybrid) -> dict:
         s = self.settings
         options = {"youngs_modulus": s.youngs_modulus, "poisson_ratio": s.poisson_ratio, "dt": s.dt}
         if s.iterations is not None and "iterations" in solver_options(s.method):
             options["iterations"] = int(s.iterations)
         if s.prestrain > 0.0 and "prestrain" in solver_options(s.method):
             options["prestrain"] = float(s.prestrain)
+        if s.near_field is not None and self.near_field_available(hybrid):
+            options["near_field"] = float(s.near_field)
         return options
+
+    def near_field_available(self, hybrid=None) -> bool:
+        """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
+        volume."""
+        mesh = self.solver.hybrid if hybrid is None else hybrid
+        return ("near_field" in solver_options(self.settings.method) and mesh.fine_volume is not None
+                and not mesh.info.get("cuts"))
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
         """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node."""
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
-        solver = make_solver(self.settings.method, hybrid, **self._solver_options())  # raises before any change
+        solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))  # raises before any change
         if not held:
             solver.step(self.settings.dt)  # at rest: builds what the first step needs (a factorisation) while loading
         self.solver = solver
