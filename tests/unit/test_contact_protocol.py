@@ -76,7 +76,11 @@ def test_report_prints_convergence_table_and_method_table(small_run, tmp_path):
     table = method_table(small_run)
     assert table.splitlines()[0].startswith("| Method | Rows |") and "Emb." in table and "FEM" in table
     paths = write_contact_outputs(small_run, tmp_path / "out")
-    assert sorted(p.name for p in paths) == ["report.md", "results.json"]
+    assert sorted(p.name for p in paths) == ["errors.png", "report.md", "results.json"]
+    from matplotlib.image import imread
+
+    image = imread(tmp_path / "out" / "errors.png")
+    assert image.shape[0] > 300 and image.shape[1] > 600 and image[..., :3].std() > 0.05   # drawn, not blank
     assert json.loads((tmp_path / "out" / "results.json").read_text())["schema"] == contact.SCHEMA
 
 

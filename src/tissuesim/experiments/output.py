@@ -73,12 +73,15 @@ def write_outputs(data: dict, folder, *, plots: bool = True) -> list[Path]:
 
 
 def write_contact_outputs(data: dict, folder) -> list[Path]:
-    """Write the contact protocol's folder: ``results.json`` and ``report.md``; return the paths written."""
+    """Write the contact protocol's folder: ``results.json``, ``report.md`` and ``errors.png``; return the paths
+    written."""
+    from .contact_plots import error_figure
     from .contact_report import contact_report_markdown
 
     def fill(staging: Path) -> None:
         (staging / "results.json").write_text(json.dumps(data, indent=1, allow_nan=False) + "\n")
         (staging / "report.md").write_text(contact_report_markdown(data))
+        error_figure(data).savefig(staging / "errors.png")
 
     return write_staged(folder, fill)
 

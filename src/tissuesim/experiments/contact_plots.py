@@ -1,0 +1,53 @@
+"""``errors.png`` of the contact protocol: each method's relative RMSE per model and R beside the load rule floor.
+
+One group of bars per model × R (median over its held-out rows, log scale), a black tick per group at the load rule
+floor (the error an exact solve of the solvers' nodal forces would have), and a dashed line at 0.10. Matplotlib's
+Agg backend: no display needed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .tables import LABELS
+
+COLOURS = {"hybrid": "tab:red", "hybrid-near": "darkred", "pbd": "tab:blue", "mass-spring": "tab:green",
+           "embedded": "tab:orange", "fem": "grey"}
+#: The absolute target drawn across the plot (relative RMSE).
+TARGET = 0.10
+
+
+def error_figure(data: dict):
+    """A matplotlib Figure of the held-out medians per model × R and method (see the module docstring)."""
+    from matplotlib.figure import Figure
+
+    methods = [m for m in data["metadata"]["methods"]
+               if any(r["method"] == m and r["relative_rmse"] is not None for r in data["records"])]
+    groups = list(dict.fromkeys((r["model"], r["radius_mm"]) for r in data["records"]))
+    figure = Figure(figsize=(max(6.0, 1.1 * len(groups) + 2.0), 4.2), dpi=110)
+    axes = figure.add_subplot()
+    width = 0.8 / max(len(methods), 1)
+    for k, method in enumerate(methods):
+        medians = [_median(data, group, method) for group in groups]
+        axes.bar(np.arange(len(groups)) - 0.4 + (k + 0.5) * width, medians, width,
+                 color=COLOURS.get(method, None), label=LABELS.get(method, method))
+    floors = [data["metadata"]["models"][model]["references"].get(f"{radius:g}", {}).get("load_rule_floor")
+              for model, radius in groups]
+    shown = [(i, f) for i, f in enumerate(floors) if f]
+    if shown:
+        axes.hlines([f for _, f in shown], [i - 0.45 for i, _ in shown], [i + 0.45 for i, _ in shown],
+                    colors="black", linewidth=2.0, label="load rule floor")
+    axes.axhline(TARGET, color="black", linestyle="--", linewidth=0.8, label=f"target {TARGET:g}")
+    axes.set_yscale("log")
+    axes.set_xticks(np.arange(len(groups)), [f"{model}\nR {radius:g} mm" for model, radius in groups], fontsize=7)
+    axes.set_ylabel("relative RMSE (median, held-out rows)")
+    axes.set_title("Contact protocol: error against the converged reference", fontsize=10)
+    axes.legend(fontsize=7, ncol=min(4, len(methods) + 2), loc="upper left", bbox_to_anchor=(0.0, -0.16))
+    figure.tight_layout()
+    return figure
+
+
+def _median(data: dict, group, method) -> float:
+    values = [r["relative_rmse"] for r in data["records"] if (r["model"], r["radius_mm"]) == group
+              and r["method"] == method and r["role"] == "held out" and r["relative_rmse"] is not None]
+    return float(np.median(values)) if values else np.nan
