@@ -32,6 +32,7 @@ and is switched off by a cut.
 from __future__ import annotations
 
 import warnings
+from functools import partial
 
 import numpy as np
 
@@ -126,7 +127,7 @@ class HybridSolver(SurfaceLayerSolver):
 
         fine = self.hybrid.fine_volume
         if self.fixed_from_height or fine is None:  # as every solver's volume: the nodes at or below the height
-            fixed = lambda points: nodes_below(points, self.fixed_height)  # noqa: E731
+            fixed = partial(nodes_below, height=self.fixed_height)
         else:
             fixed = fixed_corners(fine, self.fixed_volume_nodes(
                 fine.points, np.asarray(self.hybrid.fine_surface_nodes, dtype=np.int64)))
