@@ -24,14 +24,12 @@ import numpy as np
 from ..errors import MeshError
 from .fans import RowPatch, VertexFans
 from .separate import rows_touching, separate
+from .snapping import opposite_vertices, snapped_weights
 from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
 DEFAULT_SNAP = 0.25
-#: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
-#: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
-GUARD_QUALITY = 0.02
 
 
 @dataclass(frozen=True, eq=False)
@@ -138,24 +136,24 @@ class _Points:
     n: int
     snap: float
     rest: np.ndarray                              # (n, 3) rest positions: the quality guard measures there
-    now: np.ndarray | None = None                 # (n, 3) current positions: and there
+    now: np.ndarray                               # (n, 3) current positions: and there
     patch: RowPatch | None = None                 # the rows, for the triangles of an edge
     edge: dict = field(default_factory=dict)      # (lo, hi) -> list of [t from lo, id]
     facet: dict = field(default_factory=dict)     # triangle -> list of [weights (3,), id]
     parents: list = field(default_factory=list)   # per new point: (3,) vertex ids
     weights: list = field(default_factory=list)   # per new point: (3,) weights
 
-    def locate(self, corners: np.ndarray, triangle: int, w: np.ndarray) -> tuple:
-        """Snap barycentric ``w`` in a triangle with vertex ids ``corners``: ``("v", id)``, ``("e", lo, hi, t)`` (t
-        from lo) or ``("f", triangle, weights)``; nothing is registered yet."""
-        w = np.where(w < self.snap, 0.0, w)
-        w = np.array(self._guard(corners.tolist(), (w / w.sum()).tolist()))
-        nonzero = np.flatnonzero(w)
-        if nonzero.size == 1:
+    def locate(self, corners: np.ndarray, triangle: int, w: np.ndarray, opposite: np.ndarray) -> tuple:
+        """Snap barycentric ``w`` in a triangle with vertex ids ``corners`` (its sides' opposite vertices
+        ``opposite``, :func:`~.snapping.opposite_vertices`): ``("v", id)``, ``("e", lo, hi, t)`` (t from lo) or
+        ``("f", triangle, weights)``; nothing is registered yet."""
+        w = snapped_weights(self.rest, self.now, corners, w, opposite, self.snap)
+        nonzero = [k for k, x in enumerate(w.tolist()) if x != 0.0]
+        if len(nonzero) == 1:
             return ("v", int(corners[nonzero[0]]))
-        if nonzero.size == 2:
-            i, j = corners[nonzero]
-            lo, hi = (int(i), int(j)) if i < j else (int(j), int(i))
+        if len(nonzero) == 2:
+            i, j = int(corners[nonzero[0]]), int(corners[nonzero[1]])
+            lo, hi = (i, j) if i < j else (j, i)
             t = float(w[nonzero[1]] if j == hi else w[nonzero[0]])
             if t < self.snap:
                 return ("v", lo)
@@ -163,41 +161,6 @@ class _Points:
                 return ("v", hi)
             return ("e", lo, hi, t)
         return ("f", triangle, w)
-
-    def _guard(self, corners: list, w: list) -> list:
-        """Snap further while a piece the point would make in this triangle falls below :data:`GUARD_QUALITY` at
-        rest or at the current positions (a cut on a deformed surface): a facet point onto the edge of its worst
-        piece, an edge point onto the nearer end (repeated re-cuts would otherwise thin the triangles step by step).
-        Plain floats: a handful of 3-vectors, where array calls would cost more than the arithmetic."""
-        while sum(x != 0.0 for x in w) > 1:
-            inside = [i for i in range(3) if w[i] != 0.0]
-            quality = [min(q) for q in zip(*(self._piece_quality(corners, w, inside, where)
-                                            for where in (self.rest, self.now) if where is not None))]
-            if min(quality) >= GUARD_QUALITY:
-                break
-            if len(inside) == 3:
-                worst = quality.index(min(quality))
-                w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
-            else:
-                i, j = inside
-                w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
-            total = sum(w)
-            w = [x / total for x in w]
-        return w
-
-    def _piece_quality(self, corners, w, inside, where) -> list:
-        """Qualities of the pieces a point at barycentric ``w`` would make, with vertices at ``where`` ``(n, 3)``:
-        three in its triangle for a facet point (piece i on edge (i, i + 1)), two per triangle of its edge for an edge
-        point (the neighbour gets the point too, Fig 7(a))."""
-        p = where[corners].tolist()
-        x = [w[0] * p[0][k] + w[1] * p[1][k] + w[2] * p[2][k] for k in range(3)]
-        if len(inside) == 3:
-            return [_quality3(x, p[i], p[(i + 1) % 3]) for i in range(3)]
-        i, j = inside
-        lo, hi = sorted((corners[i], corners[j]))
-        others = [o for r in self.patch.owners(lo, hi) for o in self.patch.row_list(r) if o not in (lo, hi)]
-        others = others or [corners[3 - i - j]]
-        return [_quality3(x, p[e], where[o].tolist()) for o in others for e in (i, j)]
 
     def same(self, a: tuple, b: tuple) -> bool:
         """Whether two located points are one point after snapping (then the segment between them is dropped)."""
@@ -320,7 +283,8 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
     segments = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        ends = [points.locate(corners, crossing.triangle, w) for w in crossing.ends]
+        opposite = opposite_vertices(patch, corners.tolist())
+        ends = [points.locate(corners, crossing.triangle, w, opposite) for w in crossing.ends]
         if points.same(*ends):
             continue            # the segment snapped to a point: nothing to cut in this triangle
         a, b = (points.commit(corners, end) for end in ends)
@@ -363,22 +327,6 @@ def _mix(weights, parents, values):
     return np.einsum("ij,ij...->i...", weights, values[parents])
 
 
-def _quality3(a, b, c) -> float:
-    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D (1 equilateral, 0 degenerate); corners as 3-sequences
-    (unrolled: it runs a few times per cut point, where array calls would cost more than the arithmetic)."""
-    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
-    wx, wy, wz = c[0] - b[0], c[1] - b[1], c[2] - b[2]
-    squares = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
-    if squares <= 0.0:
-        return 0.0
-    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
-    return _TWO_ROOT3 * math.sqrt(cx * cx + cy * cy + cz * cz) / squares
-
-
-_TWO_ROOT3 = 2.0 * math.sqrt(3.0)
-
-
 def _farthest(segments, positions, sweep) -> int:
     """The segment end with the largest sweep coordinate s (the tip's side of the cut)."""
     ends = np.unique(np.array(list(segments.values()), dtype=np.int64).ravel())
@@ -397,11 +345,9 @@ def _affected(segments, points, patch) -> list[int]:
 
 def _split(t, corners, rest, points, segment, snap):
     """Sub-triangles (global ids) of triangle ``t`` and the cut edges inside it (Fig 7 case by case)."""
-    ids, frame = _polygon(corners, rest, points)
-    polygon = np.array([frame(w) for _, w in ids])
-    poly_ids = [pid for pid, _ in ids]
-    facets = points.facet.get(t, [])
-    facet_of = {pid: w for w, pid in facets}
+    poly_ids, xy, frame = _polygon(corners, rest, points)
+    polygon = np.array(xy)
+    facet_of = {pid: w for w, pid in points.facet.get(t, [])}
     if segment is None:
         local = split_uncut(polygon)
         return _globals(local, poly_ids), set()
@@ -414,7 +360,7 @@ def _split(t, corners, rest, points, segment, snap):
         local = split_partial_cut(polygon, frame(facet_of[facet]))
         return _globals(local, poly_ids + [facet]), {_key(facet, edge_end)}
     i, j = poly_ids.index(a), poly_ids.index(b)
-    chain = _side_chain(polygon, i, j)
+    chain = _side_chain(xy, i, j)
     if chain is not None:       # along one side: its pieces between a and b are the cut
         local = split_uncut(polygon)
         return _globals(local, poly_ids), {_key(poly_ids[p], poly_ids[q]) for p, q in zip(chain, chain[1:])}
@@ -423,42 +369,44 @@ def _split(t, corners, rest, points, segment, snap):
 
 
 def _polygon(corners, rest, points):
-    """The triangle's boundary points (vertex id, barycentric weights) counter-clockwise, and a map weights →
-    2-D coordinates in the plane of its rest triangle."""
-    p = rest[corners]
-    ab, ac = p[1] - p[0], p[2] - p[0]
-    length = np.linalg.norm(ab)
-    x = ab / length
-    cx = ac @ x
-    cy = np.linalg.norm(ac - cx * x)
-    flat = np.array([[0.0, 0.0], [length, 0.0], [cx, cy]])
-    ids = []
+    """The triangle's boundary points counter-clockwise, as vertex ids and 2-D coordinates in the plane of its rest
+    triangle, and a map barycentric weights → those coordinates. Plain floats: a handful of points."""
+    ids = corners.tolist()
+    (ax, ay, az), (bx, by, bz), (cx, cy, cz) = rest[corners].tolist()
+    ux, uy, uz, vx, vy, vz = bx - ax, by - ay, bz - az, cx - ax, cy - ay, cz - az
+    length = math.sqrt(ux * ux + uy * uy + uz * uz)
+    along = (vx * ux + vy * uy + vz * uz) / length
+    nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    across = math.sqrt(nx * nx + ny * ny + nz * nz) / length      # no cancellation on thin triangles
+    flat = ((0.0, 0.0), (length, 0.0), (along, across))
+    poly_ids, xy = [], []
     for k in range(3):
-        u, v = int(corners[k]), int(corners[(k + 1) % 3])
-        w = np.zeros(3)
-        w[k] = 1.0
-        ids.append((u, w))
-        on_side = points.edge.get((min(u, v), max(u, v)), [])
-        along = sorted((tt if u < v else 1.0 - tt, pid) for tt, pid in on_side)
-        for s, pid in along:
-            w = np.zeros(3)
-            w[k], w[(k + 1) % 3] = 1.0 - s, s
-            ids.append((pid, w))
-    return ids, lambda w: w @ flat
+        u, v = ids[k], ids[(k + 1) % 3]
+        (x0, y0), (x1, y1) = flat[k], flat[(k + 1) % 3]
+        poly_ids.append(u)
+        xy.append(flat[k])
+        on_side = points.edge.get((u, v) if u < v else (v, u), ())
+        for s, pid in sorted((tt if u < v else 1.0 - tt, pid) for tt, pid in on_side):
+            poly_ids.append(pid)
+            xy.append(((1.0 - s) * x0 + s * x1, (1.0 - s) * y0 + s * y1))
+
+    def frame(w):
+        return np.array([w[1] * length + w[2] * along, w[2] * across])
+
+    return poly_ids, xy, frame
 
 
-def _side_chain(polygon, i, j):
+def _side_chain(xy, i, j):
     """Polygon indices from i to j along one side (all collinear), or None if i, j are not on one side."""
-    k = len(polygon)
+    k = len(xy)
     for step in (1, -1):
         chain = [i]
         while chain[-1] != j:
             chain.append((chain[-1] + step) % k)
-        pts = polygon[chain]
-        d = pts - pts[0]
-        cross = d[:, 0] * d[-1, 1] - d[:, 1] * d[-1, 0]
-        scale = np.sum(d[-1] ** 2)
-        if np.all(np.abs(cross) <= 1e-9 * scale):
+        x0, y0 = xy[i]
+        dx, dy = xy[j][0] - x0, xy[j][1] - y0
+        tolerance = 1e-9 * (dx * dx + dy * dy)
+        if all(abs((xy[c][0] - x0) * dy - (xy[c][1] - y0) * dx) <= tolerance for c in chain):
             return chain
     return None
 

@@ -19,15 +19,15 @@ which never picks three collinear points while another choice exists.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
+from numba import njit
 
 from ..errors import MeshError
 
-SQRT3 = np.sqrt(3.0)
+SQRT3 = float(np.sqrt(3.0))
 
 
+@njit(cache=True)
 def triangle_quality(a, b, c) -> float:
     """4√3 A / (|ab|² + |bc|² + |ca|²) of a 2-D triangle (corners as 2-sequences): 1 equilateral, 0 degenerate,
     < 0 clockwise."""
@@ -38,33 +38,42 @@ def triangle_quality(a, b, c) -> float:
 
 
 def split_uncut(polygon: np.ndarray) -> np.ndarray:
-    """Fig 7(a): triangulate a convex polygon (sides may carry collinear points) at the best smallest quality.
-    Plain floats and lists: the polygon has a handful of points."""
-    k = len(polygon)
-    if k < 3:
-        raise MeshError(f"a polygon needs at least 3 points to triangulate, got {k}")
-    points = np.asarray(polygon, dtype=np.float64).tolist()
-    best = [[math.inf] * k for _ in range(k)]
-    choice = [[-1] * k for _ in range(k)]
+    """Fig 7(a): triangulate a convex polygon (sides may carry collinear points) at the best smallest quality."""
+    polygon = np.asarray(polygon, dtype=np.float64)
+    if len(polygon) < 3:
+        raise MeshError(f"a polygon needs at least 3 points to triangulate, got {len(polygon)}")
+    return _best_triangulation(polygon)
+
+
+@njit(cache=True)
+def _best_triangulation(points):
+    """Dynamic programming over the diagonals of a convex polygon ``(k, 2)``: the triangulation whose smallest
+    triangle quality is largest, as ``(k − 2, 3) int64`` point indices."""
+    k = points.shape[0]
+    best = np.full((k, k), np.inf)
+    choice = np.full((k, k), -1, dtype=np.int64)
     for gap in range(2, k):
         for i in range(k - gap):
             j = i + gap
-            best[i][j] = -math.inf
+            best[i, j] = -np.inf
             for m in range(i + 1, j):
                 q = min(triangle_quality(points[i], points[m], points[j]),
-                        best[i][m] if m - i > 1 else math.inf, best[m][j] if j - m > 1 else math.inf)
-                if q > best[i][j]:
-                    best[i][j], choice[i][j] = q, m
-    triangles = []
+                        best[i, m] if m - i > 1 else np.inf, best[m, j] if j - m > 1 else np.inf)
+                if q > best[i, j]:
+                    best[i, j], choice[i, j] = q, m
+    triangles = np.empty((k - 2, 3), dtype=np.int64)
     stack = [(0, k - 1)]
+    count = 0
     while stack:
         i, j = stack.pop()
         if j - i < 2:
             continue
-        m = choice[i][j]
-        triangles.append((i, m, j))
-        stack += [(i, m), (m, j)]
-    return np.array(triangles, dtype=np.int64)
+        m = choice[i, j]
+        triangles[count] = (i, m, j)
+        count += 1
+        stack.append((i, m))
+        stack.append((m, j))
+    return triangles
 
 
 def split_full_cut(polygon: np.ndarray, first: int, second: int) -> np.ndarray:
@@ -128,8 +137,17 @@ def _check_inside(polygon, point) -> None:
             raise MeshError("a facet point must lie strictly inside its triangle; snap it onto the edge first")
 
 
-def _collinear(points: np.ndarray) -> bool:
-    d = points - points[0]
-    scale = np.max(np.abs(d)) + 1e-300
-    cross = d[1:, 0, None] * d[None, 1:, 1] - d[1:, 1, None] * d[None, 1:, 0]
-    return bool(np.all(np.abs(cross) <= 1e-12 * scale * scale))
+@njit(cache=True)
+def _collinear(points) -> bool:
+    """Whether the points ``(k, 2)`` lie on one line (relative to their spread)."""
+    scale = 0.0
+    for i in range(1, points.shape[0]):
+        scale = max(scale, abs(points[i, 0] - points[0, 0]), abs(points[i, 1] - points[0, 1]))
+    scale += 1e-300
+    for i in range(1, points.shape[0]):
+        for j in range(1, points.shape[0]):
+            cross = ((points[i, 0] - points[0, 0]) * (points[j, 1] - points[0, 1])
+                     - (points[i, 1] - points[0, 1]) * (points[j, 0] - points[0, 0]))
+            if abs(cross) > 1e-12 * scale * scale:
+                return False
+    return True

@@ -48,12 +48,13 @@ class Sweep:
         tip0, tip1, blade = (np.asarray(a, dtype=np.float64).reshape(3) for a in (tip0, tip1, blade))
         return cls(tip0, tip1 - tip0, blade)
 
-    @property
+    @cached_property
     def normal(self) -> np.ndarray:
         """``(3,) float64`` unit normal of the sweep plane (zero when the tip moved along the blade)."""
-        n = np.cross(self.u, self.v)
-        length = np.linalg.norm(n)
-        return n / length if length > 0.0 else n
+        (ux, uy, uz), (vx, vy, vz) = self.u.tolist(), self.v.tolist()
+        n = (uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx)
+        length = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        return np.array(n) / length if length > 0.0 else np.array(n)
 
     @property
     def corners(self) -> np.ndarray:
@@ -65,8 +66,10 @@ class Sweep:
     def _dual(self) -> np.ndarray:
         """``(3, 2)`` the dual basis of (u, v) in their plane: (x − origin) @ dual = (s, t) (made once per sweep,
         which projects a point per crossing)."""
-        gram = np.array([[self.u @ self.u, self.u @ self.v], [self.u @ self.v, self.v @ self.v]])
-        return np.stack([self.u, self.v], axis=1) @ np.linalg.inv(gram)
+        u, v = self.u, self.v
+        uu, uv, vv = float(u @ u), float(u @ v), float(v @ v)
+        det = uu * vv - uv * uv
+        return np.stack([(vv * u - uv * v) / det, (uu * v - uv * u) / det], axis=1)
 
     def plane_coordinates(self, points: np.ndarray) -> np.ndarray:
         """``(k, 2) float64`` (s, t) of ``points`` ``(k, 3)`` [m] projected onto the sweep plane."""
@@ -123,58 +126,85 @@ def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *,
     normal = sweep.normal
     if not np.any(normal):
         return []
-    out = []
     near = candidate_triangles(positions, triangles, sweep) if near is None else near
-    p = positions[triangles[near]]
-    d = (p - sweep.origin) @ normal
-    reach = PLANE_TOLERANCE * np.abs(p - p[:, [1, 2, 0]]).sum(axis=(1, 2))
-    straddling = near[(d.min(axis=1) <= reach) & (d.max(axis=1) >= -reach)]    # the plane passes through
-    for t in straddling:
-        ends = _plane_segment(positions, triangles[t], sweep.origin, normal)
-        if ends is None:
-            continue
-        clipped = _clip(ends, positions[triangles[t]], sweep)
-        if clipped is not None:
-            out.append(Crossing(int(t), clipped))
-    return out
+    rows, ends = _crossing_segments(positions, triangles, np.asarray(near, dtype=np.int64), sweep.origin, normal,
+                                    sweep._dual, PLANE_TOLERANCE)
+    return [Crossing(t, e) for t, e in zip(rows.tolist(), ends)]
 
 
-def _plane_segment(positions, corners, origin, normal):
-    """``(2, 3)`` barycentric ends of the triangle ∩ plane segment, or None (no crossing, a point, coplanar).
-    Plain floats: three points per triangle, where array calls would cost more than the arithmetic."""
-    p = positions[corners].tolist()
-    o, n = origin.tolist(), normal.tolist()
-    scale = max(math.dist(p[1], p[0]), math.dist(p[2], p[1]), math.dist(p[0], p[2]))
-    d = [(x[0] - o[0]) * n[0] + (x[1] - o[1]) * n[1] + (x[2] - o[2]) * n[2] for x in p]
-    d = [0.0 if abs(x) <= PLANE_TOLERANCE * scale else x for x in d]
-    if not any(d):
-        return None
-    points = [[1.0 if k == i else 0.0 for k in range(3)] for i in range(3) if d[i] == 0.0]
-    ids = corners.tolist()
-    for i, j in ((0, 1), (1, 2), (2, 0)):
+@njit(cache=True)
+def _crossing_segments(positions, triangles, near, origin, normal, dual, tolerance):
+    """``(rows (k,) int64, ends (k, 2, 3))``: the rows of ``near`` the sweep plane crosses in a segment, and the
+    barycentric ends of that segment clipped to the parallelogram (one compiled pass over the candidates)."""
+    rows = np.empty(near.size, dtype=np.int64)
+    ends = np.empty((near.size, 2, 3))
+    count = 0
+    w = np.empty((2, 3))
+    for t in near:
+        if _plane_segment(positions, triangles[t], origin, normal, tolerance, w) and \
+                _clip(w, positions, triangles[t], origin, dual):
+            rows[count] = t
+            ends[count] = w
+            count += 1
+    return rows[:count], ends[:count]
+
+
+@njit(cache=True)
+def _plane_segment(positions, corners, origin, normal, tolerance, out):
+    """Write into ``out`` ``(2, 3)`` the barycentric ends of the triangle ∩ plane segment; False when there is
+    none (no crossing, a single point, or the triangle lies in the plane)."""
+    d = np.empty(3)
+    scale = 0.0
+    for i in range(3):
+        a, b = positions[corners[i]], positions[corners[(i + 1) % 3]]
+        scale = max(scale, math.sqrt((b[0] - a[0]) ** 2 + (b[1] - a[1]) ** 2 + (b[2] - a[2]) ** 2))
+        x = positions[corners[i]]
+        d[i] = (x[0] - origin[0]) * normal[0] + (x[1] - origin[1]) * normal[1] + (x[2] - origin[2]) * normal[2]
+    for i in range(3):
+        if abs(d[i]) <= tolerance * scale:
+            d[i] = 0.0
+    if d[0] == 0.0 and d[1] == 0.0 and d[2] == 0.0:
+        return False
+    found = 0
+    out[:] = 0.0
+    for i in range(3):
+        if d[i] == 0.0:
+            if found == 2:
+                return False
+            out[found, i] = 1.0
+            found += 1
+    for i in range(3):
+        j = (i + 1) % 3
         if d[i] * d[j] < 0.0:
-            lo, hi = (i, j) if ids[i] < ids[j] else (j, i)
+            if found == 2:
+                return False
+            lo, hi = (i, j) if corners[i] < corners[j] else (j, i)
             t = d[lo] / (d[lo] - d[hi])
-            w = [0.0, 0.0, 0.0]
-            w[lo], w[hi] = 1.0 - t, t
-            points.append(w)
-    if len(points) != 2:
-        return None
-    return np.array(points)
+            out[found, lo], out[found, hi] = 1.0 - t, t
+            found += 1
+    return found == 2
 
 
-def _clip(ends, corners_xyz, sweep):
-    """Clip a segment (barycentric ends) to the parallelogram s, t ∈ [0, 1] (Liang–Barsky); None if outside."""
-    st = sweep.plane_coordinates(ends @ corners_xyz)
-    start, delta = st[0], st[1] - st[0]
+@njit(cache=True)
+def _clip(ends, positions, corners, origin, dual):
+    """Clip the segment of barycentric ``ends`` ``(2, 3)`` to the parallelogram s, t ∈ [0, 1] (Liang–Barsky), in
+    place; False if nothing is left."""
+    st = np.zeros((2, 2))
+    for e in range(2):
+        for k in range(3):
+            x = (ends[e, 0] * positions[corners[0], k] + ends[e, 1] * positions[corners[1], k]
+                 + ends[e, 2] * positions[corners[2], k]) - origin[k]
+            st[e, 0] += x * dual[k, 0]
+            st[e, 1] += x * dual[k, 1]
     lo, hi = 0.0, 1.0
     for k in range(2):
+        start, delta = st[0, k], st[1, k] - st[0, k]
         for bound, sign in ((0.0, 1.0), (1.0, -1.0)):
             # keep sign * (start + λ delta − bound) ≥ 0
-            a, b = sign * delta[k], sign * (start[k] - bound)
+            a, b = sign * delta, sign * (start - bound)
             if a == 0.0:
                 if b < 0.0:
-                    return None
+                    return False
                 continue
             root = -b / a
             if a > 0.0:
@@ -182,8 +212,12 @@ def _clip(ends, corners_xyz, sweep):
             else:
                 hi = min(hi, root)
     if hi - lo <= 0.0:
-        return None
-    return np.stack([ends[0] + lo * (ends[1] - ends[0]), ends[0] + hi * (ends[1] - ends[0])])
+        return False
+    first = ends[0].copy()
+    step = ends[1] - ends[0]
+    ends[0] = first + lo * step
+    ends[1] = first + hi * step
+    return True
 
 
 def check_snap(snap: float) -> float:

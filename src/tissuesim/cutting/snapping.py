@@ -1,0 +1,93 @@
+"""Snapping a cut point in its triangle, and the quality guard that snaps it further (§7 is silent on both).
+
+A crossing's end arrives as barycentric weights in a triangle. Weights below the snap fraction σ are dropped (the
+point goes onto the edge or vertex beside it, see :mod:`.sweep`). The guard then snaps further while a piece the
+point would make falls below :data:`GUARD_QUALITY` at rest or at the current positions (a cut on a deformed
+surface): a facet point onto the edge of its worst piece, an edge point onto the nearer end. Repeated re-cuts would
+otherwise thin the triangles step by step. Compiled: it runs for both ends of every crossing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+#: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
+#: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
+GUARD_QUALITY = 0.02
+
+
+def opposite_vertices(patch, corners: list[int]) -> np.ndarray:
+    """``(3, w) int64`` for each side (k, k + 1) of the triangle ``corners``, the vertices opposite that side in the
+    rows of ``patch`` that hold it (an edge point there splits all of them, Fig 7(a)); −1 pads."""
+    sides = []
+    for k in range(3):
+        u, v = corners[k], corners[(k + 1) % 3]
+        lo, hi = (u, v) if u < v else (v, u)
+        others = [o for r in patch.owners(lo, hi) for o in patch.row_list(r) if o != lo and o != hi]
+        sides.append(others or [corners[(k + 2) % 3]])
+    out = np.full((3, max(2, max(len(s) for s in sides))), -1, dtype=np.int64)
+    for k, others in enumerate(sides):
+        out[k, :len(others)] = others
+    return out
+
+
+@njit(cache=True)
+def snapped_weights(rest, now, corners, weights, opposite, snap):
+    """``(3,) float64`` the barycentric ``weights`` of a point in the triangle ``corners`` after snapping by ``snap``
+    and the quality guard, at rest positions ``rest`` and current positions ``now`` ``(n, 3)`` [m]; ``opposite`` from
+    :func:`opposite_vertices`. Zero weights mark the corners the point is not on."""
+    w = np.where(weights < snap, 0.0, weights)
+    w /= w.sum()
+    while np.count_nonzero(w) > 1:
+        quality = np.full(3 * opposite.shape[1] * 2, np.inf)
+        _piece_qualities(rest, corners, w, opposite, quality)
+        _piece_qualities(now, corners, w, opposite, quality)
+        if quality.min() >= GUARD_QUALITY:
+            break
+        inside = np.flatnonzero(w)
+        if inside.size == 3:
+            worst = int(np.argmin(quality[:3]))
+            w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
+        else:
+            i, j = inside[0], inside[1]
+            w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
+        w /= w.sum()
+    return w
+
+
+@njit(cache=True)
+def _piece_qualities(where, corners, w, opposite, quality):
+    """Lower ``quality`` to the qualities of the pieces a point at ``w`` would make, with vertices at ``where``:
+    three in its triangle for a facet point (piece i on side (i, i + 1), at ``quality[i]``), two per triangle of
+    its side for an edge point."""
+    x = w[0] * where[corners[0]] + w[1] * where[corners[1]] + w[2] * where[corners[2]]
+    inside = np.flatnonzero(w)
+    if inside.size == 3:
+        for i in range(3):
+            quality[i] = min(quality[i], _quality3(x, where[corners[i]], where[corners[(i + 1) % 3]]))
+        return
+    i, j = inside[0], inside[1]
+    side = i if (i + 1) % 3 == j else j         # the side (k, k + 1) the point lies on
+    slot = 0
+    for o in opposite[side]:
+        if o < 0:
+            break
+        for e in (i, j):
+            quality[slot] = min(quality[slot], _quality3(x, where[corners[e]], where[o]))
+            slot += 1
+
+
+@njit(cache=True)
+def _quality3(a, b, c):
+    """4√3 A / (|ab|² + |bc|² + |ca|²) of a triangle in 3-D: 1 equilateral, 0 degenerate."""
+    ux, uy, uz = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    vx, vy, vz = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+    wx, wy, wz = c[0] - b[0], c[1] - b[1], c[2] - b[2]
+    squares = ux * ux + uy * uy + uz * uz + vx * vx + vy * vy + vz * vz + wx * wx + wy * wy + wz * wz
+    if squares <= 0.0:
+        return 0.0
+    cx, cy, cz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+    return 2.0 * math.sqrt(3.0) * math.sqrt(cx * cx + cy * cy + cz * cz) / squares
