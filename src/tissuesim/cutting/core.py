@@ -274,6 +274,8 @@ class CutPlan:
 def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near) -> CutPlan | None:
     """The cut of ``sweep`` among the candidate rows ``near`` (arrays as :func:`cut_surface`'s; ``fans`` must
     cover every vertex of ``near`` and of ``closed``); None if nothing is cut. Writes nothing."""
+    # read-only views: the compiled kernels then see one array type, whoever owns the arrays (one compilation)
+    rest, positions, triangles = (_read_only(a) for a in (rest, positions, triangles))
     found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
@@ -321,6 +323,12 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
                    patch=patch, origin=origin, changed=changed,
                    replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
                    still_closed=still_closed, split_count=len(affected), segments=segments)
+
+
+def _read_only(array: np.ndarray) -> np.ndarray:
+    view = array.view()
+    view.flags.writeable = False
+    return view
 
 
 def _mix(weights, parents, values):

@@ -41,8 +41,9 @@ class VertexFans:
         """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content list) for the rows it has."""
         edited = edited or {}
         m = len(triangles)
-        return [r for r in dict.fromkeys(self.candidates(v))
-                if r < m and v in (edited[r] if r in edited else triangles[r].tolist())]
+        rows = [r for r in dict.fromkeys(self.candidates(v)) if r < m]
+        contents = triangles[rows].tolist()         # one gather: per-row reads cost more than the rows
+        return [r for r, content in zip(rows, contents) if v in (edited[r] if r in edited else content)]
 
     def record(self, rows, contents, copies=()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
@@ -103,12 +104,18 @@ class RowPatch:
         self.edited: dict[int, list[int]] = {}
         self.added: list[list[int]] = []
         self._fans: dict[int, list[int]] = {}       # fans read since the last write
+        self._base_rows: dict[int, list[int]] = {}  # rows of ``base`` read so far (never written)
 
     def row_list(self, r: int) -> list[int]:
         """Row ``r``'s current content as a list."""
         if r in self.edited:
             return self.edited[r]
-        return self.base[r].tolist() if r < self.m else self.added[r - self.m]
+        if r >= self.m:
+            return self.added[r - self.m]
+        row = self._base_rows.get(r)
+        if row is None:
+            row = self._base_rows[r] = self.base[r].tolist()
+        return row
 
     def write(self, r: int, content) -> None:
         self._fans.clear()

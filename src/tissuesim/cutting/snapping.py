@@ -39,23 +39,48 @@ def snapped_weights(rest, now, corners, weights, opposite, snap):
     """``(3,) float64`` the barycentric ``weights`` of a point in the triangle ``corners`` after snapping by ``snap``
     and the quality guard, at rest positions ``rest`` and current positions ``now`` ``(n, 3)`` [m]; ``opposite`` from
     :func:`opposite_vertices`. Zero weights mark the corners the point is not on."""
-    w = np.where(weights < snap, 0.0, weights)
-    w /= w.sum()
-    while np.count_nonzero(w) > 1:
-        quality = np.full(3 * opposite.shape[1] * 2, np.inf)
+    w = np.zeros(3)
+    for k in range(3):
+        if weights[k] >= snap:
+            w[k] = weights[k]
+    _normalise(w)
+    quality = np.empty(6 * opposite.shape[1])
+    while (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0) > 1:
+        for k in range(quality.size):
+            quality[k] = np.inf
         _piece_qualities(rest, corners, w, opposite, quality)
         _piece_qualities(now, corners, w, opposite, quality)
-        if quality.min() >= GUARD_QUALITY:
+        lowest = np.inf
+        for q in quality:
+            lowest = min(lowest, q)
+        if lowest >= GUARD_QUALITY:
             break
-        inside = np.flatnonzero(w)
-        if inside.size == 3:
-            worst = int(np.argmin(quality[:3]))
+        if w[0] != 0.0 and w[1] != 0.0 and w[2] != 0.0:
+            worst = 0
+            for i in range(1, 3):
+                if quality[i] < quality[worst]:
+                    worst = i
             w[(worst + 2) % 3] = 0.0                # onto the worst piece's edge (worst, worst + 1)
         else:
-            i, j = inside[0], inside[1]
+            i, j = _inside_pair(w)
             w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
-        w /= w.sum()
+        _normalise(w)
     return w
+
+
+@njit(cache=True)
+def _normalise(w):
+    total = w[0] + w[1] + w[2]
+    for k in range(3):
+        w[k] /= total
+
+
+@njit(cache=True)
+def _inside_pair(w):
+    """The two corners with non-zero weight, ascending (of an edge point)."""
+    i = 0 if w[0] != 0.0 else 1
+    j = 2 if w[2] != 0.0 else 1
+    return i, j
 
 
 @njit(cache=True)
@@ -63,21 +88,22 @@ def _piece_qualities(where, corners, w, opposite, quality):
     """Lower ``quality`` to the qualities of the pieces a point at ``w`` would make, with vertices at ``where``:
     three in its triangle for a facet point (piece i on side (i, i + 1), at ``quality[i]``), two per triangle of
     its side for an edge point."""
-    x = w[0] * where[corners[0]] + w[1] * where[corners[1]] + w[2] * where[corners[2]]
-    inside = np.flatnonzero(w)
-    if inside.size == 3:
+    x = np.zeros(3)
+    for k in range(3):
+        x[k] = w[0] * where[corners[0], k] + w[1] * where[corners[1], k] + w[2] * where[corners[2], k]
+    if w[0] != 0.0 and w[1] != 0.0 and w[2] != 0.0:
         for i in range(3):
             quality[i] = min(quality[i], _quality3(x, where[corners[i]], where[corners[(i + 1) % 3]]))
         return
-    i, j = inside[0], inside[1]
+    i, j = _inside_pair(w)
     side = i if (i + 1) % 3 == j else j         # the side (k, k + 1) the point lies on
     slot = 0
     for o in opposite[side]:
         if o < 0:
             break
-        for e in (i, j):
-            quality[slot] = min(quality[slot], _quality3(x, where[corners[e]], where[o]))
-            slot += 1
+        quality[slot] = min(quality[slot], _quality3(x, where[corners[i]], where[o]))
+        quality[slot + 1] = min(quality[slot + 1], _quality3(x, where[corners[j]], where[o]))
+        slot += 2
 
 
 @njit(cache=True)

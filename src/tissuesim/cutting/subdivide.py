@@ -62,17 +62,20 @@ def _best_triangulation(points):
                 if q > best[i, j]:
                     best[i, j], choice[i, j] = q, m
     triangles = np.empty((k - 2, 3), dtype=np.int64)
-    stack = [(0, k - 1)]
-    count = 0
-    while stack:
-        i, j = stack.pop()
+    stack = np.empty((2 * k, 2), dtype=np.int64)         # (i, j) spans still to split
+    stack[0, 0], stack[0, 1] = 0, k - 1
+    depth, count = 1, 0
+    while depth:
+        depth -= 1
+        i, j = stack[depth, 0], stack[depth, 1]
         if j - i < 2:
             continue
         m = choice[i, j]
-        triangles[count] = (i, m, j)
+        triangles[count, 0], triangles[count, 1], triangles[count, 2] = i, m, j
         count += 1
-        stack.append((i, m))
-        stack.append((m, j))
+        stack[depth, 0], stack[depth, 1] = i, m
+        stack[depth + 1, 0], stack[depth + 1, 1] = m, j
+        depth += 2
     return triangles
 
 

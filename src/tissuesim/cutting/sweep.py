@@ -140,11 +140,14 @@ def _crossing_segments(positions, triangles, near, origin, normal, dual, toleran
     ends = np.empty((near.size, 2, 3))
     count = 0
     w = np.empty((2, 3))
-    for t in near:
+    for q in range(near.size):
+        t = near[q]
         if _plane_segment(positions, triangles[t], origin, normal, tolerance, w) and \
                 _clip(w, positions, triangles[t], origin, dual):
             rows[count] = t
-            ends[count] = w
+            for e in range(2):
+                for k in range(3):
+                    ends[count, e, k] = w[e, k]
             count += 1
     return rows[:count], ends[:count]
 
@@ -199,25 +202,31 @@ def _clip(ends, positions, corners, origin, dual):
     lo, hi = 0.0, 1.0
     for k in range(2):
         start, delta = st[0, k], st[1, k] - st[0, k]
-        for bound, sign in ((0.0, 1.0), (1.0, -1.0)):
-            # keep sign * (start + λ delta − bound) ≥ 0
-            a, b = sign * delta, sign * (start - bound)
-            if a == 0.0:
-                if b < 0.0:
-                    return False
-                continue
-            root = -b / a
-            if a > 0.0:
-                lo = max(lo, root)
-            else:
-                hi = min(hi, root)
+        # keep 0 ≤ start + λ delta ≤ 1
+        inside, lo, hi = _clip_bound(delta, start, lo, hi)
+        if not inside:
+            return False
+        inside, lo, hi = _clip_bound(-delta, 1.0 - start, lo, hi)
+        if not inside:
+            return False
     if hi - lo <= 0.0:
         return False
-    first = ends[0].copy()
-    step = ends[1] - ends[0]
-    ends[0] = first + lo * step
-    ends[1] = first + hi * step
+    for k in range(3):
+        first, step = ends[0, k], ends[1, k] - ends[0, k]
+        ends[0, k] = first + lo * step
+        ends[1, k] = first + hi * step
     return True
+
+
+@njit(cache=True)
+def _clip_bound(a, b, lo, hi):
+    """Liang–Barsky on one bound, a λ + b ≥ 0: whether any λ is left, and the new [lo, hi]."""
+    if a == 0.0:
+        return b >= 0.0, lo, hi
+    root = -b / a
+    if a > 0.0:
+        return True, max(lo, root), hi
+    return True, lo, min(hi, root)
 
 
 def check_snap(snap: float) -> float:
