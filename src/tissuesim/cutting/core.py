@@ -282,10 +282,10 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
     n, m = len(rest), len(triangles)
     patch = RowPatch(triangles, fans, n)
     points = _Points(n=n, snap=snap, rest=rest, now=positions, patch=patch)
-    segments = {}
+    segments, known_sides = {}, {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        opposite = opposite_vertices(patch, corners.tolist())
+        opposite = opposite_vertices(patch, corners.tolist(), crossing.ends, snap, known_sides)
         ends = [points.locate(corners, crossing.triangle, w, opposite) for w in crossing.ends]
         if points.same(*ends):
             continue            # the segment snapped to a point: nothing to cut in this triangle

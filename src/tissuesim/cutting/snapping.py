@@ -19,14 +19,24 @@ from numba import njit
 GUARD_QUALITY = 0.02
 
 
-def opposite_vertices(patch, corners: list[int]) -> np.ndarray:
+def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, known: dict) -> np.ndarray:
     """``(3, w) int64`` for each side (k, k + 1) of the triangle ``corners``, the vertices opposite that side in the
-    rows of ``patch`` that hold it (an edge point there splits all of them, Fig 7(a)); −1 pads."""
+    rows of ``patch`` that hold it (an edge point there splits all of them, Fig 7(a)); −1 pads.
+
+    Only the sides the guard can reach from the barycentric ``ends`` ``(2, 3)`` are looked up: an edge point's side,
+    or all three for a facet point; the others get the triangle's own corner. ``known`` caches sides by edge."""
+    kept = [[x >= snap for x in w] for w in ends.tolist()]
+    if any(all(row) for row in kept):
+        reachable = {0, 1, 2}
+    else:
+        reachable = {k for row in kept for k in range(3) if row[k] and row[(k + 1) % 3]}
     sides = []
     for k in range(3):
         u, v = corners[k], corners[(k + 1) % 3]
-        lo, hi = (u, v) if u < v else (v, u)
-        others = [o for r in patch.owners(lo, hi) for o in patch.row_list(r) if o != lo and o != hi]
+        key = (u, v) if u < v else (v, u)
+        others = known.get(key) if k in reachable else [corners[(k + 2) % 3]]
+        if others is None:
+            others = known[key] = [o for r in patch.owners(*key) for o in patch.row_list(r) if o != u and o != v]
         sides.append(others or [corners[(k + 2) % 3]])
     out = np.full((3, max(2, max(len(s) for s in sides))), -1, dtype=np.int64)
     for k, others in enumerate(sides):
