@@ -10,8 +10,8 @@ process (the code is single-threaded, so it equals wall time on an idle machine 
    about k triangles), on cubes of 1k, 10k and 100k vertices: the pure function
    :func:`tissuesim.cutting.cut_surface` (new arrays: O(n) copies by design), the in-place core
    (:class:`tissuesim.cutting.buffers.CutSurface`: plan + apply on capacity buffers, what the scalpel runs), and the
-   whole scalpel move on a pbd solver (core + the solver's arrays). Medians over the moves but the first (which
-   builds the buffers and fans).
+   whole scalpel move on a pbd and on a hybrid solver (core + the solver's arrays). Medians over the moves but
+   the first (which builds the buffers and fans).
 2. **step after 50 cuts**: hybrid step time on the Table-1 cube before and after 50 progressive moves in five
    strokes (the kernels also sweep the retired rows).
 3. **fine FEM for the same cut**: TetGen on the cut M_S (fine switches) + assembly and factorization of K, the
@@ -93,9 +93,9 @@ def bench_in_place(surface, step):
     return statistics.median(split), statistics.median(times[1:] or times)
 
 
-def bench_solver_moves(hybrid, step):
-    """The same with the scalpel on a pbd solver (core + the solver's arrays): (median k, median seconds)."""
-    solver = tissuesim.make_solver("pbd", hybrid)
+def bench_solver_moves(hybrid, step, method):
+    """The same with the scalpel on a ``method`` solver (core + the solver's arrays): (median k, median seconds)."""
+    solver = tissuesim.make_solver(method, hybrid)
     start, end = _line(hybrid.surface)
     scalpel = tissuesim.Scalpel(solver, depth=0.01)
     scalpel.press(start, direction=[0, 0, -1])
@@ -162,8 +162,8 @@ def main():
     args = parser.parse_args()
     print("## 1. one move: median time against triangles crossed (k) and M_S size\n")
     print("| M_S vertices | move (edge lengths) | k (core) | cut_surface, new arrays [ms] | in-place core [ms] "
-          "| k (scalpel) | scalpel move, pbd [ms] |")
-    print("|---:|---:|---:|---:|---:|---:|---:|")
+          "| k (scalpel) | scalpel move, pbd [ms] | scalpel move, hybrid [ms] |")
+    print("|---:|---:|---:|---:|---:|---:|---:|---:|")
     for size in args.sizes:
         surface = models.cube(size)
         edge = _edge(surface)
@@ -173,10 +173,13 @@ def main():
         for f in (0.5, 1.0, 2.0, 3.0):
             _, t_pure = bench_pure(surface, f * edge)
             k, t_core = bench_in_place(surface, f * edge)
-            k_move, move = ("-", "-") if hybrid is None else bench_solver_moves(hybrid, f * edge)
-            move = move if hybrid is None else f"{1e3 * move:.2f}"
-            print(f"| {size} | {f:g} | {k:g} | {1e3 * t_pure:.2f} | {1e3 * t_core:.2f} | {k_move} | {move} |",
-                  flush=True)
+            k_move, moves = "-", ["-", "-"]
+            if hybrid is not None:
+                for i, method in enumerate(("pbd", "hybrid")):
+                    k_move, seconds = bench_solver_moves(hybrid, f * edge, method)
+                    moves[i] = f"{1e3 * seconds:.2f}"
+            print(f"| {size} | {f:g} | {k:g} | {1e3 * t_pure:.2f} | {1e3 * t_core:.2f} | {k_move} | {moves[0]} "
+                  f"| {moves[1]} |", flush=True)
 
     print("\n## 2. hybrid step after 50 cuts (Table-1 cube)\n")
     cube = tissuesim.HybridMesh.build(models.cube())
