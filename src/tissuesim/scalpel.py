@@ -27,7 +27,7 @@ import numpy as np
 
 from .cutting.core import DEFAULT_SNAP
 from .cutting.solver_update import CutReport, cut_updater
-from .cutting.sweep import Sweep, check_snap
+from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
 from .interaction import checked_point
 from .solvers.checks import positive_number
@@ -71,28 +71,39 @@ class Scalpel:
     def press(self, point, direction=None) -> CutReport:
         """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` (default inward)."""
         start = time.perf_counter()
-        from .mesh.maps import closest_on_surface
-        from .mesh.surface import SurfaceMesh
-
         point = checked_point(point)
-        # a copy: SurfaceMesh freezes the array it is given, and the solver's positions must stay writeable
-        now = SurfaceMesh(np.array(self.solver.positions), self.solver.hybrid.surface.triangles)
-        tri, bary = closest_on_surface(now, point[None])
-        corners = now.vertices[now.triangles[tri[0]]]
-        distance = float(np.linalg.norm(bary[0] @ corners - point))
-        if distance > self.depth:
-            raise SolverError(f"nothing to cut: the point is {distance:.4g} m from the surface, farther than the "
-                              f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
+        tri, bary = self._touch(point)
+        corners = self.solver.positions[self.solver.hybrid.surface.triangles[tri]]
         if direction is None:
-            direction = -now.triangle_normals[tri[0]]
+            normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])      # outward: counter-clockwise
+            direction = -normal
         direction = checked_point(direction)
         length = np.linalg.norm(direction)
         if length == 0.0:
             raise SolverError("the blade direction must be a non-zero vector")
         self.tip, self.direction = point, direction / length
         self._anchor = -1
-        self._pressed_on = now.triangles[tri[0]].astype(np.int64)
+        self._pressed_on = self.solver.hybrid.surface.triangles[tri].astype(np.int64)
         return CutReport(seconds=time.perf_counter() - start)
+
+    def _touch(self, point: np.ndarray) -> tuple[int, np.ndarray]:
+        """The triangle (row) and barycentric weights of the surface point closest to ``point``, now: searched among
+        the triangles within the blade's reach (a box test), so a press costs O(1) Python work; SolverError with the
+        distance when the surface is beyond the blade."""
+        from .mesh.maps import closest_among, closest_on_surface
+        from .mesh.surface import SurfaceMesh
+
+        positions, triangles = self.solver.positions, self.solver.hybrid.surface.triangles
+        reach = np.full(3, self.depth)
+        rows = triangles_in_box(positions, triangles, point - reach, point + reach)
+        tri, bary, distance = closest_among(positions, triangles, point, rows)
+        if distance > self.depth:
+            # only to name the distance: search the whole surface (a copy, as SurfaceMesh freezes its arrays)
+            tri_all, bary_all = closest_on_surface(SurfaceMesh(np.array(positions), triangles), point[None])
+            distance = float(np.linalg.norm(bary_all[0] @ positions[triangles[tri_all[0]]] - point))
+            raise SolverError(f"nothing to cut: the point is {distance:.4g} m from the surface, farther than the "
+                              f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
+        return tri, bary
 
     def move(self, point) -> CutReport:
         """Move the tip to ``point`` ``(3,)`` [m], cutting the surface the blade sweeps on the way."""

@@ -167,6 +167,27 @@ def test_fem_refuses_and_press_far_from_the_surface_says_how_far(cube):
         scalpel.move([0.0, 0.0, 0.08])
 
 
+def test_press_finds_the_closest_surface_point_locally_on_a_deformed_surface(cube):
+    from tissuesim.mesh.maps import closest_on_surface
+    from tissuesim.mesh.surface import SurfaceMesh
+
+    solver = tissuesim.make_solver("pbd", cube)
+    solver.set_load(int(np.argmax(solver.rest_positions[:, 2])), [0.0, 0.0, -2.0])
+    for _ in range(20):
+        solver.step()
+    scalpel = tissuesim.Scalpel(solver, depth=0.01)
+    now = SurfaceMesh(np.array(solver.positions), solver.hybrid.surface.triangles)
+    rng = np.random.default_rng(0)
+    points = now.vertices[rng.choice(now.vertex_count, 40)] + rng.uniform(-0.006, 0.006, (40, 3))
+    tri, bary = closest_on_surface(now, points)
+    for point, t, w in zip(points, tri, bary):
+        expected = w @ now.vertices[now.triangles[t]]
+        if np.linalg.norm(expected - point) > scalpel.depth:
+            continue
+        found, weights = scalpel._touch(point)
+        assert np.allclose(weights @ now.vertices[now.triangles[found]], expected, atol=1e-12)
+
+
 def _square_cut(solver, side=0.012):
     """A closed square stroke on the cube's top: it cuts a patch out of the surface."""
     top = solver.rest_positions[:, 2].max()

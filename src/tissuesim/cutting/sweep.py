@@ -112,7 +112,13 @@ def candidate_triangles(positions: np.ndarray, triangles: np.ndarray, sweep: Swe
     by ``pad`` [m]."""
     corners = sweep.corners
     pad = pad + 1e-9 * (np.ptp(corners, axis=0).max() + 1e-300)
-    return _candidates(positions, triangles, corners.min(axis=0) - pad, corners.max(axis=0) + pad)
+    return triangles_in_box(positions, triangles, corners.min(axis=0) - pad, corners.max(axis=0) + pad)
+
+
+def triangles_in_box(positions: np.ndarray, triangles: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
+    """``(k,) int64`` rows of ``triangles`` whose bounding box (at ``positions`` ``(n, 3)`` [m]) overlaps the box
+    [``low``, ``high``] ``(3,)`` [m] (one compiled pass)."""
+    return _candidates(positions, triangles, np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64))
 
 
 def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *,

@@ -43,6 +43,17 @@ def closest_on_surface(surface: SurfaceMesh, points: np.ndarray) -> tuple[np.nda
     return tri.astype(np.int32), bary
 
 
+def closest_among(vertices: np.ndarray, triangles: np.ndarray, point: np.ndarray,
+                  rows: np.ndarray) -> tuple[int, np.ndarray, float]:
+    """The closest point to ``point`` ``(3,)`` [m] on the triangles ``rows`` of ``(vertices, triangles)``:
+    ``(row, barycentric (3,), distance [m])``; row −1 and distance inf when ``rows`` is empty. O(len(rows)),
+    for a caller that knows where to look (:func:`closest_on_surface` searches a whole surface)."""
+    rows = np.asarray(rows, dtype=np.int64)
+    tri, bary, dist = _closest_kernel(vertices, triangles, np.asarray(point, dtype=np.float64).reshape(1, 3),
+                                      np.array([0, rows.size], dtype=np.int64), rows)
+    return int(tri[0]), bary[0], float(dist[0])
+
+
 def embed_in_volume(volume: TetMesh, points: np.ndarray, coarse: SurfaceMesh, coarse_triangle: np.ndarray,
                     coarse_barycentric: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Barycentric embedding of ``points`` ``(n, 3)`` [m] in ``volume`` (whose boundary is ``coarse``).
