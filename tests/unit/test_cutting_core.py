@@ -189,3 +189,35 @@ def test_in_place_cut_finds_what_the_full_search_finds_across_an_earlier_wound(c
     assert np.array_equal(walked.changed, full.changed) and np.array_equal(walked.parents, full.parents)
     applied = surface.apply(walked, sweep)
     assert check_cut_invariants(applied.rest, applied.triangles) == []
+
+
+def test_the_walk_finds_the_connected_rows_in_the_box_through_a_wound(cube):
+    # oracle: connected components (scipy) of the rows whose box overlaps, joined by a shared vertex or by two
+    # vertices at one rest position (the sides of a wound)
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    from tissuesim.cutting.buffers import CutSurface
+    from tissuesim.cutting.wound import wound_pairs
+
+    rest, triangles = cube
+    slit = _stroke(rest, triangles, np.linspace(-0.02, 0.02, 9))[-1]
+    surface = CutSurface(slit.rest, slit.positions, slit.velocities, slit.triangles)
+    tri, p = surface.triangles, surface.positions
+    group = np.arange(len(p))
+    pairs = wound_pairs(surface.rest)
+    group[pairs[:, 1]] = pairs[:, 0]
+    box_lo, box_hi = p[tri].min(axis=1), p[tri].max(axis=1)
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        centre = p[rng.integers(len(p))]
+        low, high = centre - rng.uniform(0.002, 0.02, 3), centre + rng.uniform(0.002, 0.02, 3)
+        inside = np.flatnonzero(np.all((box_lo <= high) & (box_hi >= low), axis=1))
+        seed = int(rng.choice(inside))
+        rows = np.repeat(np.arange(inside.size), 3)
+        corner = group[tri[inside].ravel()]
+        graph = coo_matrix((np.ones(rows.size), (rows, inside.size + corner)),
+                           shape=(inside.size + len(p), inside.size + len(p)))
+        _, label = connected_components(graph, directed=False)
+        expected = inside[label[:inside.size] == label[np.searchsorted(inside, seed)]]
+        assert np.array_equal(surface.fans.near(tri, p, low, high, [seed]), expected)

@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import MeshError
-from .fans import RowPatch, VertexFans
+from .fans import RowPatch, VertexFans, read_only
 from .separate import rows_touching, separate
 from .snapping import opposite_vertices, snapped_weights
 from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
@@ -274,8 +274,7 @@ class CutPlan:
 def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near) -> CutPlan | None:
     """The cut of ``sweep`` among the candidate rows ``near`` (arrays as :func:`cut_surface`'s; ``fans`` must
     cover every vertex of ``near`` and of ``closed``); None if nothing is cut. Writes nothing."""
-    # read-only views: the compiled kernels then see one array type, whoever owns the arrays (one compilation)
-    rest, positions, triangles = (_read_only(a) for a in (rest, positions, triangles))
+    rest, positions, triangles = (read_only(a) for a in (rest, positions, triangles))
     found = crossings(positions, triangles, sweep, near=near)
     if not found:
         return None
@@ -323,12 +322,6 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
                    patch=patch, origin=origin, changed=changed,
                    replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
                    still_closed=still_closed, split_count=len(affected), segments=segments)
-
-
-def _read_only(array: np.ndarray) -> np.ndarray:
-    view = array.view()
-    view.flags.writeable = False
-    return view
 
 
 def _mix(weights, parents, values):

@@ -11,6 +11,7 @@ earlier wound reaches its other side.
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 class VertexFans:
@@ -21,6 +22,10 @@ class VertexFans:
         vertex_count: n, the number of vertices.
         rows: ``(m,) int`` the row number of each of ``triangles`` when they are a subset of the array (then only
             the fans of their corners are complete); default 0..m−1.
+
+    Everything lives in arrays, so the walk (:meth:`near`) runs compiled: the static table, the rows each vertex
+    gained since as singly linked lists (``_head`` → ``_next`` / ``_gained``), and each group of duplicates as a
+    ring (``_ring[v]`` is the next vertex of v's group, v itself when it has none).
     """
 
     def __init__(self, triangles: np.ndarray, vertex_count: int, *, rows: np.ndarray | None = None):
@@ -29,13 +34,29 @@ class VertexFans:
         self._rows = order if rows is None else np.asarray(rows, dtype=np.int64)[order]
         self._start = np.concatenate([[0], np.cumsum(np.bincount(flat, minlength=vertex_count))])
         self._built = vertex_count
-        self._extra: dict[int, list[int]] = {}
-        self._twins: dict[int, list[int]] = {}
+        self._head = np.full(vertex_count, -1, dtype=np.int64)
+        self._ring = np.arange(vertex_count, dtype=np.int64)
+        self._next = np.zeros(0, dtype=np.int64)
+        self._gained = np.zeros(0, dtype=np.int64)
+        self._slots = 0
+        # the walk's marks (a row or vertex is seen in this walk when its mark equals the walk's number) and queue
+        self._walks = 0
+        self._vertex_mark = np.zeros(vertex_count, dtype=np.int64)
+        self._row_mark = np.zeros(0, dtype=np.int64)
+        self._queue = np.zeros(0, dtype=np.int64)
 
     def candidates(self, v: int) -> list[int]:
         """Rows that hold or once held vertex ``v`` (a superset of its fan)."""
         base = self._rows[self._start[v]:self._start[v + 1]].tolist() if v < self._built else []
-        return base + self._extra.get(v, [])
+        return base + self._gained_rows(v)
+
+    def _gained_rows(self, v: int) -> list[int]:
+        rows = []
+        slot = int(self._head[v]) if v < len(self._head) else -1
+        while slot >= 0:
+            rows.append(int(self._gained[slot]))
+            slot = int(self._next[slot])
+        return rows[::-1]
 
     def fan(self, v: int, triangles: np.ndarray, edited=None) -> list[int]:
         """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content list) for the rows it has."""
@@ -47,43 +68,129 @@ class VertexFans:
 
     def record(self, rows, contents, copies=()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
-        for r, content in zip(np.asarray(rows).tolist(), np.asarray(contents).tolist()):
+        rows, contents = np.asarray(rows).tolist(), np.asarray(contents).tolist()
+        highest = max([v for c in contents for v in c] + [v for pair in copies for v in pair], default=-1)
+        self._grow_vertices(highest + 1)
+        for r, content in zip(rows, contents):
             for v in content:
-                gained = self._extra.setdefault(v, [])
-                if r not in gained:
-                    gained.append(r)
+                if r not in self._gained_rows(v):
+                    self._push(v, r)
         for copy, original in copies:
-            group = [original] + self._twins.get(original, [])
-            for v in group:
-                self._twins.setdefault(v, []).append(copy)
-            self._twins[copy] = group
+            if copy not in self.twins(original):
+                # swapping two ring links joins two rings (and would split one, hence the test)
+                self._ring[copy], self._ring[original] = self._ring[original], self._ring[copy]
+
+    def _push(self, v: int, row: int) -> None:
+        if self._slots == len(self._gained):
+            self._next, self._gained = (_grown(a, self._slots + 1) for a in (self._next, self._gained))
+        self._gained[self._slots], self._next[self._slots] = row, self._head[v]
+        self._head[v] = self._slots
+        self._slots += 1
+
+    def _grow_vertices(self, count: int) -> None:
+        """Room for vertices up to ``count`` (×1.5 when full, so a cut's few new vertices cost O(1) amortised)."""
+        old = len(self._head)
+        if count > old:
+            new = max(count, int(1.5 * old) + 16)
+            self._head = np.concatenate([self._head, np.full(new - old, -1, dtype=np.int64)])
+            self._ring = np.concatenate([self._ring, np.arange(old, new, dtype=np.int64)])
+            self._vertex_mark = np.concatenate([self._vertex_mark, np.zeros(new - old, dtype=np.int64)])
 
     def twins(self, v: int) -> list[int]:
         """The vertices ``v`` was duplicated from or into (either side of a cut)."""
-        return self._twins.get(v, [])
+        group, w = [], int(self._ring[v]) if v < len(self._ring) else v
+        while w != v:
+            group.append(w)
+            w = int(self._ring[w])
+        return group
 
     def near(self, triangles: np.ndarray, positions: np.ndarray, low: np.ndarray, high: np.ndarray,
              seeds) -> np.ndarray:
         """``(k,) int64`` rows whose bounding box (at ``positions``) overlaps the box [``low``, ``high``] and that
-        are joined to the rows ``seeds`` through such rows (sharing a vertex or twins); empty when no seed overlaps.
-        Level by level, so each level is one vectorised box test."""
-        seen = set(seeds)
-        frontier = list(seen)
-        found: list[np.ndarray] = []
-        while frontier:
-            rows = np.array(frontier, dtype=np.int64)
-            p = positions[triangles[rows]]
-            hits = rows[np.all((p.min(axis=1) <= high) & (p.max(axis=1) >= low), axis=1)]
-            found.append(hits)
-            vertices = set(triangles[hits].ravel().tolist())
-            vertices.update(t for v in list(vertices) for t in self.twins(v))
-            frontier = []
-            for v in vertices:
-                for r in self.candidates(v):
-                    if r not in seen:
-                        seen.add(r)
-                        frontier.append(r)
-        return np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
+        are joined to the rows ``seeds`` through such rows (sharing a vertex or twins), ascending; empty when no
+        seed overlaps. A compiled breadth-first walk: its cost grows with the rows it meets, not with the mesh."""
+        self._grow_vertices(len(positions))
+        if len(self._row_mark) < len(triangles):
+            self._row_mark = _grown(self._row_mark, len(triangles))
+            self._queue = np.zeros(len(self._row_mark), dtype=np.int64)
+        self._walks += 1
+        triangles, positions = read_only(triangles), read_only(positions)
+        count = _walk(triangles, positions, np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64),
+                      np.asarray(seeds, dtype=np.int64), self._rows, self._start, self._built, self._head,
+                      self._next, self._gained, self._ring, self._row_mark, self._vertex_mark, self._walks,
+                      self._queue)
+        return np.sort(self._queue[:count])
+
+
+def read_only(array: np.ndarray) -> np.ndarray:
+    """A read-only view of ``array``: the compiled kernels then see one array type whoever owns it (one
+    compilation, not one per writeable flag)."""
+    view = array.view()
+    view.flags.writeable = False
+    return view
+
+
+def _grown(array: np.ndarray, length: int) -> np.ndarray:
+    """``array`` with room for at least ``length`` entries (×1.5, so appends are amortised O(1)); new ones 0."""
+    grown = np.zeros(max(length, int(1.5 * len(array)) + 16), dtype=array.dtype)
+    grown[:len(array)] = array
+    return grown
+
+
+@njit(cache=True)
+def _walk(triangles, positions, low, high, seeds, rows, start, built, head, next_slot, gained, ring, row_mark,
+          vertex_mark, walk, queue):
+    """Breadth-first over rows from ``seeds``: a row whose box overlaps [low, high] is kept (moved to the front
+    of ``queue``) and its corners' and their twins' candidate rows are queued. Returns the count kept."""
+    queued = 0
+    for r in seeds:
+        if r < row_mark.size and row_mark[r] != walk:
+            row_mark[r] = walk
+            queue[queued] = r
+            queued += 1
+    kept, head_index = 0, 0
+    while head_index < queued:
+        r = queue[head_index]
+        head_index += 1
+        if not _box_overlaps(positions, triangles[r], low, high):
+            continue
+        queue[kept] = r         # kept rows are never read again from the queue: it is safe to overwrite
+        kept += 1
+        for c in range(3):
+            v = triangles[r, c]
+            w = v
+            while True:
+                if vertex_mark[w] != walk:
+                    vertex_mark[w] = walk
+                    if w < built:
+                        for k in range(start[w], start[w + 1]):
+                            queued = _enqueue(rows[k], row_mark, walk, queue, queued, triangles.shape[0])
+                    slot = head[w]
+                    while slot >= 0:
+                        queued = _enqueue(gained[slot], row_mark, walk, queue, queued, triangles.shape[0])
+                        slot = next_slot[slot]
+                w = ring[w]
+                if w == v:
+                    break
+    return kept
+
+
+@njit(cache=True)
+def _enqueue(r, row_mark, walk, queue, queued, row_count):
+    if r < row_count and row_mark[r] != walk:
+        row_mark[r] = walk
+        queue[queued] = r
+        queued += 1
+    return queued
+
+
+@njit(cache=True)
+def _box_overlaps(positions, corners, low, high):
+    for k in range(3):
+        a, b, c = positions[corners[0], k], positions[corners[1], k], positions[corners[2], k]
+        if min(a, b, c) > high[k] or max(a, b, c) < low[k]:
+            return False
+    return True
 
 
 class RowPatch:
