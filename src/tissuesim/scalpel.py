@@ -96,14 +96,14 @@ class Scalpel:
         positions, triangles = self.solver.positions, self.solver.hybrid.surface.triangles
         reach = np.full(3, self.depth)
         rows = triangles_in_box(positions, triangles, point - reach, point + reach)
-        tri, bary, distance = closest_among(positions, triangles, point, rows)
+        tri, bary, distance = (a[0] for a in closest_among(positions, triangles, point, rows))
         if distance > self.depth:
             # only to name the distance: search the whole surface (a copy, as SurfaceMesh freezes its arrays)
             tri_all, bary_all = closest_on_surface(SurfaceMesh(np.array(positions), triangles), point[None])
             distance = float(np.linalg.norm(bary_all[0] @ positions[triangles[tri_all[0]]] - point))
             raise SolverError(f"nothing to cut: the point is {distance:.4g} m from the surface, farther than the "
                               f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
-        return tri, bary
+        return int(tri), bary
 
     def move(self, point) -> CutReport:
         """Move the tip to ``point`` ``(3,)`` [m], cutting the surface the blade sweeps on the way."""

@@ -109,17 +109,30 @@ class VertexFans:
         """``(k,) int64`` rows whose bounding box (at ``positions``) overlaps the box [``low``, ``high``] and that
         are joined to the rows ``seeds`` through such rows (sharing a vertex or twins), ascending; empty when no
         seed overlaps. A compiled breadth-first walk: its cost grows with the rows it meets, not with the mesh."""
-        self._grow_vertices(len(positions))
-        if len(self._row_mark) < len(triangles):
-            self._row_mark = _grown(self._row_mark, len(triangles))
-            self._queue = np.zeros(len(self._row_mark), dtype=np.int64)
-        self._walks += 1
+        self._new_walk(len(positions), len(triangles))
         triangles, positions = read_only(triangles), read_only(positions)
         count = _walk(triangles, positions, np.asarray(low, dtype=np.float64), np.asarray(high, dtype=np.float64),
                       np.asarray(seeds, dtype=np.int64), self._rows, self._start, self._built, self._head,
                       self._next, self._gained, self._ring, self._row_mark, self._vertex_mark, self._walks,
                       self._queue)
         return np.sort(self._queue[:count])
+
+    def rows_holding(self, vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+        """``(k,) int64`` the rows of ``triangles`` that hold any of ``vertices`` now, ascending (one compiled pass
+        over their candidates)."""
+        vertices = np.asarray(vertices, dtype=np.int64)
+        self._new_walk(int(vertices.max(initial=-1)) + 1, len(triangles))
+        count = _holding(read_only(triangles), vertices, self._rows, self._start, self._built, self._head,
+                         self._next, self._gained, self._row_mark, self._walks, self._queue)
+        return np.sort(self._queue[:count])
+
+    def _new_walk(self, vertex_count: int, row_count: int) -> None:
+        """Room in the marks and the queue, and a new walk number (which unmarks everything at once)."""
+        self._grow_vertices(vertex_count)
+        if len(self._row_mark) < row_count:
+            self._row_mark = _grown(self._row_mark, row_count)
+            self._queue = np.zeros(len(self._row_mark), dtype=np.int64)
+        self._walks += 1
 
 
 def read_only(array: np.ndarray) -> np.ndarray:
@@ -173,6 +186,31 @@ def _walk(triangles, positions, low, high, seeds, rows, start, built, head, next
                 if w == v:
                     break
     return kept
+
+
+@njit(cache=True)
+def _holding(triangles, vertices, rows, start, built, head, next_slot, gained, row_mark, walk, out):
+    """Write into ``out`` the rows holding any of ``vertices`` (each once); returns their count."""
+    count = 0
+    for v in vertices:
+        if v < built:
+            for k in range(start[v], start[v + 1]):
+                count = _take_if_holding(triangles, rows[k], v, row_mark, walk, out, count)
+        slot = head[v] if v < head.size else -1
+        while slot >= 0:
+            count = _take_if_holding(triangles, gained[slot], v, row_mark, walk, out, count)
+            slot = next_slot[slot]
+    return count
+
+
+@njit(cache=True)
+def _take_if_holding(triangles, r, v, row_mark, walk, out, count):
+    if r < triangles.shape[0] and row_mark[r] != walk and \
+            (triangles[r, 0] == v or triangles[r, 1] == v or triangles[r, 2] == v):
+        row_mark[r] = walk
+        out[count] = r
+        count += 1
+    return count
 
 
 @njit(cache=True)
@@ -263,6 +301,26 @@ class EdgeOwners:
     def clear(self) -> None:
         self._owners.clear()
 
+    def load(self, keys: np.ndarray) -> None:
+        """Find the rows of every edge of ``keys`` ``(k, 2) int`` (lo < hi) in one vectorised pass over the rows
+        holding their vertices, so that :meth:`of` reads them (each edge's rows ascending)."""
+        keys = np.asarray(keys, dtype=np.int64).reshape(-1, 2)
+        if not len(keys):
+            return
+        triangles = self.surface.triangles
+        rows = self.surface.fans.rows_holding(np.unique(keys), triangles)
+        corners = triangles[rows].astype(np.int64)
+        following = np.roll(corners, -1, axis=1)
+        scale = int(max(corners.max(initial=0), keys.max())) + 1
+        code = (np.minimum(corners, following) * scale + np.maximum(corners, following)).ravel()
+        order = np.argsort(code, kind="stable")
+        code, owner = code[order], np.repeat(rows, 3)[order].tolist()
+        wanted = keys[:, 0] * scale + keys[:, 1]
+        first = np.searchsorted(code, wanted, side="left").tolist()
+        last = np.searchsorted(code, wanted, side="right").tolist()
+        for (lo, hi), a, b in zip(keys.tolist(), first, last):
+            self._owners[(lo, hi)] = owner[a:b]
+
     def of(self, key) -> list[int]:
         """Rows holding the edge ``key`` = (lo, hi)."""
         lo, hi = int(key[0]), int(key[1])
@@ -272,3 +330,12 @@ class EdgeOwners:
             owners = [r for r in self.surface.fans.fan(lo, triangles) if hi in triangles[r].tolist()]
             self._owners[(lo, hi)] = owners
         return owners
+
+
+def touched_edges(old_content, new_content) -> np.ndarray:
+    """``(k, 2) int64`` every edge (lo < hi, ascending) of the old and new content of the changed triangles."""
+    content = np.concatenate([np.asarray(old_content, dtype=np.int64).reshape(-1, 3),
+                              np.asarray(new_content, dtype=np.int64).reshape(-1, 3)])
+    pairs = np.stack([content, np.roll(content, -1, axis=1)], axis=2).reshape(-1, 2)
+    pairs.sort(axis=1)
+    return np.unique(pairs, axis=0)

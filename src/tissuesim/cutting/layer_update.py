@@ -60,18 +60,14 @@ def adjacent_area(result, edge_map, keys) -> np.ndarray:
 def new_hinges(triangles, edge_map, keys):
     """Hinges ``(h, 4) int64`` (P1, P2 in the first triangle's winding, P3, P4 opposite) of the ``keys`` with two
     triangles, and those keys."""
-    hinges, kept = [], []
-    for key in keys:
-        owners = edge_map.of(key)
-        if len(owners) != 2:
-            continue
-        first, second = triangles[owners[0]], triangles[owners[1]]
-        k = [i for i in range(3) if {int(first[i]), int(first[(i + 1) % 3])} == set(key)][0]
-        p1, p2, p3 = first[k], first[(k + 1) % 3], first[(k + 2) % 3]
-        p4 = [v for v in second if v not in key][0]
-        hinges.append((p1, p2, p3, p4))
-        kept.append(key)
-    return np.array(hinges, dtype=np.int64).reshape(-1, 4), kept
+    kept = [key for key in keys if len(edge_map.of(key)) == 2]
+    owners = np.array([edge_map.of(key) for key in kept], dtype=np.int64).reshape(-1, 2)
+    first, second = (triangles[owners[:, j]].astype(np.int64) for j in (0, 1))
+    ends = np.array(kept, dtype=np.int64).reshape(-1, 2).sum(axis=1)
+    p3, p4 = first.sum(axis=1) - ends, second.sum(axis=1) - ends       # the corner off the edge in each
+    k = (np.argmax(first == p3[:, None], axis=1) + 1) % 3               # the edge is (first[k], first[k + 1])
+    rows = np.arange(len(kept))
+    return np.stack([first[rows, k], first[rows, (k + 1) % 3], p3, p4], axis=1), kept
 
 
 def _new_of(sorted_nodes: np.ndarray, n: int) -> np.ndarray:
@@ -86,15 +82,6 @@ def _in_corners(result, vertices, corners):
     for j in range(3):
         bary += (parents[:, j, None] == corners) * weights[:, j, None]
     return bary
-
-
-def touched_edges(old_content, new_content):
-    """Sorted vertex pairs of every edge of the old and new content of the changed triangles."""
-    keys = set()
-    for content in (old_content, new_content):
-        for a, b, c in np.asarray(content).tolist():
-            keys |= {(min(u, v), max(u, v)) for u, v in ((a, b), (b, c), (c, a))}
-    return sorted(keys)
 
 
 @register_cut("pbd")
@@ -137,7 +124,7 @@ class SurfaceLayerCut(SolverCut):
 
     def update(self, result, n, released, touched) -> None:
         s = self.solver
-        keys = touched_edges(result.replaced, result.triangles[result.changed])
+        keys = self.touched_edges(result)
         self._retire(keys)
         live = [k for k in keys if self.edges.of(k)]
         edges, rest, area = new_edge_constraints(result, self.edges, live)

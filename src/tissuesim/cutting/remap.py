@@ -15,7 +15,7 @@ import dataclasses
 import numpy as np
 
 from ..mesh.hybrid import HybridMesh
-from ..mesh.maps import closest_on_surface
+from ..mesh.maps import closest_among
 from ..mesh.surface import SurfaceMesh
 from .buffers import Spare
 from .core import CutResult
@@ -69,10 +69,8 @@ def _load_map(hybrid, rest, parents):
         return np.zeros(0, dtype=np.int32), np.zeros((0, 3))
     candidates = np.unique(hybrid.coarse_triangle[parents])
     coarse = hybrid.coarse_surface
-    corners, local_triangles = np.unique(coarse.triangles[candidates], return_inverse=True)
-    local = SurfaceMesh(coarse.vertices[corners], local_triangles.reshape(-1, 3))   # a few triangles, renumbered
-    tri, bary = closest_on_surface(local, rest)
-    return candidates[tri].astype(np.int32), bary
+    tri, bary, _ = closest_among(coarse.vertices, coarse.triangles, rest, candidates)
+    return tri.astype(np.int32), bary
 
 
 def _embedding(hybrid, rest, parents):

@@ -29,7 +29,7 @@ from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
 from .core import CutResult
 from .remap import cut_hybrid
-from .fans import EdgeOwners
+from .fans import EdgeOwners, touched_edges
 
 _REGISTRY: dict[str, type] = {}
 
@@ -163,6 +163,13 @@ class SolverCut:
         s._previous = spare.extend("previous", s._previous, result.positions[result.old_count:])
         if new_fixed.size:
             s.fixed = spare.extend("fixed", s.fixed, new_fixed.astype(s.fixed.dtype))
+
+    def touched_edges(self, result: CutResult) -> list[list[int]]:
+        """The edges ``[lo, hi]`` of the triangles the cut changed, before and after it, with their rows loaded
+        into :attr:`edges` (one vectorised pass)."""
+        keys = touched_edges(result.replaced, result.triangles[result.changed])
+        self.edges.load(keys)
+        return keys.tolist()
 
     @staticmethod
     def touched(result: CutResult) -> np.ndarray:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layer_update import adjacent_area, new_edge_constraints, new_hinges, touched_edges
+from .layer_update import adjacent_area, new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, register_cut
 
@@ -46,7 +46,7 @@ class MassSpringCut(SolverCut):
         from ..solvers.mass_spring import _omega_bound
 
         s = self.solver
-        keys = touched_edges(result.replaced, result.triangles[result.changed])
+        keys = self.touched_edges(result)
         gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
         gone += [self.bend_row.pop(k) for k in keys if k in self.bend_row]
         self.rows.retire(gone)

@@ -43,15 +43,16 @@ def closest_on_surface(surface: SurfaceMesh, points: np.ndarray) -> tuple[np.nda
     return tri.astype(np.int32), bary
 
 
-def closest_among(vertices: np.ndarray, triangles: np.ndarray, point: np.ndarray,
-                  rows: np.ndarray) -> tuple[int, np.ndarray, float]:
-    """The closest point to ``point`` ``(3,)`` [m] on the triangles ``rows`` of ``(vertices, triangles)``:
-    ``(row, barycentric (3,), distance [m])``; row −1 and distance inf when ``rows`` is empty. O(len(rows)),
-    for a caller that knows where to look (:func:`closest_on_surface` searches a whole surface)."""
+def closest_among(vertices: np.ndarray, triangles: np.ndarray, points: np.ndarray,
+                  rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """For each of ``points`` ``(k, 3)`` [m], the closest point on the triangles ``rows`` of
+    ``(vertices, triangles)``: ``(row (k,) int64, barycentric (k, 3), distance (k,) [m])``; row −1 and distance inf
+    when ``rows`` is empty. O(k × len(rows)), for a caller that knows where to look (:func:`closest_on_surface`
+    searches a whole surface)."""
     rows = np.asarray(rows, dtype=np.int64)
-    tri, bary, dist = _closest_kernel(vertices, triangles, np.asarray(point, dtype=np.float64).reshape(1, 3),
-                                      np.array([0, rows.size], dtype=np.int64), rows)
-    return int(tri[0]), bary[0], float(dist[0])
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 3)
+    starts = np.arange(len(points) + 1, dtype=np.int64) * rows.size
+    return _closest_kernel(vertices, triangles, points, starts, np.tile(rows, len(points)))
 
 
 def embed_in_volume(volume: TetMesh, points: np.ndarray, coarse: SurfaceMesh, coarse_triangle: np.ndarray,
