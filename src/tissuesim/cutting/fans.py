@@ -289,53 +289,33 @@ class RowPatch:
         return [r for r in self.fan(lo) if hi in self.row_list(r)]
 
 
-class EdgeOwners:
-    """Edge → triangle rows of a :class:`~tissuesim.cutting.buffers.CutSurface`'s current triangles, read from its
-    fans (no table of every edge: a Python dict of the whole mesh's edges slows every garbage collection).
-    Cached until :meth:`clear` (call it after each cut)."""
-
-    def __init__(self, surface):
-        self.surface = surface
-        self._owners: dict = {}
-
-    def clear(self) -> None:
-        self._owners.clear()
-
-    def load(self, keys: np.ndarray) -> None:
-        """Find the rows of every edge of ``keys`` ``(k, 2) int`` (lo < hi) in one vectorised pass over the rows
-        holding their vertices, so that :meth:`of` reads them (each edge's rows ascending)."""
-        keys = np.asarray(keys, dtype=np.int64).reshape(-1, 2)
-        if not len(keys):
-            return
-        triangles = self.surface.triangles
-        rows = self.surface.fans.rows_holding(np.unique(keys), triangles)
-        corners = triangles[rows].astype(np.int64)
-        following = np.roll(corners, -1, axis=1)
-        scale = int(max(corners.max(initial=0), keys.max())) + 1
-        code = (np.minimum(corners, following) * scale + np.maximum(corners, following)).ravel()
-        order = np.argsort(code, kind="stable")
-        code, owner = code[order], np.repeat(rows, 3)[order].tolist()
-        wanted = keys[:, 0] * scale + keys[:, 1]
-        first = np.searchsorted(code, wanted, side="left").tolist()
-        last = np.searchsorted(code, wanted, side="right").tolist()
-        for (lo, hi), a, b in zip(keys.tolist(), first, last):
-            self._owners[(lo, hi)] = owner[a:b]
-
-    def of(self, key) -> list[int]:
-        """Rows holding the edge ``key`` = (lo, hi)."""
-        lo, hi = int(key[0]), int(key[1])
-        owners = self._owners.get((lo, hi))
-        if owners is None:
-            triangles = self.surface.triangles
-            owners = [r for r in self.surface.fans.fan(lo, triangles) if hi in triangles[r].tolist()]
-            self._owners[(lo, hi)] = owners
+def edge_owners(fans: VertexFans, triangles: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """``(k, 2) int64`` the rows of ``triangles`` holding each edge of ``keys`` ``(k, 2) int`` (lo < hi), ascending;
+    −1 where an edge has fewer (a border edge has one, a removed edge none). One vectorised pass over the rows
+    holding their vertices: no table of every edge is kept (a Python dict of the whole mesh's edges slows every
+    garbage collection)."""
+    keys = np.asarray(keys, dtype=np.int64).reshape(-1, 2)
+    owners = np.full((len(keys), 2), -1, dtype=np.int64)
+    if not len(keys):
         return owners
+    rows = fans.rows_holding(np.unique(keys), triangles)
+    corners = triangles[rows].astype(np.int64)
+    following = np.roll(corners, -1, axis=1)
+    code = ((np.minimum(corners, following) << 32) | np.maximum(corners, following)).ravel()
+    order = np.argsort(code, kind="stable")
+    code, owner = code[order], np.repeat(rows, 3)[order]
+    wanted = (keys[:, 0] << 32) | keys[:, 1]
+    first, last = np.searchsorted(code, wanted, side="left"), np.searchsorted(code, wanted, side="right")
+    for j in range(2):       # an edge has at most two triangles (the cut keeps the surface manifold)
+        has = last - first > j
+        owners[has, j] = owner[first[has] + j]
+    return owners
 
 
 def touched_edges(old_content, new_content) -> np.ndarray:
     """``(k, 2) int64`` every edge (lo < hi, ascending) of the old and new content of the changed triangles."""
     content = np.concatenate([np.asarray(old_content, dtype=np.int64).reshape(-1, 3),
                               np.asarray(new_content, dtype=np.int64).reshape(-1, 3)])
-    pairs = np.stack([content, np.roll(content, -1, axis=1)], axis=2).reshape(-1, 2)
-    pairs.sort(axis=1)
-    return np.unique(pairs, axis=0)
+    following = np.roll(content, -1, axis=1)
+    code = np.unique(((np.minimum(content, following) << 32) | np.maximum(content, following)).ravel())
+    return np.stack([code >> 32, code & 0xFFFFFFFF], axis=1)

@@ -35,39 +35,33 @@ class CutConstraints(SimpleNamespace):
         return len(self.bending)
 
 
-def new_edge_constraints(result, edge_map, keys):
-    """Stretch data of edges ``keys`` (vertex pairs) of the cut mesh: ``(edges (k, 2), rest lengths (k,) [m],
-    areas (k,) [m²])``; rest lengths by eq 19–23 in the parent triangle."""
-    edges = np.array(keys, dtype=np.int64).reshape(-1, 2)
-    owner = np.array([edge_map.of(k)[0] for k in keys], dtype=np.int64)
-    corners = result.before(result.origin_of(owner))                    # (k, 3) old vertex ids
+def new_edge_constraints(result, keys, owners):
+    """Stretch data of the edges ``keys`` ``(k, 2)`` of the cut mesh, held by rows ``owners`` ``(k, 2)`` (−1 for
+    none; each has a first): ``(rest lengths (k,) [m], areas (k,) [m²])``; rest lengths by eq 19–23 in the parent
+    triangle of the first owner."""
+    corners = result.before(result.origin_of(owners[:, 0]))           # (k, 3) old vertex ids
     p = result.rest[corners]
     side = np.linalg.norm(p - p[:, [1, 2, 0]], axis=2)                  # l_AB, l_BC, l_CA
-    bary = [_in_corners(result, edges[:, j], corners) for j in (0, 1)]
-    rest = barycentric_distance(side, bary[0], bary[1])
-    return edges, rest, adjacent_area(result, edge_map, keys)
+    bary = [_in_corners(result, keys[:, j], corners) for j in (0, 1)]
+    return barycentric_distance(side, bary[0], bary[1]), adjacent_area(result, owners)
 
 
-def adjacent_area(result, edge_map, keys) -> np.ndarray:
-    """``(k,) float64`` rest area [m²] of the (one or two) triangles around each edge of ``keys``."""
-    owners = [edge_map.of(k) for k in keys]
-    rows = np.array([r for o in owners for r in o], dtype=np.int64)
-    area = triangle_areas(result.rest, result.triangles[rows])
-    counts = np.array([len(o) for o in owners], dtype=np.int64)
-    return np.add.reduceat(area, np.concatenate([[0], np.cumsum(counts)[:-1]])) if len(keys) else np.zeros(0)
+def adjacent_area(result, owners) -> np.ndarray:
+    """``(k,) float64`` rest area [m²] of the (one or two) triangles ``owners`` ``(k, 2)`` (−1 for none) around
+    each edge."""
+    area = triangle_areas(result.rest, result.triangles[np.maximum(owners, 0).ravel()]).reshape(-1, 2)
+    return np.where(owners >= 0, area, 0.0).sum(axis=1)
 
 
-def new_hinges(triangles, edge_map, keys):
-    """Hinges ``(h, 4) int64`` (P1, P2 in the first triangle's winding, P3, P4 opposite) of the ``keys`` with two
-    triangles, and those keys."""
-    kept = [key for key in keys if len(edge_map.of(key)) == 2]
-    owners = np.array([edge_map.of(key) for key in kept], dtype=np.int64).reshape(-1, 2)
+def new_hinges(triangles, keys, owners):
+    """Hinges ``(h, 4) int64`` (P1, P2 in the first triangle's winding, P3, P4 opposite) of edges ``keys``
+    ``(h, 2)`` held by two rows ``owners`` ``(h, 2)``."""
     first, second = (triangles[owners[:, j]].astype(np.int64) for j in (0, 1))
-    ends = np.array(kept, dtype=np.int64).reshape(-1, 2).sum(axis=1)
+    ends = keys.sum(axis=1)
     p3, p4 = first.sum(axis=1) - ends, second.sum(axis=1) - ends       # the corner off the edge in each
     k = (np.argmax(first == p3[:, None], axis=1) + 1) % 3               # the edge is (first[k], first[k + 1])
-    rows = np.arange(len(kept))
-    return np.stack([first[rows, k], first[rows, (k + 1) % 3], p3, p4], axis=1), kept
+    rows = np.arange(len(keys))
+    return np.stack([first[rows, k], first[rows, (k + 1) % 3], p3, p4], axis=1)
 
 
 def _new_of(sorted_nodes: np.ndarray, n: int) -> np.ndarray:
@@ -124,22 +118,25 @@ class SurfaceLayerCut(SolverCut):
 
     def update(self, result, n, released, touched) -> None:
         s = self.solver
-        keys = self.touched_edges(result)
-        self._retire(keys)
-        live = [k for k in keys if self.edges.of(k)]
-        edges, rest, area = new_edge_constraints(result, self.edges, live)
-        rows, _ = self.stretch.take(len(live))
+        keys, owners = self.touched_edges(result)
+        self.stretch.retire(self.stretch_row.pop(keys))
+        self.bend.retire(self.hinge_row.pop(keys))
+        live = owners[:, 0] >= 0
+        keys, owners = keys[live], owners[live]
+        rest, area = new_edge_constraints(result, keys, owners)
+        rows, _ = self.stretch.take(len(keys))
         a = self.stretch.arrays
-        a["edges"][rows], a["rest_length"][rows], a["edge_area"][rows] = edges, rest, area
-        hinges, hinge_keys = new_hinges(result.triangles, self.edges, live)
-        hrows, _ = self.bend.take(len(hinge_keys))
+        a["edges"][rows], a["rest_length"][rows], a["edge_area"][rows] = keys, rest, area
+        two = owners[:, 1] >= 0
+        hinges = new_hinges(result.triangles, keys[two], owners[two])
+        hrows, _ = self.bend.take(len(hinges))
         b = self.bend.arrays
         b["bending"][hrows] = hinges
         b["rest_angle"][hrows] = dihedral_angles(result.rest, hinges.astype(np.int32))
         b["rest_signed_angle"][hrows] = signed_bend_angles(result.rest, hinges.astype(np.int32))
-        b["hinge_area"][hrows] = adjacent_area(result, self.edges, hinge_keys)
-        self.stretch_row.update(zip(live, rows.tolist()))
-        self.hinge_row.update(zip(hinge_keys, hrows.tolist()))
+        b["hinge_area"][hrows] = area[two]
+        self.stretch_row.update(keys, rows)
+        self.hinge_row.update(keys[two], hrows)
         if s.form == "xpbd":
             self._compliance(rows, hrows)
         self._bind()
@@ -150,12 +147,6 @@ class SurfaceLayerCut(SolverCut):
         self.prescribe(result, n, released)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
-
-    def _retire(self, keys) -> None:
-        gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
-        self.stretch.retire(gone)
-        gone = [self.hinge_row.pop(k) for k in keys if k in self.hinge_row]
-        self.bend.retire(gone)
 
     def _compliance(self, rows, hrows) -> None:
         """XPBD compliance of the new rows from the material, with their own rest lengths and areas."""

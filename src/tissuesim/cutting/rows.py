@@ -28,23 +28,21 @@ class EdgeRows:
 
     def __init__(self, edges: np.ndarray, rows: np.ndarray):
         edges = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
-        self._row = dict(zip(((edges[:, 0] << 32) | edges[:, 1]).tolist(), np.asarray(rows).tolist()))
+        self._row = dict(zip(_codes(edges), np.asarray(rows).tolist()))
 
-    @staticmethod
-    def _code(key) -> int:
-        lo, hi = int(key[0]), int(key[1])
-        return (lo << 32) | hi if lo < hi else (hi << 32) | lo
+    def pop(self, keys: np.ndarray) -> list[int]:
+        """Remove the edges of ``keys`` ``(k, 2) int`` (lo < hi) that have a row; their rows."""
+        row = self._row
+        return [row.pop(c) for c in _codes(keys) if c in row]
 
-    def __contains__(self, key) -> bool:
-        return self._code(key) in self._row
+    def update(self, keys: np.ndarray, rows: np.ndarray) -> None:
+        """Edges ``keys`` ``(k, 2) int`` (lo < hi) now have rows ``rows`` ``(k,)``."""
+        self._row.update(zip(_codes(keys), np.asarray(rows).tolist()))
 
-    def pop(self, key) -> int:
-        return self._row.pop(self._code(key))
 
-    def update(self, pairs) -> None:
-        """Add ``(key, row)`` pairs."""
-        for key, row in pairs:
-            self._row[self._code(key)] = int(row)
+def _codes(keys) -> list[int]:
+    keys = np.asarray(keys, dtype=np.int64).reshape(-1, 2)
+    return ((keys[:, 0] << 32) | keys[:, 1]).tolist()
 
 
 class Rows:

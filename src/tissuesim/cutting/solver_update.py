@@ -29,7 +29,7 @@ from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
 from .core import CutResult
 from .remap import cut_hybrid
-from .fans import EdgeOwners, touched_edges
+from .fans import edge_owners, touched_edges
 
 _REGISTRY: dict[str, type] = {}
 
@@ -93,7 +93,6 @@ class SolverCut:
         triangles = solver.hybrid.surface.triangles
         self.surface = CutSurface(solver.rest_positions, solver.positions, solver.velocities, triangles)
         self.spare = self.surface.spare
-        self.edges = EdgeOwners(self.surface)
         self.closed = np.zeros((0, 2), dtype=np.int64)
         self.lumped = lumped_areas(solver.rest_positions, triangles)
         self.lumped_total = float(self.lumped.sum())        # conserved by every cut (area only moves)
@@ -130,7 +129,6 @@ class SolverCut:
         else:
             loose = 0
         result = self.surface.apply(plan, sweep)
-        self.edges.clear()
         self._update_lumped(result)
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
         self._carry_state(result, new_fixed)
@@ -164,12 +162,11 @@ class SolverCut:
         if new_fixed.size:
             s.fixed = spare.extend("fixed", s.fixed, new_fixed.astype(s.fixed.dtype))
 
-    def touched_edges(self, result: CutResult) -> list[list[int]]:
-        """The edges ``[lo, hi]`` of the triangles the cut changed, before and after it, with their rows loaded
-        into :attr:`edges` (one vectorised pass)."""
+    def touched_edges(self, result: CutResult) -> tuple[np.ndarray, np.ndarray]:
+        """``(keys (k, 2), owners (k, 2))``: the edges (lo < hi) of the triangles the cut changed, before and after
+        it, and the rows holding each now (−1 for none; see :func:`~tissuesim.cutting.fans.edge_owners`)."""
         keys = touched_edges(result.replaced, result.triangles[result.changed])
-        self.edges.load(keys)
-        return keys.tolist()
+        return keys, edge_owners(self.surface.fans, self.surface.triangles, keys)
 
     @staticmethod
     def touched(result: CutResult) -> np.ndarray:

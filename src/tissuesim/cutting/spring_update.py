@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .layer_update import adjacent_area, new_edge_constraints, new_hinges
+from .layer_update import new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, register_cut
 
@@ -46,23 +46,23 @@ class MassSpringCut(SolverCut):
         from ..solvers.mass_spring import _omega_bound
 
         s = self.solver
-        keys = self.touched_edges(result)
-        gone = [self.stretch_row.pop(k) for k in keys if k in self.stretch_row]
-        gone += [self.bend_row.pop(k) for k in keys if k in self.bend_row]
-        self.rows.retire(gone)
-        live = [k for k in keys if self.edges.of(k)]
-        edges, rest, area = new_edge_constraints(result, self.edges, live)
-        hinges, hinge_keys = new_hinges(result.triangles, self.edges, live)
+        keys, owners = self.touched_edges(result)
+        self.rows.retire(self.stretch_row.pop(keys) + self.bend_row.pop(keys))
+        live = owners[:, 0] >= 0
+        keys, owners = keys[live], owners[live]
+        rest, area = new_edge_constraints(result, keys, owners)
+        two = owners[:, 1] >= 0
+        hinges = new_hinges(result.triangles, keys[two], owners[two])
         across = hinges[:, 2:]
-        span = adjacent_area(result, self.edges, hinge_keys)
         across_rest = np.linalg.norm(result.rest[across[:, 0]] - result.rest[across[:, 1]], axis=1)
-        rows, _ = self.rows.take(len(live) + len(hinge_keys))
+        rows, _ = self.rows.take(len(keys) + len(hinges))
         a = self.rows.arrays
-        a["springs"][rows] = np.concatenate([edges, across])
+        a["springs"][rows] = np.concatenate([keys, across])
         a["rest"][rows] = np.concatenate([rest, across_rest])
-        a["stiffness"][rows] = s.youngs_modulus * s.thickness_ratio * np.concatenate([area, span]) / a["rest"][rows]
-        self.stretch_row.update(zip(live, rows[: len(live)].tolist()))
-        self.bend_row.update(zip(hinge_keys, rows[len(live):].tolist()))
+        a["stiffness"][rows] = (s.youngs_modulus * s.thickness_ratio * np.concatenate([area, area[two]])
+                                / a["rest"][rows])
+        self.stretch_row.update(keys, rows[: len(keys)])
+        self.bend_row.update(keys[two], rows[len(keys):])
         self._bind()
         self.local_masses(touched, self.mass_total)
         added = len(result.parents)
