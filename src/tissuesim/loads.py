@@ -21,7 +21,10 @@ from .errors import SolverError
 def triangle_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """``(m,) float64`` area [m²] of each of ``triangles`` ``(m, 3) int`` over ``vertices`` ``(n, 3)`` [m]."""
     p = vertices[np.asarray(triangles, dtype=np.int64)]
-    return 0.5 * np.linalg.norm(np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), axis=1)
+    u, v = (p[:, 1] - p[:, 0]).T, (p[:, 2] - p[:, 0]).T
+    # the cross product written out: np.cross costs more than this arithmetic on the few rows of a cut
+    x, y, z = u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]
+    return 0.5 * np.sqrt(x * x + y * y + z * z)
 
 
 def lumped_areas(vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:

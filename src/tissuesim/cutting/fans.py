@@ -68,24 +68,17 @@ class VertexFans:
 
     def record(self, rows, contents, copies=()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
-        rows, contents = np.asarray(rows).tolist(), np.asarray(contents).tolist()
-        highest = max([v for c in contents for v in c] + [v for pair in copies for v in pair], default=-1)
+        rows = np.asarray(rows, dtype=np.int64)
+        contents = np.asarray(contents, dtype=np.int64).reshape(-1, 3)
+        highest = max([int(contents.max(initial=-1))] + [v for pair in copies for v in pair])
         self._grow_vertices(highest + 1)
-        for r, content in zip(rows, contents):
-            for v in content:
-                if r not in self._gained_rows(v):
-                    self._push(v, r)
+        if self._slots + contents.size > len(self._gained):
+            self._next, self._gained = (_grown(a, self._slots + contents.size) for a in (self._next, self._gained))
+        self._slots = _record_rows(rows, contents, self._head, self._next, self._gained, self._slots)
         for copy, original in copies:
             if copy not in self.twins(original):
                 # swapping two ring links joins two rings (and would split one, hence the test)
                 self._ring[copy], self._ring[original] = self._ring[original], self._ring[copy]
-
-    def _push(self, v: int, row: int) -> None:
-        if self._slots == len(self._gained):
-            self._next, self._gained = (_grown(a, self._slots + 1) for a in (self._next, self._gained))
-        self._gained[self._slots], self._next[self._slots] = row, self._head[v]
-        self._head[v] = self._slots
-        self._slots += 1
 
     def _grow_vertices(self, count: int) -> None:
         """Room for vertices up to ``count`` (×1.5 when full, so a cut's few new vertices cost O(1) amortised)."""
@@ -186,6 +179,22 @@ def _walk(triangles, positions, low, high, seeds, rows, start, built, head, next
                 if w == v:
                     break
     return kept
+
+
+@njit(cache=True)
+def _record_rows(rows, contents, head, next_slot, gained, slots):
+    """Push each row onto the gained list of each of its corners that does not list it yet; the new slot count."""
+    for i in range(rows.size):
+        for c in range(3):
+            v, r = contents[i, c], rows[i]
+            slot = head[v]
+            while slot >= 0 and gained[slot] != r:
+                slot = next_slot[slot]
+            if slot < 0:
+                gained[slots], next_slot[slots] = r, head[v]
+                head[v] = slots
+                slots += 1
+    return slots
 
 
 @njit(cache=True)
