@@ -292,3 +292,26 @@ def test_a_cut_mesh_that_released_control_nodes_saves_and_loads(tmp_path):
     assert np.array_equal(loaded.control, cut.control)
     assert np.array_equal(loaded.coarse_volume_nodes, cut.coarse_volume_nodes)
     assert loaded.built_edge_length == cut.built_edge_length
+
+
+@pytest.mark.parametrize("method", ["pbd", "hybrid"])
+def test_a_held_contact_patch_is_carried_across_cuts_as_a_fresh_search_finds_it(cube, method):
+    # the patch is carried locally (only the new vertices are searched): it must equal the whole-surface search,
+    # nodes, order and shares, after cuts that run through it
+    from tissuesim.loads import contact_patch, lumped_areas
+
+    solver = tissuesim.make_solver(method, cube)
+    start, end = incision_line(solver.rest_positions, length=0.02)
+    middle = 0.5 * (start + end)
+    node = int(np.argmin(np.linalg.norm(solver.rest_positions - middle, axis=1)))
+    solver.set_load(node, [0.0, 0.0, 0.3], radius=0.006)
+    scalpel = tissuesim.Scalpel(solver, depth=0.01)
+    scalpel.press(start, direction=[0, 0, -1])
+    for f in np.linspace(0, 1, 9)[1:]:
+        scalpel.move(start + f * (end - start))
+        rest, triangles = solver.rest_positions, solver.hybrid.surface.triangles
+        nodes, shares = contact_patch(rest, triangles, node, 0.006, areas=lumped_areas(rest, triangles))
+        assert np.array_equal(solver.load_nodes, nodes)
+        assert np.allclose(solver.load_shares, shares, rtol=1e-12)
+        assert np.allclose(solver.forces[nodes], shares[:, None] * [0.0, 0.0, 0.3], rtol=1e-12)
+    assert len(solver.load_nodes) > 8 and solver.hybrid.info["cuts"] >= 4

@@ -133,7 +133,7 @@ class SolverCut:
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
         self._carry_state(result, new_fixed)
         self.update(result, n, released, self.touched(result))
-        self._reload()
+        self._reload(result)
         self.closed = result.closed
         self.identity = self.spare.extend("identity", self.identity, new_identity)
         self.cut_parent, self.cut_seen = parent, seen
@@ -179,14 +179,25 @@ class SolverCut:
         s.mass = self.spare.extend("mass", s.mass, np.zeros(len(s.rest_positions) - len(s.mass)))
         s.mass[touched] = mass_total * self.lumped[touched] / self.lumped_total
 
-    def _reload(self) -> None:
+    def _reload(self, result: CutResult) -> None:
         """Contact patches are cached per node on the uncut surface: drop them and re-apply a held load, so a
-        patch that now borders the cut loses the nodes across it."""
+        patch that now borders the cut loses the nodes across it. A held patch is carried over locally: old
+        vertices keep their rest positions, so it gains only the new vertices within its radius (the whole-surface
+        search of :meth:`contact_patch` would find the same nodes, in the same order, in O(n))."""
         s = self.solver
+        held = s.contact_patch(s._load_node, s.load_radius) if s._load_node >= 0 else None
         s._patches.clear()
         s._lumped_areas = self.lumped
-        if s._load_node >= 0:
-            s.set_load(s._load_node, s._load_force.copy(), radius=s.load_radius)
+        if held is None:
+            return
+        if s.load_radius is not None:
+            new = np.arange(result.old_count, len(result.rest))
+            centre = result.rest[s._load_node]
+            near = new[np.linalg.norm(result.rest[new] - centre, axis=1) <= s.load_radius]
+            if not np.isin(near, s.fixed).any():    # else the full search refuses the patch, saying why
+                nodes = np.concatenate([held[0], near])
+                s._patches[(s._load_node, s.load_radius)] = (nodes, self.lumped[nodes] / self.lumped[nodes].sum())
+        s.set_load(s._load_node, s._load_force.copy(), radius=s.load_radius)
 
     def _update_lumped(self, result) -> None:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""
