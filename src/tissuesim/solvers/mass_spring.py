@@ -230,9 +230,16 @@ class MassSpringSolver(Solver):
 
 def _omega_bound(springs, stiffness, inv_mass) -> float:
     """Upper bound [rad/s] of the highest natural frequency (Gershgorin on M^{-1/2} K M^{-1/2}, block norms)."""
-    wi, wj = inv_mass[springs[:, 0]], inv_mass[springs[:, 1]]
-    cross = np.sqrt(wi * wj)
-    row = np.zeros(len(inv_mass))
-    np.add.at(row, springs[:, 0], stiffness * (wi + cross))
-    np.add.at(row, springs[:, 1], stiffness * (wj + cross))
-    return float(np.sqrt(row.max()))
+    return float(np.sqrt(_gershgorin_rows(springs, stiffness, inv_mass).max()))
+
+
+@njit(cache=True)
+def _gershgorin_rows(springs, stiffness, inv_mass):
+    """Each vertex's Gershgorin row sum Σ k (w_i + √(w_i w_j)) over its springs [1/s²] (one compiled pass, as a
+    cut re-bounds the frequency after every move)."""
+    row = np.zeros(inv_mass.size)
+    for end in range(2):        # the first ends, then the second ends: the summation order of np.add.at
+        for s in range(springs.shape[0]):
+            i, j = springs[s, end], springs[s, 1 - end]
+            row[i] += stiffness[s] * (inv_mass[i] + np.sqrt(inv_mass[i] * inv_mass[j]))
+    return row
