@@ -12,8 +12,9 @@ process (the code is single-threaded, so it equals wall time on an idle machine 
    (:class:`tissuesim.cutting.buffers.CutSurface`: plan + apply on capacity buffers, what the scalpel runs), and the
    whole scalpel move on a pbd and on a hybrid solver (core + the solver's arrays). Medians over the moves but
    the first (which builds the buffers and fans).
-2. **step after 50 cuts**: hybrid step time on the Table-1 cube before and after 50 progressive moves in five
-   strokes (the kernels also sweep the retired rows).
+2. **step after 50 cuts**: hybrid step time on the Table-1 cube before and after ~50 cutting moves in five
+   strokes, with the implicit and the XPBD integrator (the kernels also sweep the retired rows); the cut adds
+   vertices, so the ratio per vertex is printed too.
 3. **fine FEM for the same cut**: TetGen on the cut M_S (fine switches) + assembly and factorization of K, the
    work a volumetric FEM would redo for each move, against one hybrid move.
 """
@@ -109,31 +110,36 @@ def bench_solver_moves(hybrid, step, method):
     return statistics.median(split), statistics.median(times[1:] or times)   # the first move builds the buffers
 
 
-def bench_steps(hybrid, steps):
-    solver = tissuesim.make_solver("hybrid", hybrid)
-
-    def timed():
+def bench_steps(hybrid, steps, integrator, *, rounds=7):
+    """Hybrid step time on an uncut and on a cut solver (~50 cutting moves in five strokes), timed in alternating
+    rounds so that the machine's drift cancels: (median ratio cut / uncut, its lowest and highest, uncut step [s],
+    cutting moves, retired stretch rows, stretch rows, vertices before, vertices after)."""
+    uncut, cut = (tissuesim.make_solver("hybrid", hybrid, integrator=integrator) for _ in range(2))
+    start, end = incision_line(cut.rest_positions, length=0.02)
+    moves = 0
+    for offset in (-0.012, -0.006, 0.0, 0.006, 0.012):
+        shift = np.array([0.0, offset, 0.0])
+        scalpel = tissuesim.Scalpel(cut, depth=0.01)
+        scalpel.press(start + shift, direction=[0, 0, -1])
+        for f in np.linspace(0, 1, 14)[1:]:
+            moves += scalpel.move(start + shift + f * (end - start)).triangles_split > 0
+        scalpel.release()
+    for solver in (uncut, cut):
         solver.set_load(int(np.argmax(solver.rest_positions[:, 2])), [0.0, 0.0, 0.5])
         solver.step()
+
+    def timed(solver):
         t = time.process_time()
         for _ in range(steps):
             solver.step()
         return (time.process_time() - t) / steps
 
-    before = min(timed() for _ in range(3))
-    start, end = incision_line(solver.rest_positions, length=0.02)
-    moves = 0
-    for offset in (-0.012, -0.006, 0.0, 0.006, 0.012):
-        shift = np.array([0.0, offset, 0.0])
-        scalpel = tissuesim.Scalpel(solver, depth=0.01)
-        scalpel.press(start + shift, direction=[0, 0, -1])
-        for f in np.linspace(0, 1, 11)[1:]:
-            moves += scalpel.move(start + shift + f * (end - start)).triangles_split > 0
-        scalpel.release()
-    after = min(timed() for _ in range(3))
-    c = solver.constraints
+    pairs = [(timed(uncut), timed(cut)) for _ in range(rounds)]
+    ratios = sorted(after / before for before, after in pairs)
+    c = cut.constraints
     retired = int(np.count_nonzero(c.edges[:, 0] == c.edges[:, 1]))
-    return before, after, moves, retired, len(c.edges)
+    return (statistics.median(ratios), ratios[0], ratios[-1], statistics.median(b for b, _ in pairs), moves, retired,
+            len(c.edges), len(uncut.positions), len(cut.positions))
 
 
 def bench_fine_fem(solver_after_cut):
@@ -181,11 +187,16 @@ def main():
             print(f"| {size} | {f:g} | {k:g} | {1e3 * t_pure:.2f} | {1e3 * t_core:.2f} | {k_move} | {moves[0]} "
                   f"| {moves[1]} |", flush=True)
 
-    print("\n## 2. hybrid step after 50 cuts (Table-1 cube)\n")
+    print("\n## 2. hybrid step after 50 cuts (Table-1 cube): a cut and an uncut solver timed in alternating rounds\n")
+    print("| integrator | uncut step [ms] | cutting moves | step ratio cut / uncut, median (range) "
+          "| vertices uncut → cut | ratio per vertex | retired stretch rows |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     cube = tissuesim.HybridMesh.build(models.cube())
-    before, after, moves, retired, rows = bench_steps(cube, 20 if args.quick else 100)
-    print(f"step before: {1e3 * before:.3f} ms; after {moves} cutting moves: {1e3 * after:.3f} ms; ratio "
-          f"{after / before:.3f} ({retired} of {rows} stretch rows retired)")
+    for integrator, steps in (("implicit", 1000), ("xpbd", 100)):
+        ratio, low, high, before, moves, retired, rows, n0, n1 = bench_steps(
+            cube, steps // 5 if args.quick else steps, integrator)
+        print(f"| {integrator} | {1e3 * before:.3f} | {moves} | {ratio:.3f} ({low:.3f}–{high:.3f}) | {n0} → {n1} "
+              f"| {ratio * n0 / n1:.3f} | {retired} of {rows} |", flush=True)
 
     print("\n## 3. the fine FEM's cost for the same cut, against one hybrid move\n")
     solver = tissuesim.make_solver("hybrid", cube)
