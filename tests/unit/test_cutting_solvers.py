@@ -315,3 +315,18 @@ def test_a_held_contact_patch_is_carried_across_cuts_as_a_fresh_search_finds_it(
         assert np.allclose(solver.load_shares, shares, rtol=1e-12)
         assert np.allclose(solver.forces[nodes], shares[:, None] * [0.0, 0.0, 0.3], rtol=1e-12)
     assert len(solver.load_nodes) > 8 and solver.hybrid.info["cuts"] >= 4
+
+
+def test_the_mass_spring_stability_bound_kept_across_cuts_equals_a_full_pass(cube):
+    # the Gershgorin rows are recomputed only where a cut changed a spring or a mass; a full pass must agree
+    from tissuesim.cutting.solver_update import cut_updater
+    from tissuesim.solvers.mass_spring import gershgorin_rows
+
+    solver = tissuesim.make_solver("mass-spring", cube)
+    before = solver.omega_max
+    scripted_incision(solver)
+    updater = cut_updater(solver)          # the one that cut it (kept on the solver)
+    full = gershgorin_rows(solver.springs, solver.stiffness, solver.inv_mass)
+    assert np.allclose(updater.gershgorin, full, rtol=1e-12, atol=0.0)
+    assert solver.omega_max == pytest.approx(np.sqrt(full.max()), rel=1e-12)
+    assert solver.omega_max > before          # the cut's small new masses and springs stiffen the bound

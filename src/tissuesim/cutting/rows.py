@@ -35,6 +35,11 @@ class EdgeRows:
         row = self._row
         return [row.pop(c) for c in _codes(keys) if c in row]
 
+    def get(self, keys: np.ndarray) -> np.ndarray:
+        """``(k,) int64`` the rows of the edges ``keys`` ``(k, 2) int`` (lo < hi), −1 where an edge has none."""
+        row = self._row
+        return np.array([row.get(c, -1) for c in _codes(keys)], dtype=np.int64)
+
     def update(self, keys: np.ndarray, rows: np.ndarray) -> None:
         """Edges ``keys`` ``(k, 2) int`` (lo < hi) now have rows ``rows`` ``(k,)``."""
         self._row.update(zip(_codes(keys), np.asarray(rows).tolist()))

@@ -5,16 +5,19 @@ vertices); an edge that still exists gets a stretch spring again (rest length by
 k = E β Σ A_T / l over its new triangles, the method's own formula), and a bending spring if it still has two
 triangles, so none crosses the cut. A retired spring joins node 0 to itself with zero stiffness (no force). The
 stability bound ω_max is recomputed from the spring arrays (one vectorised pass: the substep count follows the new,
-smaller springs).
+smaller springs). Its Gershgorin row sums are kept per vertex and recomputed only where a cut changed a spring or
+a mass: the vertices of the changed triangles and their spring neighbours.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from ..solvers.mass_spring import gershgorin_rows
+from .fans import touched_edges
 from .layer_update import new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, register_cut
+from .solver_update import SolverCut, _members, register_cut
 
 
 @register_cut("mass-spring")
@@ -37,14 +40,13 @@ class MassSpringCut(SolverCut):
         interior = edges[count == 2]
         self.bend_row = EdgeRows(interior, len(edges) + np.arange(len(interior)))
         self._bind()
+        self.gershgorin = gershgorin_rows(solver.springs, solver.stiffness, solver.inv_mass)
 
     def _bind(self) -> None:
         s, a = self.solver, self.rows.arrays
         s.springs, s.rest_lengths, s.stiffness = a["springs"], a["rest"], a["stiffness"]
 
     def update(self, result, n, released, touched) -> None:
-        from ..solvers.mass_spring import _omega_bound
-
         s = self.solver
         keys, owners = self.touched_edges(result)
         self.rows.retire(self.stretch_row.pop(keys) + self.bend_row.pop(keys))
@@ -67,8 +69,34 @@ class MassSpringCut(SolverCut):
         self.local_masses(touched, self.mass_total)
         added = len(result.parents)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
-        s.inv_mass[touched] = 1.0 / s.mass[touched]
-        s.inv_mass[s.fixed] = 0.0
-        # one pass over the springs: the explicit stability bound follows the new, smaller springs and masses
-        s.omega_max = _omega_bound(s.springs, s.stiffness, s.inv_mass)
+        s.inv_mass[touched] = np.where(_members(touched, s.fixed), 0.0, 1.0 / s.mass[touched])
+        # the explicit stability bound follows the new, smaller springs and masses
+        self.gershgorin = self.spare.extend("gershgorin", self.gershgorin, np.zeros(added))
+        # the rows that changed: the touched vertices' (masses, springs) and their spring neighbours' (the √(w_i w_j)
+        # term); a retired spring's ends are among them (a bending spring's far end is a neighbour of its edge)
+        near = self._springs_at(touched)
+        self._recompute_rows(np.unique(np.concatenate([touched, s.springs[near].ravel()])))
+        s.omega_max = float(np.sqrt(self.gershgorin.max()))
         s._accel = self.spare.extend("accel", s._accel, np.zeros((added, 3)))
+
+    def _springs_at(self, vertices: np.ndarray) -> np.ndarray:
+        """``(k,) int64`` the springs with an end in ``vertices`` (ascending): the stretch and bending springs of
+        the edges of the triangles holding them (a bending spring's end is opposite its edge in such a triangle)."""
+        triangles = self.surface.triangles
+        rows = self.surface.fans.rows_holding(vertices, triangles)
+        edges = touched_edges(triangles[rows], np.zeros((0, 3), dtype=np.int64))
+        ids = np.concatenate([self.stretch_row.get(edges), self.bend_row.get(edges)])
+        ids = np.unique(ids[ids >= 0])
+        ends = self.solver.springs[ids]
+        return ids[_members(ends[:, 0], vertices) | _members(ends[:, 1], vertices)]
+
+    def _recompute_rows(self, vertices: np.ndarray) -> None:
+        """Gershgorin row sums Σ k (w_i + √(w_i w_j)) of ``vertices`` (ascending) from their springs."""
+        s, row = self.solver, self.gershgorin
+        ids = self._springs_at(vertices)
+        springs, stiffness, w = s.springs[ids], s.stiffness[ids], s.inv_mass
+        cross = np.sqrt(w[springs[:, 0]] * w[springs[:, 1]])
+        row[vertices] = 0.0
+        for end in (0, 1):
+            at = _members(springs[:, end], vertices)
+            np.add.at(row, springs[at, end], stiffness[at] * (w[springs[at, end]] + cross[at]))

@@ -230,13 +230,13 @@ class MassSpringSolver(Solver):
 
 def _omega_bound(springs, stiffness, inv_mass) -> float:
     """Upper bound [rad/s] of the highest natural frequency (Gershgorin on M^{-1/2} K M^{-1/2}, block norms)."""
-    return float(np.sqrt(_gershgorin_rows(springs, stiffness, inv_mass).max()))
+    return float(np.sqrt(gershgorin_rows(springs, stiffness, inv_mass).max()))
 
 
 @njit(cache=True)
-def _gershgorin_rows(springs, stiffness, inv_mass):
-    """Each vertex's Gershgorin row sum Σ k (w_i + √(w_i w_j)) over its springs [1/s²] (one compiled pass, as a
-    cut re-bounds the frequency after every move)."""
+def gershgorin_rows(springs, stiffness, inv_mass):
+    """``(n,) float64`` each vertex's Gershgorin row sum Σ k (w_i + √(w_i w_j)) over its springs [1/s²] (one
+    compiled pass; a cut keeps them and recomputes only the vertices it touched)."""
     row = np.zeros(inv_mass.size)
     for end in range(2):        # the first ends, then the second ends: the summation order of np.add.at
         for s in range(springs.shape[0]):
