@@ -19,7 +19,7 @@ from ..loads import triangle_areas
 from ..pbd.kernels import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, register_cut
+from .solver_update import SolverCut, _members, register_cut
 
 
 class CutConstraints(SimpleNamespace):
@@ -203,7 +203,7 @@ class HybridCut(SurfaceLayerCut):
     def prescribe(self, result, n, released) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare
         if released.size:
-            self._release(released)
+            self._release(released, n)
         else:
             self.prescribe_more(_new_of(s.fixed, n))
         new = slice(n, None)
@@ -219,21 +219,26 @@ class HybridCut(SurfaceLayerCut):
         s._delta = spare.extend("delta", s._delta, np.zeros_like(embedded))
         s._dirty = True
 
-    def _release(self, released) -> None:
-        """Control nodes ``released`` (and their copies) are no longer prescribed: the prescribed list is made
-        again (O(control + fixed) nodes, only on the moves that release some)."""
-        s, h = self.solver, self.solver.hybrid
-        control = np.asarray(h.control, dtype=np.int64)
-        control_volume = np.asarray(h.control_volume, dtype=np.int64)
-        rest_nodes = s.output_nodes[~np.isin(s.output_nodes, control_volume)]
-        s.output_nodes = np.concatenate([control_volume, rest_nodes]).astype(np.int64)
-        s._slot[:] = -1
-        s._slot[s.output_nodes] = np.arange(s.output_nodes.size)
+    def _release(self, released, n) -> None:
+        """Control nodes ``released`` (and their copies) are no longer prescribed. The lists keep their order (the
+        kept control nodes first, then the pinned fixed nodes ascending) and are edited, not rebuilt with set
+        operations over the whole mesh: only the moves that release nodes pay this, O(prescribed) copies."""
+        s = self.solver
+        kept = np.isin(s.control, released, invert=True)
+        count = s.control_count
+        # the control part of the output nodes is the control nodes' M_V nodes, in the same order
+        s.output_nodes = np.concatenate([s.output_nodes[:count][kept], s.output_nodes[:count][~kept],
+                                         s.output_nodes[count:]])
+        s._slot[s.output_nodes] = np.arange(s.output_nodes.size)      # the same nodes, reordered
         s._u = np.zeros((s.output_nodes.size, 3))
+        control = s.control[kept]
         s.control_displacement = s._u[: control.size]
         s.control, s.control_count = control, control.size
+        # pinned: the fixed nodes off the control list, with the released fixed ones and this cut's new fixed ones
         fixed = np.asarray(s.fixed, dtype=np.int64)
-        pinned = fixed[~np.isin(fixed, control)]
+        pinned = s.prescribed[count:]
+        freed = np.sort(released[_members(released, fixed)])
+        pinned = np.concatenate([np.insert(pinned, np.searchsorted(pinned, freed), freed), _new_of(fixed, n)])
         s.prescribed = np.concatenate([control, pinned])
         s.targets = np.array(s.rest_positions[s.prescribed])
         mask = self.is_prescribed
