@@ -4,9 +4,9 @@ Every edge of a changed triangle loses its stretch spring and its bending spring
 vertices); an edge that still exists gets a stretch spring again (rest length by eq 19–23, stiffness
 k = E β Σ A_T / l over its new triangles, the method's own formula), and a bending spring if it still has two
 triangles, so none crosses the cut. A retired spring joins node 0 to itself with zero stiffness (no force). The
-stability bound ω_max is recomputed from the spring arrays (one vectorised pass: the substep count follows the new,
-smaller springs). Its Gershgorin row sums are kept per vertex and recomputed only where a cut changed a spring or
-a mass: the vertices of the changed triangles and their spring neighbours.
+stability bound ω_max follows the new, smaller springs and masses (so does the substep count): its Gershgorin row
+sums are kept per vertex and recomputed only where a cut changed a spring or a mass, at the vertices of the changed
+triangles and their spring neighbours.
 """
 
 from __future__ import annotations
