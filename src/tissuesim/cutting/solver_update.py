@@ -180,9 +180,9 @@ class SolverCut:
         s.mass[touched] = mass_total * self.lumped[touched] / self.lumped_total
 
     def _reload(self, result: CutResult) -> None:
-        """Contact patches are cached per node on the uncut surface: drop them and re-apply a held load, so a
-        patch that now borders the cut loses the nodes across it. A held patch is carried over locally: old
-        vertices keep their rest positions, so it gains only the new vertices within its radius (the whole-surface
+        """Contact patches are cached per node and the cut changed the surface: drop them and re-apply a held load,
+        whose patch takes the cut's new vertices within its radius and shares by the new lumped areas. It is carried
+        over locally: old vertices keep their rest positions, so it gains only new vertices (the whole-surface
         search of :meth:`contact_patch` would find the same nodes, in the same order, in O(n))."""
         s = self.solver
         held = s.contact_patch(s._load_node, s.load_radius) if s._load_node >= 0 else None
