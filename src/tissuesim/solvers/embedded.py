@@ -32,6 +32,14 @@ def map_embedded(rest, tets, tet_of, weights, node_slot, u_nodes, positions):
                 positions[i, k] += w * u_nodes[slot, k]
 
 
+@njit(cache=True)
+def hold_at_rest(rest, nodes, positions):
+    """positions[nodes] = rest[nodes] in place: a prescribed node is where it was, exactly, not by interpolation."""
+    for i in nodes:
+        for k in range(3):
+            positions[i, k] = rest[i, k]
+
+
 @register("embedded")
 class EmbeddedSolver(Solver):
     """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring)."""
@@ -80,5 +88,6 @@ class EmbeddedSolver(Solver):
         state.velocities[:] = state.positions
         map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self._u,
                      state.positions)
+        hold_at_rest(self.rest_positions, self.fixed, state.positions)
         np.subtract(state.positions, state.velocities, out=state.velocities)
         state.velocities /= dt
