@@ -1,12 +1,13 @@
 # Two commands for a fresh machine:
 #   make run   set up, then run the paper's experiments (results/) and the contact protocol (results/contact/)
-#   make test  set up, then run the test suite
+#   make test  set up, then run the test suite (slow checks skipped)
+#   make test-slow  the test suite with the slow checks
 PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test setup clean
+.PHONY: run test test-slow setup clean
 
 # Headless OpenGL (EGL on Mesa's software renderer) for the figures; installed where apt-get can, else skipped.
 GL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
@@ -28,6 +29,9 @@ run: $(STAMP)
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
+
+test-slow: $(STAMP)
+	$(BIN)/python -m pytest -q --run-slow
 
 clean:
 	rm -rf $(VENV) results .pytest_cache

@@ -1,15 +1,49 @@
-"""Shared fixtures: the built-in models and the public organ meshes beside the repository."""
+"""Shared fixtures: the built-in models and the public organ meshes beside the repository; the suite's options.
+
+* Slow checks (``@pytest.mark.slow``) are skipped unless ``--run-slow`` is given or ``TISSUESIM_SLOW=1`` is set
+  (``make test-slow``); each has a fast sibling in the default run.
+* The contact references that calibration and the contact protocol compute are cached in a folder of this run
+  (``TISSUESIM_CACHE``), never in the user's cache: an entry written by another version of the code is not read.
+* Hypothesis keeps its example database (``.hypothesis/``) and prints a failing example's blob
+  (``@reproduce_failure``); ``--hypothesis-seed N`` replays a whole run.
+"""
 
 import os
 from pathlib import Path
 
 import pytest
+from hypothesis import settings
 
 from tissuesim.mesh import models
 
 # The real meshes live outside the repository (see DESIGN data conventions); TISSUESIM_SHARED overrides the place.
 SHARED = Path(os.environ.get("TISSUESIM_SHARED", Path(__file__).resolve().parents[1].parent / "shared"))
 MESHES = SHARED / "data" / "meshes"
+
+settings.register_profile("tissuesim", print_blob=True)
+settings.load_profile("tissuesim")
+
+
+def pytest_addoption(parser):
+    parser.addoption("--run-slow", action="store_true", default=False,
+                     help="also run the checks marked slow (or set TISSUESIM_SLOW=1)")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--run-slow") or os.environ.get("TISSUESIM_SLOW") == "1":
+        return
+    skip = pytest.mark.skip(reason="slow: run with --run-slow, TISSUESIM_SLOW=1 or make test-slow")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def private_cache(tmp_path_factory):
+    """Point ``TISSUESIM_CACHE`` at a folder of this run for the whole session."""
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setenv("TISSUESIM_CACHE", str(tmp_path_factory.mktemp("cache")))
+        yield
 
 
 @pytest.fixture(scope="session")

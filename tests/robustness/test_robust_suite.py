@@ -1,0 +1,37 @@
+"""The suite itself: slow checks skipped by default with the way to run them, a cache of its own, reproducible
+property tests whose health checks speak."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+from hypothesis import settings
+
+from tissuesim.experiments.reference import default_cache_dir
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_references_are_cached_in_a_folder_of_this_run_not_the_users(tmp_path_factory):
+    folder = default_cache_dir()
+    assert folder.is_relative_to(tmp_path_factory.getbasetemp())
+    assert not folder.is_relative_to(Path.home() / ".cache")
+
+
+def test_slow_checks_are_skipped_by_default_and_say_how_to_run_them():
+    environment = {key: value for key, value in os.environ.items() if key != "TISSUESIM_SLOW"}
+    done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-rs", "-m", "slow", "-p", "no:cacheprovider",
+                           "tests/robustness/test_robust_fuzz.py"], cwd=ROOT, env=environment,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stdout[-2000:]
+    assert " skipped" in done.stdout and " passed" not in done.stdout
+    assert "--run-slow" in done.stdout and "TISSUESIM_SLOW=1" in done.stdout
+
+
+def test_hypothesis_prints_a_failure_to_replay_keeps_its_database_and_every_health_check():
+    active = settings()
+    assert active.print_blob
+    assert active.database is not None
+    assert not active.derandomize
+    assert tuple(active.suppress_health_check) == ()
