@@ -2,6 +2,7 @@
 property tests whose health checks speak."""
 
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -35,3 +36,28 @@ def test_hypothesis_prints_a_failure_to_replay_keeps_its_database_and_every_heal
     assert active.database is not None
     assert not active.derandomize
     assert tuple(active.suppress_health_check) == ()
+
+
+def declared_dependencies() -> set[str]:
+    """Import names of the library's dependencies and of its ``test`` extra (pyproject.toml)."""
+    import tomllib
+
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    specs = project["dependencies"] + project["optional-dependencies"]["test"]
+    names = {re.split(r"[<>=!~\[; ]", spec, maxsplit=1)[0].lower() for spec in specs}
+    return {IMPORT_NAMES.get(name, name.replace("-", "_")) for name in names}
+
+
+#: Distribution names whose import name differs.
+IMPORT_NAMES = {"scikit-fem": "skfem"}
+
+
+def test_no_declared_dependency_is_skipped_when_missing():
+    declared = declared_dependencies()
+    assert {"skfem", "cvxopt", "pymetis"} <= declared
+    skipped = []
+    for path in sorted((ROOT / "tests").rglob("test_*.py")):
+        for name in re.findall(r"importorskip\(\s*[\"']([\w.]+)[\"']", path.read_text()):
+            if name.split(".")[0] in declared | {"tissuesim"}:
+                skipped.append(f"{path.relative_to(ROOT)}: {name}")
+    assert skipped == []

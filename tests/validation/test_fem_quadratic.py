@@ -4,15 +4,16 @@ same mesh, the exact energy of a uniform strain, the rigid modes, and the cantil
 import numpy as np
 import pytest
 
-skfem = pytest.importorskip("skfem", reason="scikit-fem is a test-only dependency: pip install scikit-fem")
-from skfem.models.elasticity import lame_parameters, linear_elasticity  # noqa: E402
+# scikit-fem is a test dependency (the ".[test]" extra): a missing one fails here, it is never skipped.
+import skfem
+from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from tissuesim.fem.material import Material  # noqa: E402
-from tissuesim.fem.quadratic import QuadraticFEM, quadratic_stiffness  # noqa: E402
-from tissuesim.mesh.regions import nodes_below  # noqa: E402
-from tissuesim.mesh.tetmesh import structured_box  # noqa: E402
+from tissuesim.fem.material import Material
+from tissuesim.fem.quadratic import QuadraticFEM, quadratic_stiffness
+from tissuesim.mesh.regions import nodes_below
+from tissuesim.mesh.tetmesh import structured_box
 
-from test_fem_skfem import cube_mesh  # noqa: E402
+from test_fem_skfem import cube_mesh
 
 E, NU = 5500.0, 0.3
 

@@ -5,13 +5,14 @@ import numpy as np
 import pytest
 import tetgen
 
-skfem = pytest.importorskip("skfem", reason="scikit-fem is a test-only dependency: pip install scikit-fem")
-from skfem.models.elasticity import lame_parameters, linear_elasticity  # noqa: E402
+# scikit-fem is a test dependency (the ".[test]" extra): a missing one fails here, it is never skipped.
+import skfem
+from skfem.models.elasticity import lame_parameters, linear_elasticity
 
-from tissuesim.fem.linear import LinearFEM  # noqa: E402
-from tissuesim.mesh import models  # noqa: E402
-from tissuesim.mesh.regions import bottom_nodes  # noqa: E402
-from tissuesim.mesh.tetmesh import TetMesh, tet_signed_volumes  # noqa: E402
+from tissuesim.fem.linear import LinearFEM
+from tissuesim.mesh import models
+from tissuesim.mesh.regions import bottom_nodes
+from tissuesim.mesh.tetmesh import TetMesh, tet_signed_volumes
 
 E, NU = 5500.0, 0.3
 
