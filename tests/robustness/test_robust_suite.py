@@ -61,3 +61,10 @@ def test_no_declared_dependency_is_skipped_when_missing():
             if name.split(".")[0] in declared | {"tissuesim"}:
                 skipped.append(f"{path.relative_to(ROOT)}: {name}")
     assert skipped == []
+
+
+def test_no_test_asserts_on_the_wall_clock():
+    clock = re.compile(r"assert\b.*\b(perf_counter|monotonic|process_time|time\.time)\(")
+    found = [f"{path.relative_to(ROOT)}:{number}" for path in sorted((ROOT / "tests").rglob("test_*.py"))
+             for number, line in enumerate(path.read_text().splitlines(), 1) if clock.search(line)]
+    assert found == []
