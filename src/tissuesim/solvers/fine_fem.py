@@ -25,6 +25,13 @@ class FineFEMSolver(Solver):
         super().__init__(hybrid_mesh, **common)
         from ..fem.linear import LinearFEM
 
+        cuts = int(hybrid_mesh.info.get("cuts", 0))
+        if cuts:  # a cut drops the fine volume: it is TetGen's mesh of the uncut surface
+            raise SolverError(
+                f"the fem reference cannot run on a cut surface ({cuts} cutting moves): its fine volume is a mesh of "
+                "the uncut surface, and cutting it would need re-tetrahedralizing; run fem on the uncut mesh (in "
+                "the viewer: reset, then switch to fem)"
+            )
         if hybrid_mesh.fine_volume is None or hybrid_mesh.fine_surface_nodes is None:
             raise SolverError(
                 "the fem reference needs the fine volume mesh, but this hybrid mesh was built without it; "

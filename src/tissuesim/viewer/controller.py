@@ -26,7 +26,7 @@ the pin-head free and says why in :attr:`Controller.notice`, instead of raising 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -174,7 +174,7 @@ class Controller:
             tip = self._lifted(hit, ray_direction)
             try:
                 self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
-            except SolverError as error:
+            except TissuesimError as error:
                 self.notice = str(error)
                 return
             self._cutting, self._blade = True, tip
@@ -194,8 +194,19 @@ class Controller:
             else:
                 point = camera_plane_point(ray_origin, ray_direction, self._blade)
             if point is not None:
-                self._blade = np.asarray(point, dtype=np.float64)
-                self.last_cut = self.scalpel.move(self._blade)
+                self._move_blade(np.asarray(point, dtype=np.float64))
+
+    def _move_blade(self, point: np.ndarray) -> None:
+        """Cut on to ``point`` ``(3,)`` [m]; a refused move lifts the blade and says why in :attr:`notice` (the
+        window's frame callback must not die with a cut, and the next drag would only be refused again)."""
+        try:
+            self.last_cut = self.scalpel.move(point)
+        except TissuesimError as error:
+            self.scalpel.release()
+            self._cutting = False
+            self.notice = f"the cut stopped here: {error}; press again to cut on"
+            return
+        self._blade = point
 
     def pointer_up(self) -> None:
         """Button up: release the pin-head (the force goes) or lift the blade."""
@@ -230,11 +241,14 @@ class Controller:
 
     def reset(self) -> None:
         """Back to the uncut mesh at rest, without load."""
-        self._cutting = False
         self._build(self.hybrid)
 
     def configure(self, **changes) -> None:
         """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
+        names = [field.name for field in fields(Settings)]
+        unknown = [name for name in changes if name not in names]
+        if unknown:
+            raise SolverError(f"unknown setting {', '.join(map(repr, unknown))}; the settings are {', '.join(names)}")
         settings, old = self._checked(replace(self.settings, **changes)), self.settings
         rebuild = any(getattr(settings, name) != getattr(old, name) for name in _REBUILD)
         self.settings = settings
@@ -258,11 +272,15 @@ class Controller:
 
     # ---------------------------------------------------------------------------------------------- time
     def advance(self, elapsed: float) -> FrameStats:
-        """Run the simulation steps that ``elapsed`` [s] of wall time ask for (at most MAX_STEPS_PER_FRAME)."""
+        """Run the simulation steps that ``elapsed`` [s] of wall time ask for (at most MAX_STEPS_PER_FRAME).
+
+        ``elapsed`` must be finite and at least 0 (SolverError otherwise, with nothing changed): a NaN or an
+        infinite time owed would stop the simulation for good."""
+        elapsed = self._frame_time(elapsed)
         dt = self.settings.dt
         if self.paused:
             return FrameStats(0, self._step_seconds, False, 0.0)
-        self._debt += max(float(elapsed), 0.0)
+        self._debt += elapsed
         steps, began = 0, self.clock()
         while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
             start = self.clock()
@@ -283,6 +301,18 @@ class Controller:
         dropped = self._debt - self._debt % dt if self._debt >= dt else 0.0  # never owe more than one step:
         self._debt -= dropped  # a slow frame loses simulated time instead of spiralling behind
         return FrameStats(steps, self._step_seconds, self._step_seconds > dt, dropped)
+
+    @staticmethod
+    def _frame_time(elapsed) -> float:
+        """``elapsed`` [s] as a float, or SolverError unless finite and at least 0."""
+        try:
+            seconds = float(elapsed)
+        except (TypeError, ValueError):
+            raise SolverError(f"a frame's wall time must be a number of seconds, got {elapsed!r}") from None
+        if not np.isfinite(seconds) or seconds < 0.0:
+            raise SolverError(f"a frame's wall time must be finite and at least 0 s, got {seconds!r}; pass the "
+                              "seconds since the last frame of a monotonic clock")
+        return seconds
 
     # ---------------------------------------------------------------------------------------------- internals
     def _lifted(self, point: np.ndarray, ray_direction) -> np.ndarray:
@@ -326,6 +356,8 @@ class Controller:
         solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))  # raises before any change
         if not held:
             solver.step(self.settings.dt)  # at rest: builds what the first step needs (a factorisation) while loading
+        if self._cutting:  # the new solver's scalpel is not pressed: the cut so far stays, the blade is lifted
+            self.pointer_up()
         self.solver = solver
         self.pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
@@ -335,7 +367,7 @@ class Controller:
             except TissuesimError as error:  # e.g. a method that cannot be cut
                 self._no_scalpel = f"no scalpel with the {solver.name} method: {error}"
         if self.scalpel is None and self.mode == "scalpel":
-            self.mode, self._cutting = "pin", False
+            self.mode = "pin"
         self._debt = 0.0
         self._step_seconds = 0.0
         if held is not None:
