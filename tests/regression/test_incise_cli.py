@@ -22,7 +22,9 @@ def test_incise_writes_surfaces_table_and_checks(tmp_path, capsys):
         assert vtu.cells_dict["line"].shape[0] > 0            # the cut's edges, marked
         assert (out / f"cube_{method}.obj").stat().st_size > 0
     assert rows["pbd"]["gap_mm"] > 0.01
-    assert rows["embedded"]["gap_mm"] == 0.0
+    # Both lips of the embedded surface interpolate the same tet with the same weights: round-off (~1e-14 mm) at
+    # most, where the pbd wound opens by more than 0.01 mm.
+    assert 0.0 <= rows["embedded"]["gap_mm"] <= 1e-9
     assert "| cube | pbd |" in (out / "incision.md").read_text()
 
 

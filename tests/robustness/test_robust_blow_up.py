@@ -18,7 +18,9 @@ def test_a_stiff_pin_head_blow_up_raises_and_reset_recovers(small_cube, small_cu
     pin.release()
     solver.reset()
     fresh = make_solver("hybrid", small_cube).solve_static(small_cube_top, [0.0, 0.0, 1.0])
-    assert np.array_equal(solver.solve_static(small_cube_top, [0.0, 0.0, 1.0]), fresh)
+    # The same solve from the same rest state: round-off only (a trace of the blown-up state would be of its size).
+    again = solver.solve_static(small_cube_top, [0.0, 0.0, 1.0])
+    assert np.abs(again - fresh).max() <= 1e-12 * np.abs(fresh - small_cube.surface.vertices).max()
 
 
 def test_a_non_finite_state_is_caught_on_the_next_step(small_cube, small_cube_top):

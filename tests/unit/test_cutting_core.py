@@ -59,7 +59,7 @@ def test_new_vertices_are_barycentric_in_the_rest_triangle_and_nothing_moves(cub
     for array, old in ((result.rest, rest), (result.positions, deformed)):
         assert np.allclose(array[len(rest):], np.einsum("ij,ijk->ik", result.weights, old[result.parents]),
                            atol=1e-15)
-    assert np.array_equal(result.rest[: len(rest)], rest)
+    assert np.array_equal(result.rest[: len(rest)], rest)  # exact: old rows are copied
     assert np.array_equal(result.positions[: len(rest)], deformed)
     area = lambda p, t: 0.5 * np.linalg.norm(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]), axis=1)
     assert area(result.rest, result.triangles).sum() == pytest.approx(area(rest, triangles).sum(), rel=1e-12)

@@ -248,9 +248,9 @@ def test_arrays_edited_per_move_equal_a_fresh_computation(cube, method):
     assert np.allclose(solver.mass, total * area / area.sum(), rtol=1e-9)
     expected = 1.0 / solver.mass
     expected[solver.prescribed] = 0.0
-    assert np.array_equal(solver.inv_mass, expected)
+    assert np.array_equal(solver.inv_mass, expected)  # exact: IEEE division is correctly rounded, same mass, same bits
     held = solver.control_count if method == "hybrid" else 0     # the fixed nodes after the control nodes
-    assert np.array_equal(solver.targets[held:], solver.rest_positions[solver.prescribed[held:]])
+    assert np.array_equal(solver.targets[held:], solver.rest_positions[solver.prescribed[held:]])  # assigned
     assert np.array_equal(solver.fixed, np.sort(solver.fixed))
     if method == "hybrid":
         nodes = np.asarray(h.coarse_volume_nodes)[np.asarray(h.coarse_surface.triangles)[h.coarse_triangle]]

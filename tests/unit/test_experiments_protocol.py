@@ -23,7 +23,7 @@ def test_rmse_eq26_hand_computed():
     # nodes 0 and 1: errors 5 and 1 -> sqrt((25 + 1) / 2) = sqrt(13)
     assert protocol.rmse(positions, reference, [0, 1]) == pytest.approx(np.sqrt(13.0))
     assert protocol.rmse(positions, reference, [2]) == pytest.approx(100.0)
-    assert protocol.rmse(reference, reference, [0, 1, 2]) == 0.0
+    assert protocol.rmse(reference, reference, [0, 1, 2]) == 0.0  # exact: x − x is 0 in IEEE arithmetic
 
 
 def test_relative_rmse_divides_by_reference_rms_displacement():

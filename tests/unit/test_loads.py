@@ -42,7 +42,8 @@ def test_every_method_gets_the_same_nodal_forces(sphere, method):
     solver.set_load(top, [0.0, 0.0, -2.0], radius=0.012)
     reference = make_solver("embedded", sphere)
     reference.set_load(top, [0.0, 0.0, -2.0], radius=0.012)
-    np.testing.assert_array_equal(solver.forces, reference.forces)
+    # The same patch and shares for every method: equal up to round-off of the area weights.
+    np.testing.assert_allclose(solver.forces, reference.forces, rtol=0, atol=1e-15 * 2.0)
     np.testing.assert_allclose(solver.forces.sum(axis=0), [0.0, 0.0, -2.0], atol=1e-14)
     node, total = solver.load
     assert node == top and np.allclose(total, [0.0, 0.0, -2.0])

@@ -12,7 +12,7 @@ def test_default_models_are_closed_outward_and_table1_sized(model_name):
     assert mesh.is_watertight and mesh.is_winding_consistent
     assert surface.signed_volume > 0
     assert 1300 <= surface.vertex_count <= 1550
-    assert surface.bounds[0, 2] == 0.0  # rests on z = 0
+    assert surface.bounds[0, 2] == 0.0  # rests on z = 0 (exact: the lowest z minus itself)
     assert np.allclose(surface.bounds[0, :2], -surface.bounds[1, :2])
     assert surface.triangle_areas.min() > 0
 

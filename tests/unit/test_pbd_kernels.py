@@ -144,8 +144,11 @@ def test_rest_stays_exactly_at_rest(model):
                  c.rest_signed_angle, 1.0, True)
         xpbd_step(x, v, pred, w, f, pre, targets, 1e-2, 0.0, 10, c.edges, c.rest_length, alpha_s, c.bending,
                   c.rest_signed_angle, alpha_b, ls, lb, True)
-    assert np.array_equal(x, surface.vertices)
-    assert not np.any(v)
+    # At rest the constraints' errors are round-off of the rest lengths and angles (~1e-16 relative): the state
+    # may move by round-off, never by a correction (a wrong sign or rest value moves it by ~1e-3 of the size).
+    size = np.ptp(surface.vertices, axis=0).max()
+    assert np.abs(x - surface.vertices).max() <= 1e-12 * size
+    assert np.abs(v).max() <= 1e-12 * size / 1e-2
 
 
 def test_prescribed_nodes_end_exactly_at_targets(small):
@@ -154,12 +157,12 @@ def test_prescribed_nodes_end_exactly_at_targets(small):
     pred, ls, lb = _ws(len(x), c)
     pbd_step(x, v, pred, w, f, pre, targets, 1e-3, 0.0, 5, c.edges, c.rest_length, 1.0, c.bending, c.rest_angle,
              1.0)
-    assert np.array_equal(x[pre], targets)
+    assert np.array_equal(x[pre], targets)  # exact: the kernel assigns the targets
     targets = targets + 1e-4
     alpha_s, alpha_b = shell_compliance(c, thickness=2e-3)
     xpbd_step(x, v, pred, w, f, pre, targets, 1e-3, 0.0, 5, c.edges, c.rest_length, alpha_s, c.bending,
               c.rest_angle, alpha_b, ls, lb)
-    assert np.array_equal(x[pre], targets)
+    assert np.array_equal(x[pre], targets)  # exact: assigned
 
 
 def _readonly(a):

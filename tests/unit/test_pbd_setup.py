@@ -136,9 +136,12 @@ def test_stepper_equals_the_raw_kernel_and_keeps_prescribed_nodes(sphere):
     targets[1] += 1e-3
     pbd_step(x2, v2, np.zeros((n, 3)), w, f, np.array([0, 9]), targets, 1e-2, 0.1, 4, c.edges, c.rest_length,
              0.8, c.bending, c.rest_angle, 0.3)
-    assert np.array_equal(x, x2) and np.array_equal(v, v2)
-    assert np.array_equal(x[9], st.targets[1])
-    assert st.weights[0] == 0.0 and st.weights[5] == 1.0
+    # The stepper calls the same kernel with the same arguments: round-off at most; any other argument (a sweep, the
+    # damping, a stiffness) changes the state by far more than 1e-15 of the size.
+    size = np.ptp(surface.vertices, axis=0).max()
+    assert np.abs(x - x2).max() <= 1e-15 * size and np.abs(v - v2).max() <= 1e-15 * size / 1e-2
+    assert np.array_equal(x[9], st.targets[1])  # exact: assigned
+    assert st.weights[0] == 0.0 and st.weights[5] == 1.0  # exact: assigned
 
 
 def test_xpbd_stepper_runs_and_needs_compliance(sphere):

@@ -23,7 +23,7 @@ def test_grab_drag_release_drives_any_solver(hybrid, method):
     force = pin.drag(cursor + [0.0, 0.0, 0.01])
     assert np.allclose(force, [0.0, 0.0, 0.2])  # f = k (x − x0), eq 24
     node, applied = solver.load
-    assert node == top and np.array_equal(applied, force)
+    assert node == top and np.array_equal(applied, force)  # exact: the load stores the force it was given
     for _ in range(5):
         solver.step()
     assert solver.positions[top, 2] > hybrid.surface.vertices[top, 2]

@@ -52,8 +52,11 @@ def test_zero_load_keeps_exact_rest(cube386, method):
     solver = make_solver(method, cube386)
     for _ in range(5):
         solver.step()
-    assert np.array_equal(solver.positions, cube386.surface.vertices)
-    assert not np.any(solver.velocities)
+    # Without a load every force is round-off of rest lengths and angles (~1e-16 relative): nothing may move by more
+    # (a spurious force of any physical size moves the 386-vertex cube by micrometres in 5 steps).
+    size = np.ptp(cube386.surface.vertices, axis=0).max()
+    assert np.abs(solver.positions - cube386.surface.vertices).max() <= 1e-12 * size
+    assert np.abs(solver.velocities).max() <= 1e-12 * size / solver.dt
 
 
 @pytest.mark.parametrize("method", METHODS)
@@ -74,6 +77,8 @@ def test_fixed_nodes_stay_exactly_at_rest(cube386, top_node, method):
     for _ in range(20):
         solver.step()
     assert solver.fixed.size > 0
+    # Exact: fixed nodes are assigned their rest positions (hybrid, pbd) or have inverse mass 0, so their velocity
+    # stays exactly 0 (mass-spring).
     assert np.array_equal(solver.positions[solver.fixed], cube386.surface.vertices[solver.fixed])
 
 
@@ -120,7 +125,7 @@ def test_fem_reference_is_the_fine_volume_solution(cube386, top_node):
     forces = np.zeros((h.fine_volume.node_count, 3))
     forces[h.fine_surface_nodes[top_node]] = [0.0, 0.0, 1.0]
     u = solver.fem.solve(forces)
-    assert np.array_equal(positions, h.surface.vertices + u[h.fine_surface_nodes])
+    assert np.abs(positions - (h.surface.vertices + u[h.fine_surface_nodes])).max() <= 1e-12 * np.abs(u).max()
     assert solver.last_solve.steps == 1 and solver.last_solve.converged
 
 
@@ -250,6 +255,7 @@ def test_explicit_fixed_set_is_used_by_every_method(cube386, top_node):
     for method in METHODS:
         solver = make_solver(method, h, fixed=bottom_controls)
         positions = solver.solve_static(top_node, [0.0, 0.0, -1.0], tolerance=1e-6)
+        # Exact: a prescribed node is assigned its rest position, for every method.
         assert np.array_equal(positions[bottom_controls], h.surface.vertices[bottom_controls]), method
 
 
