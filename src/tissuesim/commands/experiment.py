@@ -47,7 +47,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..errors import SolverError
-    from ..experiments.output import check_output_folder, write_outputs
+    from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
     from ..experiments.run import ExperimentConfig, run_experiment
     from ..mesh.models import MODELS
@@ -82,7 +82,9 @@ def run(args) -> int:
 
     start = time.perf_counter()
     data = run_experiment(config, progress=not args.quiet)
+    earlier = earlier_outputs(output)
     paths = write_outputs(data, output, plots=not args.no_plots)
+    _say_replaced(output, earlier, paths)
     print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
           f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0
@@ -96,7 +98,7 @@ def _run_contact(args, output) -> int:
 
     from ..errors import SolverError
     from ..experiments import contact
-    from ..experiments.output import write_contact_outputs
+    from ..experiments.output import earlier_outputs, write_contact_outputs
     from ..experiments.reference import default_cache_dir
     from ..mesh.models import MODELS
 
@@ -104,6 +106,9 @@ def _run_contact(args, output) -> int:
         if spec not in MODELS and not Path(spec).is_file():
             raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(MODELS)}) nor an existing "
                               "file; name one of those or give a mesh path")
+    if args.cache is not None and not args.cache.strip():
+        raise SolverError("--cache is empty; give the folder of the cached references, or --no-cache to recompute "
+                          "them")
     options = dict(contact.QUICK) if args.quick else {}
     if args.models:
         scale = _number(args.scale, "--scale", "factor")
@@ -127,13 +132,24 @@ def _run_contact(args, output) -> int:
         settings = options.get("settings", contact.ContactConfig().settings)
         options["settings"] = replace(settings, max_levels=int(_number(args.levels, "--levels", "levels",
                                                                        integer=True)))
-    options["cache_dir"] = None if args.no_cache else str(args.cache or default_cache_dir())
+    options["cache_dir"] = None if args.no_cache else str(default_cache_dir() if args.cache is None else args.cache)
     start = time.perf_counter()
     data = contact.run_contact(contact.ContactConfig(**options), progress=not args.quiet)
+    earlier = earlier_outputs(output)
     paths = write_contact_outputs(data, output)
+    _say_replaced(output, earlier, paths)
     print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
           f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0
+
+
+def _say_replaced(output, earlier: set, written: list) -> None:
+    """One line on stderr naming the files of an earlier run in ``output`` that this one replaced or removed."""
+    from ..experiments.output import replacement_note
+
+    note = replacement_note(output, earlier, written)
+    if note:
+        print(note, file=sys.stderr)
 
 
 def _number(text: str, option: str, unit: str, *, integer: bool = False) -> float:

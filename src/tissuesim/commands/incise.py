@@ -8,6 +8,12 @@ progressively in 15 moves, then a small force beside the cut, solved to equilibr
 * ``incision.md``: the table of cut timings, vertices added, control nodes released, gap widths and the
   invariant checks; ``incision.json``: the same figures.
 
+MODELS are built-in model names, surface files or saved hybrid bundles (``tissuesim build ... -o FILE.npz``). Every
+argument is checked and every model read before the first cut: a bad one, or a model the 3 cm incision does not fit,
+is refused at once. DIR is written all or nothing (:mod:`tissuesim.experiments.output`): the results are staged
+beside it and moved in at the end, so an interrupted run leaves DIR as it was; a finished run replaces the files of
+an earlier one (``incision.*``, ``*_<method>.obj``/``.vtu``) as a whole and says in one line which.
+
 With ``--prestrain ε`` the surface-layer methods (hybrid, pbd) carry a prestressed capsule
 (:mod:`tissuesim.pbd.prestress`): the table gives the gap of the wound with no force first, then with the force.
 
@@ -29,7 +35,8 @@ METHODS = ("hybrid", "pbd", "mass-spring", "embedded")
 
 def add_arguments(parser) -> None:
     parser.add_argument("models", nargs="*", metavar="MODEL",
-                        help="built-in model (cube, sphere, liver, steak) or surface file; default: the four models")
+                        help="built-in model (cube, sphere, liver, steak), surface file or hybrid bundle; default: the "
+                             "four models")
     parser.add_argument("--output", "-o", default="incision", metavar="DIR",
                         help="folder for the surfaces and tables, created if absent (default: incision)")
     parser.add_argument("--methods", nargs="+", metavar="METHOD", default=list(METHODS),
@@ -44,28 +51,35 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..errors import SolverError
-    from ..experiments.output import check_output_folder
+    from ..experiments.output import check_output_folder, earlier_outputs, replacement_note, write_staged
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from ..pbd.prestress import check_prestrain
     from ..solvers.registry import available_solvers
-    from .build import load_mesh
 
+    # every argument is checked, and every model read, before the first (minutes long) cut
     output = check_output_folder(args.output)
     unknown = [m for m in args.methods if m not in available_solvers()]
     if unknown:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     prestrain = check_prestrain(args.prestrain)
-    rows = []
-    for spec in args.models or list(MODELS):
-        name = Path(spec).stem if Path(spec).suffix else spec
-        print(f"{name}: building the hybrid mesh", file=sys.stderr)
-        hybrid = HybridMesh.build(load_mesh(spec, scale=args.scale, resolution=args.resolution), fine_volume=False)
+    sources = [_source(spec, scale=args.scale, resolution=args.resolution) for spec in args.models or list(MODELS)]
+    rows, cuts = [], {}
+    for name, source in sources:
+        if not isinstance(source, HybridMesh):
+            print(f"{name}: building the hybrid mesh", file=sys.stderr)
+            source = HybridMesh.build(source, fine_volume=False)
         for method in args.methods:
-            rows.append(_one(name, method, hybrid, output, prestrain))
-    output.mkdir(parents=True, exist_ok=True)
-    (output / "incision.json").write_text(json.dumps(rows, indent=1) + "\n")
-    (output / "incision.md").write_text(_table(rows))
+            row, cut = _one(name, method, source, prestrain)
+            rows.append(row)
+            if cut is not None:
+                cuts[f"{name}_{method}"] = cut
+    patterns = _patterns()
+    earlier = earlier_outputs(output, patterns=patterns)
+    written = write_staged(output, lambda staging: _fill(staging, rows, cuts), patterns=patterns)
+    note = replacement_note(output, earlier, written)
+    if note:
+        print(note, file=sys.stderr)
     print(_table(rows))
     failed = [r for r in rows if r.get("invariants")]
     if failed:
@@ -74,7 +88,46 @@ def run(args) -> int:
     return 0
 
 
-def _one(model: str, method: str, hybrid, output: Path, prestrain: float) -> dict:
+def _source(spec: str, *, scale: float, resolution):
+    """``(name, SurfaceMesh or HybridMesh)`` of a built-in model, a surface file or a saved bundle, checked to fit
+    the incision."""
+    from ..experiments.run import SURFACE_SUFFIXES, model_name
+    from ..mesh.hybrid import HybridMesh
+    from .build import load_mesh
+
+    path = Path(spec)
+    if path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
+        source = HybridMesh.load(path)      # a bundle is in metres: --scale is for surface files
+        surface = source.surface
+    else:
+        source = surface = load_mesh(spec, scale=scale, resolution=resolution)
+    name = model_name(spec)
+    _check_fits(name, surface)
+    return name, source
+
+
+def _check_fits(name: str, surface) -> None:
+    """Refuse a model the scripted incision cannot start on, by the test :meth:`Scalpel.press` makes: the blade,
+    pressed where the incision starts, must reach the surface."""
+    from ..cutting.wound import INCISION_DEPTH, INCISION_LENGTH, incision_line
+    from ..errors import SolverError
+    from ..mesh.maps import closest_on_surface
+
+    vertices = surface.vertices
+    start, _ = incision_line(vertices)
+    triangle, weights = closest_on_surface(surface, start[None])
+    distance = float(np.linalg.norm(weights[0] @ vertices[surface.triangles[triangle[0]]] - start))
+    if distance > INCISION_DEPTH:
+        raise SolverError(
+            f"the scripted {1e2 * INCISION_LENGTH:g} cm incision does not fit {name}: the model is "
+            f"{1e2 * np.ptp(vertices[:, 0]):.3g} cm long along x, so where the incision starts the surface is "
+            f"{1e2 * distance:.3g} cm from the blade, beyond its {1e2 * INCISION_DEPTH:g} cm reach; give a model "
+            "longer than the incision (a surface file in cm or mm needs --scale 0.01 or 0.001)")
+
+
+def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple | None]:
+    """The table row of one model and method, and the cut surface to write: ``(positions (n, 3) [m], triangles
+    (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
     from ..cutting.invariants import check_cut_invariants
     from ..cutting.solver_update import refusal
     from ..cutting.wound import open_wound, scripted_incision, unloaded_openings
@@ -83,7 +136,7 @@ def _one(model: str, method: str, hybrid, output: Path, prestrain: float) -> dic
 
     print(f"{model}: {method}", file=sys.stderr)
     if refusal(method):
-        return {"model": model, "method": method, "refused": refusal(method)}
+        return {"model": model, "method": method, "refused": refusal(method)}, None
     prestressed = prestrain > 0.0 and "prestrain" in solver_options(method)
     solver = make_solver(method, hybrid, **({"prestrain": prestrain} if prestressed else {}))
     run = scripted_incision(solver)
@@ -100,34 +153,47 @@ def _one(model: str, method: str, hybrid, output: Path, prestrain: float) -> dic
     cut = solver.hybrid.surface
     problems = check_cut_invariants(cut.vertices, cut.triangles, masses=getattr(solver, "mass", None),
                                     total_mass=total)
-    _write(output, f"{model}_{method}", solver)
-    return {"model": model, "method": method, "moves": len(moves), "move_ms_mean": float(move_ms.mean()),
-            "move_ms_max": float(move_ms.max()), "triangles_split": sum(r.triangles_split for r in moves),
-            "vertices_added": sum(r.vertices_added for r in moves),
-            "control_released": sum(r.control_released for r in moves),
-            "prestrain": prestrain if prestressed else 0.0,
-            "unloaded_gap_mm": None if unloaded is None else [1e3 * float(np.median(unloaded)),
-                                                              1e3 * float(unloaded.max())],
-            "gap_mm": 1e3 * wound["gap"],
-            "settled": wound["settled"], "steps": wound["steps"], "solve_s": time.perf_counter() - start,
-            "beyond_linear": list(dict.fromkeys(beyond)),
-            "invariants": problems}
+    row = {"model": model, "method": method, "moves": len(moves), "move_ms_mean": float(move_ms.mean()),
+           "move_ms_max": float(move_ms.max()), "triangles_split": sum(r.triangles_split for r in moves),
+           "vertices_added": sum(r.vertices_added for r in moves),
+           "control_released": sum(r.control_released for r in moves),
+           "prestrain": prestrain if prestressed else 0.0,
+           "unloaded_gap_mm": None if unloaded is None else [1e3 * float(np.median(unloaded)),
+                                                             1e3 * float(unloaded.max())],
+           "gap_mm": 1e3 * wound["gap"],
+           "settled": wound["settled"], "steps": wound["steps"], "solve_s": time.perf_counter() - start,
+           "beyond_linear": list(dict.fromkeys(beyond)),
+           "invariants": problems}
+    return row, (np.array(solver.positions), cut.triangles.astype(np.int64), np.array(solver.displacements))
 
 
-def _write(output: Path, stem: str, solver) -> None:
+def _patterns() -> tuple:
+    """Glob patterns of the files an incise run writes (replaced as a whole by the next run into the folder)."""
+    from ..solvers.registry import available_solvers
+
+    cut = tuple(f"*_{method}.{ext}" for method in available_solvers() for ext in ("obj", "vtu"))
+    return ("incision.json", "incision.md", *cut)
+
+
+def _fill(staging: Path, rows: list, cuts: dict) -> None:
+    for stem, cut in cuts.items():
+        _write(staging, stem, *cut)
+    (staging / "incision.json").write_text(json.dumps(rows, indent=1) + "\n")
+    (staging / "incision.md").write_text(_table(rows))
+
+
+def _write(output: Path, stem: str, positions, triangles, displacements) -> None:
     import meshio
 
     from ..io import write_surface
     from ..mesh.surface import SurfaceMesh
 
-    output.mkdir(parents=True, exist_ok=True)
-    triangles = solver.hybrid.surface.triangles.astype(np.int64)
-    write_surface(output / f"{stem}.obj", SurfaceMesh(np.array(solver.positions), triangles))
+    write_surface(output / f"{stem}.obj", SurfaceMesh(positions, triangles))
     directed = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
     edges, counts = np.unique(directed, axis=0, return_counts=True)
     cut_edges = edges[counts == 1]
-    mesh = meshio.Mesh(np.array(solver.positions), [("triangle", triangles), ("line", cut_edges)],
-                       point_data={"displacement": np.array(solver.displacements)},
+    mesh = meshio.Mesh(positions, [("triangle", triangles), ("line", cut_edges)],
+                       point_data={"displacement": displacements},
                        cell_data={"cut": [np.zeros(len(triangles), dtype=np.int32),
                                           np.ones(len(cut_edges), dtype=np.int32)]})
     meshio.write(output / f"{stem}.vtu", mesh)

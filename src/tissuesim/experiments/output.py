@@ -8,7 +8,8 @@ that fails, or is interrupted, while writing leaves the target as it was. Rules:
 * a target that exists as a file, or an empty path, is refused;
 * an existing folder is kept, and its results are replaced as a whole: every file of ours (``results.json``,
   ``tables.md``, ``report.md``, ``radar_*.png``) that the new run did not write is removed, so a one-model run into a
-  four-model folder leaves no other model's plot behind; other files in the folder are left alone;
+  four-model folder leaves no other model's plot behind; other files in the folder are left alone. The command says
+  in one line which files of an earlier run it replaced and removed (:func:`replacement_note`);
 * the folder and its files follow the umask (the staging folder is created private, then opened up);
 * a staging folder is named ``.<target>.partial-<pid>-*``; one whose process is gone (killed while writing) is
   removed by the next write to the same target. SIGTERM is turned into a clean exit by the CLI, which removes it.
@@ -86,9 +87,9 @@ def write_contact_outputs(data: dict, folder) -> list[Path]:
     return write_staged(folder, fill)
 
 
-def write_staged(folder, fill) -> list[Path]:
+def write_staged(folder, fill, *, patterns=OUTPUT_PATTERNS) -> list[Path]:
     """Call ``fill(staging folder)``, then move what it wrote into ``folder`` as a whole (all or nothing: files of
-    an earlier run that this one did not write are removed)."""
+    an earlier run, those matching the glob ``patterns``, that this one did not write are removed)."""
     folder = check_output_folder(folder)
     target = folder.resolve()
     staging = _make_staging(target)
@@ -101,7 +102,7 @@ def write_staged(folder, fill) -> list[Path]:
         else:
             for name in names:
                 os.replace(staging / name, target / name)
-            for stale in _our_files(target) - set(names):
+            for stale in earlier_outputs(target, patterns=patterns) - set(names):
                 (target / stale).unlink(missing_ok=True)
         return [folder / name for name in names]
     finally:
@@ -148,5 +149,21 @@ def _running(pid: int) -> bool:
     return True
 
 
-def _our_files(folder: Path) -> set[str]:
-    return {p.name for pattern in OUTPUT_PATTERNS for p in folder.glob(pattern) if p.is_file()}
+def earlier_outputs(folder, *, patterns=OUTPUT_PATTERNS) -> set[str]:
+    """Names of the files in ``folder`` matching the glob ``patterns`` (an earlier run's); empty if no folder."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return set()
+    return {p.name for pattern in patterns for p in folder.glob(pattern) if p.is_file()}
+
+
+def replacement_note(folder, earlier: set[str], written: list[Path]) -> str | None:
+    """One line naming the files of an earlier run in ``folder`` that a write replaced (same name) and removed (not
+    written again), or None when the folder held none."""
+    names = {p.name for p in written}
+    replaced, removed = sorted(earlier & names), sorted(earlier - names)
+    if not replaced and not removed:
+        return None
+    parts = [f"replaced {len(replaced)} ({', '.join(replaced)})"] if replaced else []
+    parts += [f"removed {len(removed)} not written by this run ({', '.join(removed)})"] if removed else []
+    return f"{folder}: earlier results " + "; ".join(parts)

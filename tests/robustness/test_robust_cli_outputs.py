@@ -1,0 +1,73 @@
+"""CLI outputs: an interrupted run leaves an earlier run's folder as it was; a finished run says what it replaced."""
+
+import meshio
+import pytest
+
+from tissuesim.cli import main
+
+CUBE = ["cube", "--resolution", "300"]   # a coarse cube: the scripted incision takes well under a second
+
+
+def _snapshot(folder):
+    """Every file under ``folder`` (hidden ones included) with its bytes."""
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def test_an_interrupted_incise_leaves_the_earlier_folder_as_it_was(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "cut"
+    assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(out)]) == 0
+    before = _snapshot(out)
+    # a different run (finer cube, two methods), interrupted while writing its first VTU: its OBJ is written by then
+    calls = []
+
+    def interrupted(*args, **kwargs):
+        calls.append(args)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(meshio, "write", interrupted)
+    code = main(["incise", "cube", "--resolution", "400", "--methods", "pbd", "embedded", "--output", str(out)])
+    assert code == 130 and calls                      # the interruption happened, while writing
+    assert _snapshot(out) == before                   # no new, truncated or replaced file
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["cut"]     # no staging folder left beside it
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "tissuesim incise: interrupted"
+
+
+def test_incise_replaces_an_earlier_run_as_a_whole_and_says_so(tmp_path, capsys):
+    out = tmp_path / "cut"
+    assert main(["incise", *CUBE, "--methods", "pbd", "embedded", "--output", str(out)]) == 0
+    (out / "notes.txt").write_text("the user's own file")
+    capsys.readouterr()
+    assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(out)]) == 0
+    names = sorted(p.name for p in out.iterdir())
+    assert names == ["cube_pbd.obj", "cube_pbd.vtu", "incision.json", "incision.md", "notes.txt"]
+    note = [line for line in capsys.readouterr().err.splitlines() if "earlier results" in line]
+    assert note == [f"{out}: earlier results replaced 4 (cube_pbd.obj, cube_pbd.vtu, incision.json, incision.md); "
+                    "removed 2 not written by this run (cube_embedded.obj, cube_embedded.vtu)"]
+
+
+def test_experiment_says_which_earlier_files_it_removes(tmp_path, monkeypatch, capsys, synthetic_results):
+    from tissuesim.experiments import run
+
+    out = tmp_path / "results"
+    monkeypatch.setattr(run, "run_experiment", lambda config, progress: synthetic_results(models=config.models))
+    assert main(["experiment", "cube", "liver", "--quick", "--quiet", "--output", str(out)]) == 0
+    assert (out / "radar_liver.png").is_file()
+    capsys.readouterr()
+    assert main(["experiment", "cube", "--quick", "--quiet", "--output", str(out)]) == 0
+    assert not (out / "radar_liver.png").exists()
+    err = capsys.readouterr().err
+    assert (f"{out}: earlier results replaced 4 (radar_cube.png, report.md, results.json, tables.md); removed 1 not "
+            "written by this run (radar_liver.png)") in err.splitlines()
+
+
+def test_a_first_run_into_a_new_folder_says_nothing_of_earlier_results(tmp_path, capsys):
+    assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(tmp_path / "new")]) == 0
+    assert "earlier results" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("cache", ["", "  "])
+def test_an_empty_cache_folder_is_refused_not_replaced_by_the_default(cache, tmp_path, capsys):
+    assert main(["experiment", "--protocol", "contact", "--quick", "--quiet", "--cache", cache,
+                 "--output", str(tmp_path / "out")]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("tissuesim experiment: error: --cache is empty") and err.count("\n") == 1
