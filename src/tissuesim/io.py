@@ -22,7 +22,9 @@ from __future__ import annotations
 
 import logging
 import math
-from contextlib import redirect_stderr, redirect_stdout
+import os
+import tempfile
+from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from io import StringIO
 from pathlib import Path
 
@@ -63,11 +65,11 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
 
     Raises:
         FileNotFoundError: the file does not exist.
-        MeshError: unknown extension, unreadable file, no triangles, or a defect that validation finds (and, with
-            ``repair=True``, that repair could not fix).
+        MeshError: ``path`` is not a path (e.g. None), unknown extension, unreadable file, no triangles, or a defect
+            that validation finds (and, with ``repair=True``, that repair could not fix).
     """
     check_scale(scale)
-    vertices, polygons = read_polygons(Path(path))
+    vertices, polygons = read_polygons(_file_path(path, "read_surface"))
     surface = surface_from_polygons(vertices * float(scale), polygons, source=str(path))
     from .mesh.validate import validate_surface
 
@@ -80,6 +82,33 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
             repair_logger.warning("%s: %s", path, change)
     validate_surface(surface)
     return surface
+
+
+def _file_path(path, caller: str) -> Path:
+    """``path`` as a Path, or a MeshError unless it is a str or os.PathLike (None, a mesh, a number...)."""
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)) or not str(path).strip():
+        raise MeshError(f"{caller} needs the path of a surface file (a str or pathlib.Path), got {path!r}; for a "
+                        "built-in model use tissuesim.models.cube() (or sphere, liver, steak)")
+    return Path(path)
+
+
+@contextmanager
+def replaced_atomically(path):
+    """Yield a temporary path beside ``path`` (same suffix) to write the whole file to; on success it replaces
+    ``path`` in one rename, so a reader never sees half a file; on any error or interruption it is removed and
+    ``path`` is left as it was. The file gets the permissions the umask gives a new file."""
+    path = Path(path)
+    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".partial{path.suffix}", dir=path.parent)
+    os.close(handle)
+    try:
+        yield Path(temporary)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)     # mkstemp makes it private; ours are ordinary files
+        os.replace(temporary, path)
+    except BaseException:
+        Path(temporary).unlink(missing_ok=True)
+        raise
 
 
 def surface_from_polygons(vertices: np.ndarray, polygons: list[np.ndarray], *, source: str = "input") -> SurfaceMesh:

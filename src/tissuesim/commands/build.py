@@ -22,8 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="vertex count of the coarse surface M'_S (default: 32%% of M_S's vertices)")
     parser.add_argument("--no-fine-volume", action="store_true",
                         help="skip the fine reference volume (TetGen on M_S itself)")
-    parser.add_argument("--output", "-o", type=Path, default=None, metavar="BUNDLE.npz",
-                        help="save the hybrid mesh bundle here")
+    parser.add_argument("--output", "-o", default=None, metavar="BUNDLE.npz",
+                        help="save the hybrid mesh bundle here (checked before the build)")
     parser.add_argument("--repair", action="store_true",
                         help="repair safe surface defects (orientation, self-intersections) instead of refusing them")
     parser.add_argument("--resolution", type=int, default=None,
@@ -50,8 +50,11 @@ def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..mesh.bundle_check import check_bundle_target
     from ..mesh.hybrid import HybridMesh, table1_markdown, table1_row
 
+    if args.output is not None:
+        check_bundle_target(args.output)  # an unwritable target is refused before the build, not after
     print(f"reading {args.mesh}", file=sys.stderr)
     surface = load_mesh(args.mesh, scale=args.scale, repair=args.repair, resolution=args.resolution)
     start = time.perf_counter()

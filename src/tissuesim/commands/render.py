@@ -1,15 +1,23 @@
 """``tissuesim render [MODELS] --output DIR``: the paper's Fig 11 and Fig 16 as PNG files, drawn offscreen (EGL).
 
 Per model: ``deformation_<model>.png`` (at rest, tension, pressure) and, where ``tissuesim.Scalpel`` is installed,
-``incision_<model>.png``. ``--report FILE`` adds (or replaces) a "Figures" section linking them in a Markdown
-report. ``--if-available`` turns "no OpenGL here" into one line on stderr and exit status 0, so ``make run`` goes
-on without figures on a machine that cannot draw.
+``incision_<model>.png`` (skipped with one line for a method that cannot be cut, such as fem). ``--report FILE``
+adds (or replaces) a "Figures" section linking them, by paths relative to FILE (in ``<…>`` where a path holds a
+space), in a Markdown report. ``--if-available`` turns "no OpenGL here" into one line on stderr and exit status 0, so
+``make run`` goes on without figures on a machine that cannot draw.
+
+Every argument is checked before any drawing (an unwritable ``--report``, ``--force 0``, a negative ``--radius``);
+each file is written whole or not at all (written beside its target and renamed), so an interrupted run leaves no
+truncated PNG or report.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import re
 import sys
+import tempfile
 from pathlib import Path
 
 HELP = "render the paper's figures (Fig 11 deformation, Fig 16 incision) offscreen into PNG files"
@@ -36,15 +44,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..cutting.solver_update import refusal
     from ..experiments.output import check_output_folder
     from ..mesh.models import MODELS
+    from ..solvers.checks import positive_number
     from ..viewer.controller import scalpel_class
     from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
     from ..viewer.gl import NoOpenGLError, polyscope
     from ..solvers.registry import solver_class
-    from .view import load_hybrid
 
-    solver_class(args.method)  # an unknown method is refused before any work
+    # every argument is checked before any work; a value given is used as given, never replaced by a default
+    solver_class(args.method)
+    force = FIGURE_FORCE if args.force is None else positive_number("--force", args.force, "N")
+    radius_mm = None if args.radius is None else positive_number("--radius", args.radius, "mm")
+    if args.report is not None:
+        check_report(args.report)
     try:
         polyscope(headless=True)  # fail early, before any mesh is built
     except NoOpenGLError as error:
@@ -53,16 +67,12 @@ def run(args: argparse.Namespace) -> int:
         print(f"tissuesim render: figures skipped: {error}", file=sys.stderr)
         return 0
     check_output_folder(args.output).mkdir(exist_ok=True)
-    cutting = scalpel_class() is not None
-    if not cutting:
-        print("tissuesim render: this installation has no tissuesim.Scalpel, incision figures skipped",
-              file=sys.stderr)
+    cutting = _cutting(scalpel_class() is not None, refusal(args.method))
     written = []
     for spec in args.models or MODELS:
         hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, progress=False)
         written.append(deformation_figure(hybrid, name, args.output / f"deformation_{name}.png", method=args.method,
-                                          force=args.force or FIGURE_FORCE,
-                                          radius=None if args.radius is None else 1e-3 * args.radius))
+                                          force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
         if cutting:
             written.append(incision_figure(hybrid, name, args.output / f"incision_{name}.png", method=args.method))
         print(f"rendered {name}", file=sys.stderr)
@@ -72,17 +82,60 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cutting(installed: bool, refused: str | None) -> bool:
+    """Whether to draw the incision figures; where not, say why in one line."""
+    if not installed:
+        print("tissuesim render: this installation has no tissuesim.Scalpel, incision figures skipped",
+              file=sys.stderr)
+    elif refused:
+        print(f"tissuesim render: incision figures skipped: {refused}", file=sys.stderr)
+    return installed and not refused
+
+
+def check_report(report: Path) -> None:
+    """Refuse, before any drawing, a ``--report`` the Figures section cannot be written to: a folder, a missing
+    folder, a place where no file can be created (tried for real), or a file that is not text."""
+    from ..experiments.output import OutputError
+
+    if report.exists() and not report.is_file():
+        raise OutputError(f"--report {report} is a folder (or device), not a Markdown file; give a file path, e.g. "
+                          f"{report / 'report.md'}")
+    if not report.parent.is_dir():
+        raise OutputError(f"--report {report}: the folder {report.parent} does not exist; create it or give "
+                          "another path")
+    try:
+        handle, probe = tempfile.mkstemp(prefix=f".{report.name}.", dir=report.parent)
+    except OSError as error:
+        raise OutputError(f"cannot write --report {report}: {error.strerror or error} in {report.parent}; choose "
+                          "another path or make that folder writable") from None
+    os.close(handle)
+    os.unlink(probe)
+    if not report.exists():
+        return
+    try:
+        report.read_text()
+    except (OSError, UnicodeDecodeError) as error:
+        raise OutputError(f"cannot read --report {report} to add the Figures section to it: {error}; give a "
+                          "Markdown file") from None
+
+
 def link_figures(report: Path, figures: list[Path]) -> None:
-    """Add or replace the Figures section of the Markdown ``report``, linking ``figures`` relative to it."""
+    """Add or replace the Figures section of the Markdown ``report``, linking ``figures`` by paths relative to it
+    (written whole or not at all)."""
+    from ..io import replaced_atomically
+
     text = report.read_text() if report.exists() else ""
     text = text.split(f"\n{SECTION}\n")[0].strip("\n")
-    links = "\n\n".join(f"![{f.stem}]({_relative(f, report.parent)})" for f in figures)
-    report.write_text(f"{text}\n\n{SECTION}\n\nDrawn by `tissuesim render` (Fig 11: deformation; Fig 16: incision)."
-                      f"\n\n{links}\n")
+    links = "\n\n".join(f"![{f.stem}]({_destination(f, report.parent)})" for f in figures)
+    with replaced_atomically(report) as partial:
+        partial.write_text(f"{text}\n\n{SECTION}\n\nDrawn by `tissuesim render` (Fig 11: deformation; Fig 16: "
+                           f"incision).\n\n{links}\n")
 
 
-def _relative(path: Path, folder: Path) -> str:
-    try:
-        return path.resolve().relative_to(folder.resolve()).as_posix()
-    except ValueError:
-        return path.resolve().as_posix()
+def _destination(path: Path, folder: Path) -> str:
+    """A Markdown link destination for ``path`` relative to ``folder``: bare where it can be, else in ``<…>`` (a
+    bare destination ends at a space and needs balanced parentheses)."""
+    relative = Path(os.path.relpath(path.resolve(), folder.resolve())).as_posix()
+    if not re.search(r"[\s()<>\\]", relative):
+        return relative
+    return "<" + re.sub(r"([<>\\])", r"\\\1", relative) + ">"

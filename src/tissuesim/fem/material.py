@@ -45,25 +45,26 @@ class Material:
             if not math.isfinite(value):
                 raise MaterialError(f"{name} must be finite, got {value}")
             object.__setattr__(self, name, value)
+        # values are printed with repr: %g would round 0.4999999 to 0.5 and 0.4900001 to 0.49
         if self.youngs_modulus <= 0.0:
             raise MaterialError(
-                f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus:g}; soft tissue is ~1e3-1e5 Pa "
+                f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus!r}; soft tissue is ~1e3-1e5 Pa "
                 "(the paper uses 5500)"
             )
         if not -1.0 < self.poisson_ratio < 0.5:
             raise MaterialError(
-                f"poisson_ratio must lie in (-1, {MAX_POISSON_RATIO}], got {self.poisson_ratio:g} (0.5 makes the "
+                f"poisson_ratio must lie in (-1, {MAX_POISSON_RATIO}], got {self.poisson_ratio!r} (0.5 makes the "
                 "Lame parameter lambda infinite)"
             )
         if self.poisson_ratio > MAX_POISSON_RATIO:
             raise MaterialError(
-                f"poisson_ratio {self.poisson_ratio:g} is above {MAX_POISSON_RATIO}: linear tetrahedra lock near "
+                f"poisson_ratio {self.poisson_ratio!r} is above {MAX_POISSON_RATIO}: linear tetrahedra lock near "
                 "incompressibility and come out far too stiff (at 0.49999 the cube moves 0.1 mm where 0.3 gives "
                 f"31.9 mm); use at most {MAX_POISSON_RATIO}"
             )
         if self.poisson_ratio > LOCKING_WARNING_POISSON_RATIO:
             warnings.warn(
-                f"poisson_ratio {self.poisson_ratio:g} > {LOCKING_WARNING_POISSON_RATIO}: linear tetrahedra lock "
+                f"poisson_ratio {self.poisson_ratio!r} > {LOCKING_WARNING_POISSON_RATIO}: linear tetrahedra lock "
                 "near incompressibility, so displacements come out too small (measured on the cube at 0.49: 0.4 "
                 "of linear elasticity's)", TissuesimWarning, stacklevel=3)
 

@@ -4,10 +4,15 @@ A bundle is a file: it can be damaged, edited or forged. Every array is checked 
 range and consistency with the others (the invariants :class:`~tissuesim.mesh.hybrid.HybridMesh` documents), so a
 bad bundle is a :class:`BundleError` naming the array at load, not an ``IndexError`` or a solver that never settles
 later. Geometric checks of the meshes themselves (tet orientation, degenerate tets) stay with
-:class:`~tissuesim.mesh.tetmesh.TetMesh`.
+:class:`~tissuesim.mesh.tetmesh.TetMesh`. Before a save (and before a build that will be saved),
+:func:`check_bundle_target` checks that the bundle can be written where asked.
 """
 
 from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -129,3 +134,33 @@ def _embedding_reproduces_vertices(where, a: dict) -> None:
     if bad.size:
         raise BundleError(f"{where}: embedding_tet / embedding_barycentric do not give back {bad.size} M_S vertices "
                           f"(first: {first_indices(bad)}); {REBUILD}")
+
+
+def check_bundle_target(path) -> Path:
+    """``path`` as a Path where :meth:`HybridMesh.save` can write a bundle, or a :class:`BundleError` naming it.
+
+    Refused: an empty path; an existing folder, device or pipe; a place where no file can be created (tried for
+    real in the nearest existing folder, then removed), so a build can be refused before it runs.
+    """
+    if not str(path).strip():
+        raise BundleError("the bundle path is empty; give the path of a .npz file, e.g. --output cube.npz")
+    path = Path(path)
+    if path.exists() and not path.is_file():
+        raise BundleError(f"cannot save the bundle to {path}: it exists and is not a regular file (a folder, "
+                          "device or pipe); give the path of a new or existing .npz file")
+    folder = path.parent
+    while not folder.exists() and folder != folder.parent:  # save creates the missing folders
+        folder = folder.parent
+    try:
+        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    except OSError as error:
+        raise BundleError(unsaveable(path, error)) from None
+    os.close(handle)
+    os.unlink(probe)
+    return path
+
+
+def unsaveable(path: Path, error: OSError) -> str:
+    """The message of a bundle that cannot be written at ``path``: names the bundle, never a temporary file."""
+    return (f"cannot save the bundle to {path}: {error.strerror or error} in {path.parent}; choose another path or "
+            "make that folder writable")

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BundleError, MeshError
-from .bundle_check import check_arrays, check_header
+from .bundle_check import check_arrays, check_bundle_target, check_header, unsaveable
 from .surface import SurfaceMesh
 from .maps import closest_on_surface, embed_in_volume, own_corner
 from .tetmesh import TetMesh
@@ -46,6 +46,8 @@ SURFACE_EDGE_KEY = "surface_mean_edge_m"
 
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
+WHAT_A_BUNDLE_IS = ("a bundle is the .npz file that `tissuesim build MESH --output FILE.npz` or HybridMesh.save "
+                    "writes; read a surface file with tissuesim.read_surface and build it with HybridMesh.build")
 
 
 @dataclass(frozen=True, eq=False)
@@ -117,8 +119,9 @@ class HybridMesh:
             progress: show the steps with a tqdm bar on stderr.
 
         Raises:
-            MeshError: the surface is invalid, or TetGen fails.
+            MeshError: ``surface`` is not a SurfaceMesh, the surface is invalid, or TetGen fails.
         """
+        _check_is_surface(surface)
         from .simplify import simplify
         from .tetrahedralize import COARSE_SWITCHES, FINE_SWITCHES, tetrahedralize
         from .validate import validate_surface
@@ -185,10 +188,7 @@ class HybridMesh:
         """
         from .. import __version__
 
-        path = Path(path)
-        if path.exists() and not path.is_file():
-            raise BundleError(f"cannot save the bundle to {path}: it exists and is not a regular file (a folder, "
-                              "device or pipe); give the path of a new or existing .npz file")
+        path = check_bundle_target(path)
         header = {"format": BUNDLE_FORMAT, "format_version": BUNDLE_VERSION, "tissuesim_version": __version__,
                   "has_fine_volume": self.fine_volume is not None, "info": _jsonable(self.info)}
         arrays = {
@@ -204,8 +204,11 @@ class HybridMesh:
             arrays.update(fine_points=self.fine_volume.points, fine_tets=self.fine_volume.tets,
                           fine_surface_nodes=self.fine_surface_nodes)
         arrays["header"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        except OSError as error:
+            raise BundleError(unsaveable(path, error)) from None
         try:
             with os.fdopen(handle, "wb") as stream:
                 np.savez(stream, **arrays)
@@ -215,8 +218,10 @@ class HybridMesh:
             os.umask(umask)
             os.chmod(temporary, 0o666 & ~umask)     # mkstemp makes it private; a bundle is an ordinary file
             os.replace(temporary, path)
-        except BaseException:
+        except BaseException as error:
             Path(temporary).unlink(missing_ok=True)
+            if isinstance(error, OSError):      # e.g. a full disk: name the bundle, not the temporary file
+                raise BundleError(unsaveable(path, error)) from None
             raise
         return path
 
@@ -229,14 +234,21 @@ class HybridMesh:
             BundleError: not a bundle, corrupt, or written in another bundle format version.
         """
         path = Path(path)
+        if path.is_dir():
+            raise BundleError(f"{path} is a folder, not a hybrid-mesh bundle; {WHAT_A_BUNDLE_IS}")
         if not path.is_file():
             raise FileNotFoundError(f"no hybrid-mesh bundle at {path}")
+        if not zipfile.is_zipfile(path):
+            raise BundleError(f"{path} is not a readable hybrid-mesh bundle: it is not a .npz (zip) archive; "
+                              f"{WHAT_A_BUNDLE_IS}")
         try:
             with np.load(path, allow_pickle=False) as data:
                 arrays = {key: data[key] for key in data.files}
         except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
-            raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); rebuild it with "
-                              "`tissuesim build ... --output`") from error
+            # numpy's own text would suggest allow_pickle=True: never load a file's Python objects
+            reason = "it holds Python objects, which a bundle never does" if "pickle" in str(error) else str(error)
+            raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({reason}); {WHAT_A_BUNDLE_IS}") \
+                from None
         header = _read_header(path, arrays)
         fine_volume = header["has_fine_volume"]
         required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
@@ -341,6 +353,17 @@ def _read_header(path: Path, arrays: dict) -> dict:
             f"{header.get('tissuesim_version', '?')}); this tissuesim reads version {BUNDLE_VERSION}: rebuild it "
             "with `tissuesim build ... --output`")
     return header
+
+
+def _check_is_surface(surface) -> None:
+    from .models import MODELS
+
+    if isinstance(surface, SurfaceMesh):
+        return
+    hint = (f"for the built-in model use tissuesim.models.{surface}()" if isinstance(surface, str) and
+            surface in MODELS else "read a surface file with tissuesim.read_surface(path), or use a built-in model, "
+            "e.g. tissuesim.models.cube()")
+    raise MeshError(f"HybridMesh.build takes a SurfaceMesh, got {type(surface).__name__} {surface!r:.60}; {hint}")
 
 
 def _jsonable(value):

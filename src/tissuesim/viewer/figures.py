@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from ..experiments.protocol import LOAD_DIRECTIONS, load_node
+from ..io import replaced_atomically
 from ..recording import border_edges
 from .gl import look_at_oblique, polyscope
 
@@ -103,8 +104,11 @@ def compose(images, captions, title: str, vmax: float, path) -> Path:
     bar.set_label("displacement |u| [mm]")
     figure.suptitle(title, fontsize=11, y=1.03)
     path = Path(path)
-    figure.savefig(path, dpi=110, bbox_inches="tight")
-    plt.close(figure)
+    try:
+        with replaced_atomically(path) as partial:    # an interrupted save leaves no truncated image
+            figure.savefig(partial, dpi=110, bbox_inches="tight", format=path.suffix.lstrip(".") or "png")
+    finally:
+        plt.close(figure)
     return path
 
 
