@@ -11,19 +11,32 @@ folder ``NAME_frames/`` beside it, each with its simulation time. Every VTU hold
 The cut edges are the surface's *border* edges (edges of one triangle only): the input surface is closed, so every
 border edge was opened by an incision. The topology may change between frames (a cut adds vertices), which a
 series of separate VTU files allows.
+
+A frame is written only when something changed since the last one written: the surface was cut, the load
+changed, or a vertex moved more than :data:`MIN_MOTION` (a tissue at rest writes nothing). A recording is written
+under a temporary name beside its target (the folder ``NAME_frames.partial-*``, readable on its own through the
+index inside it) and takes the target's place only when it is closed, so an old recording of that name survives
+until the new one is complete.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from dataclasses import dataclass
+from datetime import datetime
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import TissuesimError
+from .errors import TissuesimError, first_indices
 
 FLUSH_EVERY = 50  # frames between rewrites of the .pvd index, so an interrupted recording stays readable
+MIN_MOTION = 1e-6  # m: a frame in which no vertex moved farther than this since the last frame written (and
+# neither the load nor the surface changed) is not written: 1 um is far below what a tissue model of centimetres
+# shows, and far above the round-off of a solver at rest
 
 
 class RecordingError(TissuesimError, OSError):
@@ -61,35 +74,74 @@ def solver_frame(solver, time: float) -> Frame:
                  border_edges(triangles))
 
 
+def check_target(path) -> Path:
+    """``path`` as a Path if a recording can be written there, else a :class:`RecordingError` saying why: checked
+    before a session starts, so that nothing is simulated for a recording that could not be kept."""
+    path = Path(path)
+    if path.suffix.lower() != ".pvd":
+        raise RecordingError(f"a recording is a ParaView .pvd file, got {str(path)!r}; name it e.g. session.pvd")
+    folder, frames = path.parent, frames_folder(path)
+    if not folder.is_dir():
+        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} does not exist")
+    if path.exists() and not path.is_file():
+        raise RecordingError(f"cannot record to {str(path)!r}: it is a folder; name a .pvd file beside it")
+    if frames.exists() and not frames.is_dir():
+        raise RecordingError(f"cannot record to {str(path)!r}: its frames go into {str(frames)!r}, which is a file; "
+                             "move that file away or record under another name")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} is not writable")
+    return path
+
+
+def session_path(folder, *, stem: str = "tissuesim_session") -> Path:
+    """A fresh recording name in ``folder``: ``<stem>_<YYYYmmdd-HHMMSS>.pvd`` of now, with ``-2``, ``-3`` ... where a
+    recording of that name (its .pvd or its frames) already exists."""
+    stamped = f"{stem}_{datetime.now():%Y%m%d-%H%M%S}"
+    path, n = Path(folder) / f"{stamped}.pvd", 1
+    while path.exists() or frames_folder(path).exists():
+        n += 1
+        path = Path(folder) / f"{stamped}-{n}.pvd"
+    return path
+
+
+def frames_folder(path: Path) -> Path:
+    """The folder of the VTU frames of the recording ``path`` (``NAME.pvd`` -> ``NAME_frames``)."""
+    return path.with_name(path.stem + "_frames")
+
+
 class Recorder:
     """Writes frames into ``path`` (a ``.pvd`` file) and ``<stem>_frames/`` beside it; use as a context manager.
 
     Args:
-        path: the ``.pvd`` file to write; its folder must exist. An existing recording of that name is replaced.
+        path: the ``.pvd`` file to write (:func:`check_target`). An existing recording of that name is replaced
+            when this one is closed, not before.
+        min_motion: a frame is written when a vertex moved more than this [m] since the last one written, or the
+            load or the surface changed (default :data:`MIN_MOTION`; 0 writes every frame that changed at all).
+
+    Leaving the ``with`` block by an exception discards the new recording and keeps the old one (:meth:`abort`).
     """
 
-    def __init__(self, path):
-        self.path = Path(path)
-        if self.path.suffix.lower() != ".pvd":
-            raise RecordingError(f"a recording is a ParaView .pvd file, got {str(self.path)!r}; name it e.g. "
-                                 "session.pvd")
-        if not self.path.parent.is_dir():
-            raise RecordingError(f"cannot record to {str(self.path)!r}: folder {str(self.path.parent)!r} does not "
-                                 "exist")
-        self.folder = self.path.with_name(self.path.stem + "_frames")
-        self.folder.mkdir(exist_ok=True)
-        for old in self.folder.glob("frame_*.vtu"):
-            old.unlink()
+    def __init__(self, path, *, min_motion: float = MIN_MOTION):
+        self.path = check_target(path)
+        self.folder = frames_folder(self.path)
+        self.min_motion = float(min_motion)
+        try:
+            self._partial = Path(tempfile.mkdtemp(prefix=f"{self.folder.name}.partial-", dir=self.path.parent))
+        except OSError as error:
+            raise RecordingError(f"cannot record to {str(self.path)!r}: {error}") from None
         self._entries: list[tuple[float, str]] = []
+        self._last = None  # (positions, triangles, force) of the last frame written
 
     @property
     def frame_count(self) -> int:
         return len(self._entries)
 
-    def add(self, frame: Frame) -> Path:
-        """Write one frame; returns its VTU path."""
+    def add(self, frame: Frame) -> bool:
+        """Write ``frame`` if it changed (see ``min_motion``); returns whether it was written."""
         import meshio
 
+        if not self._changed(frame):
+            return False
         name = f"frame_{len(self._entries):06d}.vtu"
         cells = [("triangle", frame.triangles)]
         cut = [np.zeros(len(frame.triangles), dtype=np.int8)]
@@ -98,44 +150,159 @@ class Recorder:
             cut.append(np.ones(len(frame.cut_edges), dtype=np.int8))
         mesh = meshio.Mesh(frame.positions, cells, point_data={"displacement": frame.displacement,
                                                                "force": frame.force}, cell_data={"cut": cut})
-        mesh.write(self.folder / name, binary=True)
-        self._entries.append((frame.time, f"{self.folder.name}/{name}"))
+        mesh.write(self._partial / name, binary=True)
+        self._entries.append((frame.time, name))
+        self._last = (frame.positions.copy(), np.array(frame.triangles), frame.force.copy())
         if len(self._entries) % FLUSH_EVERY == 0:
-            self.close()
-        return self.folder / name
+            _write_index(self._partial / self.path.name, self._entries, "")
+        return True
+
+    def _changed(self, frame: Frame) -> bool:
+        if self._last is None:
+            return True
+        positions, triangles, force = self._last
+        if triangles.shape != frame.triangles.shape or not np.array_equal(triangles, frame.triangles):
+            return True  # a cut
+        if not np.array_equal(force, frame.force):  # the load: assigned values, any change counts
+            return True
+        return float(np.max(np.linalg.norm(frame.positions - positions, axis=1))) > self.min_motion
 
     def close(self) -> Path:
-        """Write the ``.pvd`` index of the frames so far; returns its path."""
-        rows = "\n".join(f'    <DataSet timestep="{t!r}" part="0" file={quoteattr(f)}/>' for t, f in self._entries)
-        self.path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
-                             f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
+        """Write the ``.pvd`` index and put the recording in place of any old one of that name; returns its path.
+
+        The old frames folder is moved aside, the new one takes its name, then the index replaces the old index
+        in one atomic rename; only then are the old frames deleted."""
+        if self._partial is None:
+            return self.path
+        index = self._partial / (self.path.name + ".final")
+        _write_index(index, self._entries, self.folder.name + "/")
+        (self._partial / self.path.name).unlink(missing_ok=True)  # the partial index, which names no folder
+        old = self._partial.with_name(self._partial.name + "-old") if self.folder.exists() else None
+        try:
+            if old is not None:
+                self.folder.rename(old)
+            try:
+                self._partial.rename(self.folder)
+            except OSError:
+                if old is not None:
+                    old.rename(self.folder)
+                raise
+            os.replace(self.folder / index.name, self.path)
+        except OSError as error:
+            where = self._partial if self._partial.exists() else self.folder
+            raise RecordingError(f"cannot put the recording in place at {str(self.path)!r} ({error}); its frames "
+                                 f"are in {str(where)!r}") from None
+        self._partial = None
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)
         return self.path
+
+    def abort(self) -> None:
+        """Discard this recording (its frames so far); an old recording of that name stays as it was."""
+        if self._partial is not None:
+            shutil.rmtree(self._partial, ignore_errors=True)
+            self._partial = None
 
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
-        self.close()
+    def __exit__(self, kind, error, trace):
+        if kind is None:
+            self.close()
+        else:
+            self.abort()
+
+
+def _write_index(path: Path, entries, prefix: str) -> None:
+    """The ParaView collection of ``entries`` ``[(time [s], VTU name)]``, each name under ``prefix``."""
+    rows = "\n".join(f'    <DataSet timestep="{float(t)!r}" part="0" file={quoteattr(prefix + f)}/>' for t, f in entries)
+    path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
+                    f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
 
 
 def read_recording(path) -> list[Frame]:
-    """The frames of the recording ``path`` (a ``.pvd`` written by :class:`Recorder`), in time order."""
-    import xml.etree.ElementTree as ElementTree
+    """The frames of the recording ``path`` (a ``.pvd`` written by :class:`Recorder`), in time order.
 
-    import meshio
-
+    A damaged or foreign recording raises a :class:`RecordingError` naming the file and the defect: an index that
+    is not a collection or lists no frame, a missing or unreadable VTU, no triangles, indices out of range,
+    missing or wrongly shaped point data, non-finite values."""
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"no recording at {str(path)!r}; record one with tissuesim view --record FILE.pvd")
+    return [_read_frame(path.parent / name, time) for time, name in _index(path)]
+
+
+def _index(path: Path) -> list[tuple[float, str]]:
+    """``[(time [s], VTU name relative to path's folder)]`` of the collection ``path``, in time order."""
+    import xml.etree.ElementTree as ElementTree
+
     try:
-        datasets = ElementTree.parse(path).getroot().iter("DataSet")
-        entries = sorted((float(d.get("timestep")), d.get("file")) for d in datasets)
-    except (ElementTree.ParseError, TypeError, ValueError) as error:
+        datasets = list(ElementTree.parse(path).getroot().iter("DataSet"))
+    except (ElementTree.ParseError, OSError, UnicodeDecodeError) as error:
         raise RecordingError(f"{str(path)!r} is not a ParaView collection (.pvd): {error}") from None
-    frames = []
-    for time, name in entries:
-        mesh = meshio.read(path.parent / name)
-        blocks = {block.type: block.data for block in mesh.cells}
-        frames.append(Frame(time, mesh.points, blocks["triangle"].astype(np.int32), mesh.point_data["displacement"],
-                            mesh.point_data["force"], blocks.get("line", np.zeros((0, 2))).astype(np.int32)))
-    return frames
+    if not datasets:
+        raise RecordingError(f"{str(path)!r} lists no frame (no <DataSet>); record again")
+    entries = []
+    for i, dataset in enumerate(datasets):
+        name, time = dataset.get("file"), dataset.get("timestep", "")
+        if not name:
+            raise RecordingError(f"{str(path)!r}: <DataSet> {i} names no file; the index is damaged, record again")
+        try:
+            time = float(time)
+        except ValueError:
+            time = float("nan")
+        if not np.isfinite(time):
+            raise RecordingError(f"{str(path)!r}: <DataSet> {i} ({name}) has no finite timestep, got "
+                                 f"{dataset.get('timestep')!r}")
+        entries.append((time, name))
+    return sorted(entries)
+
+
+def _read_frame(file: Path, time: float) -> Frame:
+    """The :class:`Frame` in the VTU ``file``, checked (see :func:`read_recording`)."""
+    import meshio.vtu
+
+    if not file.is_file():
+        raise RecordingError(f"frame file {str(file)!r} is missing; the recording is incomplete")
+    if file.suffix.lower() != ".vtu":
+        raise RecordingError(f"frame file {str(file)!r} is not a VTU file (.vtu), which is all a recording holds")
+    try:  # meshio.vtu.read raises where meshio.read prints and exits the process
+        mesh = meshio.vtu.read(str(file))
+    except Exception as error:  # a truncated or foreign file: any parser error means the same to the user
+        raise RecordingError(f"cannot read frame file {str(file)!r}: truncated or not a VTU file"
+                             + (f" ({error})" if str(error) else "")) from None
+    points = np.asarray(mesh.points, dtype=np.float64)
+    triangles, lines = mesh.get_cells_type("triangle"), mesh.get_cells_type("line")
+    if len(triangles) == 0:
+        kinds = ", ".join(sorted({block.type for block in mesh.cells})) or "none"
+        raise RecordingError(f"frame file {str(file)!r} holds no triangles (cells: {kinds}); a recording holds "
+                             "the surface's triangles")
+    data = {name: _point_data(file, mesh, name, len(points)) for name in ("displacement", "force")}
+    _check_finite(file, "positions", points)
+    for kind, cells in (("triangle", triangles), ("line", lines)):
+        bad = np.flatnonzero(np.any((cells < 0) | (cells >= len(points)), axis=1))
+        if bad.size:
+            raise RecordingError(f"frame file {str(file)!r}: {bad.size} {kind} cells name points outside 0.."
+                                 f"{len(points) - 1} (first cells {first_indices(bad)})")
+    return Frame(time, points, triangles.astype(np.int32), data["displacement"], data["force"],
+                 lines.reshape(-1, 2).astype(np.int32))
+
+
+def _point_data(file: Path, mesh, name: str, count: int) -> np.ndarray:
+    """``(count, 3) float64`` point data ``name`` of ``mesh``, checked."""
+    if name not in mesh.point_data:
+        raise RecordingError(f"frame file {str(file)!r} has no point data {name!r} (it has "
+                             f"{', '.join(mesh.point_data) or 'none'}); it was not written by tissuesim")
+    values = np.asarray(mesh.point_data[name], dtype=np.float64)
+    if values.shape != (count, 3):
+        raise RecordingError(f"frame file {str(file)!r}: point data {name!r} has shape {values.shape}, expected "
+                             f"({count}, 3) for its {count} points")
+    _check_finite(file, name, values)
+    return values
+
+
+def _check_finite(file: Path, name: str, values: np.ndarray) -> None:
+    bad = np.flatnonzero(~np.all(np.isfinite(values), axis=1))
+    if bad.size:
+        raise RecordingError(f"frame file {str(file)!r}: {bad.size} points have non-finite {name} (first points "
+                             f"{first_indices(bad)})")

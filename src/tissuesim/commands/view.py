@@ -1,7 +1,8 @@
 """``tissuesim view [MODEL]``: the interactive simulator (§8.2 pin-head, §8.4 scalpel) in a polyscope window.
 
 MODEL is a built-in model (default: liver), a surface file or a saved hybrid bundle. ``--record FILE.pvd`` records
-every frame for ParaView; ``--replay FILE.pvd`` plays a recording back instead of simulating.
+the session for ParaView (a frame whenever something moved); ``--replay FILE.pvd`` plays a recording back instead of
+simulating.
 """
 
 from __future__ import annotations
@@ -30,7 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the hybrid's near field: M_S nodes within MM millimetres of the contact follow quadratic "
                              "tets on the fine volume (e.g. 15; default off)")
     parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
-                        help="record every frame as a ParaView series (FILE.pvd + FILE_frames/)")
+                        help="record the session as a ParaView series (FILE.pvd + FILE_frames/; a frame whenever "
+                             "something moved; an old recording of that name is replaced at the end)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
 
 
@@ -48,27 +50,29 @@ def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool 
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..recording import read_recording
-    from ..viewer.app import ReplayApp, ViewerApp
-    from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings
-    from ..pbd.prestress import check_prestrain
+    from ..recording import check_target, read_recording
     from ..solvers.checks import positive_number
+    from ..viewer.app import ReplayApp, ViewerApp
+    from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings, checked_settings
     from ..viewer.gl import polyscope
 
-    check_prestrain(args.prestrain)
-    near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
-    polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     if args.replay is not None:
-        frames = read_recording(args.replay)
+        frames = read_recording(args.replay)  # a damaged recording is named before a window opens
+        polyscope(headless=False)
         ReplayApp(frames, title=args.replay.name).run()
         return 0
+    # every argument is checked before minutes of mesh building; a given value is never replaced by a default
+    stiffness = DEFAULT_STIFFNESS if args.stiffness is None else positive_number("--stiffness", args.stiffness, "N/m")
+    near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
+    settings = checked_settings(Settings(method=args.method, stiffness=stiffness, prestrain=args.prestrain,
+                                         near_field=near_field))
+    record = None if args.record is None else check_target(args.record)
+    polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
-    settings = Settings(method=args.method, stiffness=args.stiffness or DEFAULT_STIFFNESS, prestrain=args.prestrain,
-                        near_field=near_field)
     controller = Controller(hybrid, settings=settings)
-    app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=args.record)
+    app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
     app.run()
-    if args.record is not None:
-        print(f"recorded {args.record}", file=sys.stderr)
+    if app.record_path is not None:  # the last recording (the panel may have started others)
+        print(f"recorded {app.record_path}", file=sys.stderr)
     return 0

@@ -12,11 +12,12 @@ the panel. Keys: S switches pin-head / scalpel, R resets, space pauses.
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
 from ..errors import TissuesimError
-from ..recording import Recorder, border_edges, solver_frame
+from ..recording import Recorder, border_edges, session_path, solver_frame
 from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_options
 from .controller import MODES, Controller
@@ -25,13 +26,15 @@ from .gl import look_at_oblique, polyscope
 SURFACE = "M_S"
 WINDOW_SIZE = (1024, 720)  # pixels
 PANEL_WIDTH, PANEL_ITEM_WIDTH = 330, 150  # pixels of the panel and of one widget: the panel leaves the model in view
-DEFAULT_RECORDING = "tissuesim_session.pvd"
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
 
 
 class ViewerApp:
     """The window over ``controller``; ``record`` (a .pvd path) starts recording at once.
+
+    The panel's record button names each recording after the time it starts (:func:`session_path`), in the folder
+    of ``record`` or else the working folder, so no recording of the session replaces another.
 
     ``headless=True`` draws into polyscope's offscreen EGL context instead of a window (for scripts, tests and
     the benchmark, which call :meth:`tick`).
@@ -40,8 +43,9 @@ class ViewerApp:
     def __init__(self, controller: Controller, *, title: str = "", record=None, headless: bool = False):
         self.controller = controller
         self.title = title
-        self.record_path = record or DEFAULT_RECORDING
-        self.recorder = Recorder(record) if record else None
+        self.recorder = None if record is None else Recorder(record)
+        self.record_path = None if record is None else self.recorder.path
+        self.record_folder = Path(".") if record is None else self.record_path.parent
         self.show_wireframe, self.show_control, self.show_colours = False, False, True
         self.colour_top = 1.0  # mm at the top of the colour map
         self.frame_seconds = 0.0  # running mean of the wall time between frames [s]
@@ -71,14 +75,17 @@ class ViewerApp:
         self.ps.set_user_callback(self.frame)
         self.ps.frame_tick()
 
+    def stop_recording(self) -> Path | None:
+        """Finish the recording, if one runs (the window goes on); returns its path, or None."""
+        recorder, self.recorder = self.recorder, None
+        return None if recorder is None else recorder.close()
+
     def close(self) -> None:
         """Finish the recording and let go of polyscope: its callback and every structure of this window.
 
         Python wrappers of removed polyscope structures must not outlive them: a new structure allocated at the
         same address would then come back as the stale wrapper's type."""
-        if self.recorder is not None:
-            self.recorder.close()
-            self.recorder = None
+        self.stop_recording()
         self.ps.clear_user_callback()
         self.mesh = self.cut = None
         self._shown, self._topology, self._home_view = {}, None, True
@@ -313,14 +320,18 @@ class ViewerApp:
             self.controller.notice = str(error)
 
     def _toggle_recording(self) -> None:
-        if self.recorder is None:
-            try:
+        """The panel's record / stop recording: a new recording under a fresh name, starting with the current
+        frame; or the running one finished, while the window goes on."""
+        try:
+            if self.recorder is None:
+                self.record_path = session_path(self.record_folder)
                 self.recorder = Recorder(self.record_path)
-            except TissuesimError as error:
-                self.controller.notice = str(error)
-        else:
-            self.close()
-            self.controller.notice = f"recorded to {self.record_path}"
+                self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+                self.controller.notice = f"recording to {self.record_path}"
+            else:
+                self.controller.notice = f"recorded to {self.stop_recording()}"
+        except TissuesimError as error:
+            self.controller.notice = str(error)
 
 
 def style_window(ps) -> None:

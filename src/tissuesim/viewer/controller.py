@@ -103,6 +103,21 @@ def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
     return None if t <= 0.0 else origin + t * direction
 
 
+def checked_settings(settings: Settings) -> Settings:
+    """``settings`` in canonical form, or SolverError naming the first bad one (cheap: checked before a mesh is
+    built)."""
+    if settings.method not in available_solvers():
+        raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
+    positive_number("pin-head stiffness", settings.stiffness, "N/m")
+    positive_number("time step dt", settings.dt, "s")
+    if settings.radius is not None:
+        positive_number("contact radius", settings.radius, "m")
+    if settings.iterations is not None and int(settings.iterations) < 1:
+        raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
+    near_field = None if settings.near_field is None else positive_number("near field W", settings.near_field, "m")
+    return replace(settings, prestrain=check_prestrain(settings.prestrain), near_field=near_field)
+
+
 def scalpel_class():
     """The Scalpel class, or None where this installation has none (scalpel mode is then unavailable)."""
     try:
@@ -142,7 +157,7 @@ class Controller:
         self._blade: np.ndarray | None = None
         self._debt = 0.0
         self._step_seconds = 0.0
-        self.settings = self._checked(settings)
+        self.settings = checked_settings(settings)
         self._build(hybrid)
 
     # ---------------------------------------------------------------------------------------------- properties
@@ -249,7 +264,7 @@ class Controller:
         unknown = [name for name in changes if name not in names]
         if unknown:
             raise SolverError(f"unknown setting {', '.join(map(repr, unknown))}; the settings are {', '.join(names)}")
-        settings, old = self._checked(replace(self.settings, **changes)), self.settings
+        settings, old = checked_settings(replace(self.settings, **changes)), self.settings
         rebuild = any(getattr(settings, name) != getattr(old, name) for name in _REBUILD)
         self.settings = settings
         try:
@@ -319,18 +334,6 @@ class Controller:
         """``point`` moved back along the camera ray by BLADE_LIFT × the blade depth."""
         direction = np.asarray(ray_direction, dtype=np.float64)
         return point - BLADE_LIFT * self.scalpel.depth * direction / np.linalg.norm(direction)
-
-    def _checked(self, settings: Settings) -> Settings:
-        if settings.method not in available_solvers():
-            raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
-        positive_number("pin-head stiffness", settings.stiffness, "N/m")
-        positive_number("time step dt", settings.dt, "s")
-        if settings.radius is not None:
-            positive_number("contact radius", settings.radius, "m")
-        if settings.iterations is not None and int(settings.iterations) < 1:
-            raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
-        near_field = None if settings.near_field is None else positive_number("near field W", settings.near_field, "m")
-        return replace(settings, prestrain=check_prestrain(settings.prestrain), near_field=near_field)
 
     def _solver_options(self, hybrid) -> dict:
         s = self.settings

@@ -1,0 +1,185 @@
+"""Hostile recordings: damaged or foreign ones read back, clashing targets, re-recording, a tissue at rest."""
+
+import numpy as np
+import pytest
+
+from tissuesim.cli import main
+from tissuesim.recording import FLUSH_EVERY, Frame, Recorder, RecordingError, border_edges, read_recording
+
+# a closed tetrahedron's surface: 4 points, 4 outward triangles
+POINTS = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]])
+TRIANGLES = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int32)
+
+
+def frame(time=0.0, shift=0.0, force=0.0, triangles=TRIANGLES):
+    """A frame of the tetrahedron moved by ``shift`` [m] along x, with ``force`` [N] on point 3."""
+    positions = POINTS + [shift, 0.0, 0.0]
+    forces = np.zeros((4, 3))
+    forces[3, 2] = force
+    return Frame(time, positions, triangles, positions - POINTS, forces, border_edges(triangles))
+
+
+def record(path, shifts):
+    """A recording at ``path`` of one frame per entry of ``shifts`` [m], 10 ms apart."""
+    with Recorder(path) as recorder:
+        for i, shift in enumerate(shifts):
+            recorder.add(frame(0.01 * i, shift))
+    return path
+
+
+def write_vtu(path, points, cells, **point_data):
+    import meshio
+
+    meshio.Mesh(points, cells, point_data=point_data).write(path, binary=True)
+
+
+def tree(folder):
+    return sorted(str(p.relative_to(folder)) for p in folder.rglob("*"))
+
+
+# ------------------------------------------------------------------------------------- damaged or foreign recordings
+def missing_vtu(pvd):
+    (pvd.parent / "s_frames" / "frame_000001.vtu").unlink()
+
+
+def tets_only(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("tetra", [[0, 1, 2, 3]])],
+              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+
+
+def no_displacement(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES)], force=np.zeros((4, 3)))
+
+
+def index_out_of_range(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES + 2)],
+              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+
+
+def dataset_without_file(pvd):
+    pvd.write_text(pvd.read_text().replace('file="s_frames/frame_000001.vtu"', ""))
+
+
+def wrong_shape(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES)],
+              displacement=np.zeros((4, 2)), force=np.zeros((4, 3)))
+
+
+def nan_positions(pvd):
+    points = POINTS.copy()
+    points[2, 1] = np.nan
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", points, [("triangle", TRIANGLES)],
+              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+
+
+def truncated(pvd):
+    vtu = pvd.parent / "s_frames" / "frame_000001.vtu"
+    data = vtu.read_bytes()
+    vtu.write_bytes(data[: len(data) // 2])
+
+
+DAMAGES = {  # damage -> (what the message must say, the file it must name)
+    missing_vtu: ("missing", "frame_000001.vtu"),
+    tets_only: ("no triangles (cells: tetra)", "frame_000001.vtu"),
+    no_displacement: ("no point data 'displacement'", "frame_000001.vtu"),
+    index_out_of_range: ("4 triangle cells name points outside 0..3", "frame_000001.vtu"),
+    dataset_without_file: ("<DataSet> 1 names no file", "s.pvd"),
+    wrong_shape: ("'displacement' has shape (4, 2), expected (4, 3)", "frame_000001.vtu"),
+    nan_positions: ("1 points have non-finite positions (first points 2)", "frame_000001.vtu"),
+    truncated: ("truncated or not a VTU file", "frame_000001.vtu"),
+}
+
+
+@pytest.mark.parametrize("damage", DAMAGES, ids=lambda damage: damage.__name__)
+def test_a_damaged_recording_is_refused_naming_the_file_and_the_defect(tmp_path, damage):
+    pvd = record(tmp_path / "s.pvd", [0.0, 0.001, 0.002])
+    damage(pvd)
+    said, where = DAMAGES[damage]
+    with pytest.raises(RecordingError) as error:  # never meshio's SystemExit, which would end the caller
+        read_recording(pvd)
+    assert said in str(error.value) and where in str(error.value)
+
+
+@pytest.mark.parametrize("damage", DAMAGES, ids=lambda damage: damage.__name__)
+def test_view_replay_of_a_damaged_recording_prints_one_line_and_exits_1(tmp_path, capsys, damage):
+    pvd = record(tmp_path / "s.pvd", [0.0, 0.001, 0.002])
+    damage(pvd)
+    assert main(["view", "--replay", str(pvd)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err and DAMAGES[damage][0] in err
+
+
+# ------------------------------------------------------------------------------------------------ the target
+@pytest.mark.parametrize("clash", ["frames_is_a_file", "pvd_is_a_folder"])
+def test_a_target_that_cannot_hold_a_recording_is_refused_before_the_session(tmp_path, capsys, clash):
+    pvd = tmp_path / "clash.pvd"
+    if clash == "frames_is_a_file":
+        (tmp_path / "clash_frames").write_text("something else")
+    else:
+        pvd.mkdir()
+    before = tree(tmp_path)
+    with pytest.raises(RecordingError, match="which is a file" if clash == "frames_is_a_file" else "is a folder"):
+        Recorder(pvd)
+    # the command says so before it builds a mesh or opens a window
+    assert main(["view", "cube", "--record", str(pvd)]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "cannot record to" in err and "clash" in err
+    assert tree(tmp_path) == before  # nothing written
+
+
+def test_view_refuses_a_zero_stiffness_instead_of_using_the_default(capsys):
+    assert main(["view", "cube", "--stiffness", "0"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--stiffness must be a positive finite number [N/m], got 0.0" in err
+
+
+# --------------------------------------------------------------------------------------------- re-recording
+def test_a_finished_re_recording_replaces_the_old_one_and_leaves_nothing_else(tmp_path):
+    record(tmp_path / "s.pvd", [0.0, 0.001, 0.002, 0.003])
+    record(tmp_path / "s.pvd", [0.0, 0.005])
+    frames = read_recording(tmp_path / "s.pvd")
+    assert [f.positions[0, 0] for f in frames] == [0.0, 0.005]  # assigned values, written and read as float64
+    assert tree(tmp_path) == ["s.pvd", "s_frames", "s_frames/frame_000000.vtu", "s_frames/frame_000001.vtu"]
+
+
+def test_an_interrupted_or_failed_re_recording_leaves_the_old_one_intact(tmp_path):
+    record(tmp_path / "s.pvd", [0.0, 0.001, 0.002])
+    old = np.array([f.positions for f in read_recording(tmp_path / "s.pvd")])
+    interrupted = Recorder(tmp_path / "s.pvd")  # a session that dies without closing (a killed process)
+    for i in range(FLUSH_EVERY + 1):
+        interrupted.add(frame(0.01 * i, 0.01 + 1e-4 * i))
+    np.testing.assert_array_equal([f.positions for f in read_recording(tmp_path / "s.pvd")], old)  # bit for bit
+    partial = [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+    assert len(partial) == 1 and len(read_recording(partial[0] / "s.pvd")) == FLUSH_EVERY  # readable on its own
+    with pytest.raises(ZeroDivisionError):
+        with Recorder(tmp_path / "s.pvd") as failing:
+            failing.add(frame(0.0, 0.02))
+            1 / 0
+    np.testing.assert_array_equal([f.positions for f in read_recording(tmp_path / "s.pvd")], old)  # bit for bit
+    assert [p for p in tmp_path.iterdir() if ".partial-" in p.name] == partial  # the failed one left nothing
+
+
+def test_every_panel_recording_gets_its_own_name(tmp_path):
+    from tissuesim.recording import session_path
+
+    first = session_path(tmp_path)
+    record(first, [0.0])
+    second = session_path(tmp_path)  # within the same second: a suffix
+    assert second != first and second.parent == tmp_path and second.suffix == ".pvd"
+    record(second, [0.0, 0.001])
+    assert len(read_recording(first)) == 1 and len(read_recording(second)) == 2
+
+
+# ------------------------------------------------------------------------------------------------ at rest
+def test_a_tissue_at_rest_writes_no_frames_and_every_change_writes_one(tmp_path):
+    from tissuesim.recording import MIN_MOTION
+
+    with Recorder(tmp_path / "s.pvd") as recorder:
+        written = [recorder.add(frame(0.01 * i)) for i in range(100)]  # at rest: the first frame only
+        assert written == [True] + [False] * 99
+        # motion is measured from the last frame written, so a slow creep is written once it adds up
+        creep = [recorder.add(frame(1.0 + 0.01 * i, 0.6 * MIN_MOTION * i)) for i in range(1, 5)]
+        assert creep == [False, True, False, True]
+        assert recorder.add(frame(2.0, 2.4 * MIN_MOTION, force=0.5))  # the load changed, nothing moved yet
+        assert recorder.add(frame(2.1, 2.4 * MIN_MOTION, force=0.5, triangles=TRIANGLES[1:]))  # a cut
+    assert len(read_recording(tmp_path / "s.pvd")) == 5
