@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
     from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
     from ..viewer.gl import NoOpenGLError, polyscope
     from ..solvers.registry import solver_class
+    from .view import load_hybrid
 
     # every argument is checked before any work; a value given is used as given, never replaced by a default
     solver_class(args.method)
