@@ -1,0 +1,46 @@
+"""The window layer headless (polyscope on EGL): the panel's record / stop recording leave the window working.
+
+Skipped where there is no OpenGL at all (as tests/unit/test_viewer_render.py).
+"""
+
+import numpy as np
+import pytest
+
+from tissuesim.recording import read_recording
+from tissuesim.viewer.gl import opengl_available
+
+pytestmark = pytest.mark.skipif(not opengl_available(), reason="no OpenGL (install libegl1 libegl-mesa0 "
+                                                               "libgl1-mesa-dri)")
+DOWN = np.array([0.0, 0.0, -1.0])
+
+
+def drag(app, top, frames):
+    """Hold the pin-head on ``top`` and pull it up 1 mm per frame, one window frame each."""
+    for i in range(frames):
+        app.controller.pointer_move(None, top + [0.0, 0.0, 1.0 + 0.001 * (i + 1)], DOWN)
+        app.tick()
+
+
+def test_stop_recording_keeps_the_window_and_the_next_recording_gets_its_own_name(small_cube, tmp_path):
+    from tissuesim.viewer.app import SURFACE, ViewerApp
+    from tissuesim.viewer.controller import Controller
+
+    controller = Controller(small_cube)
+    app = ViewerApp(controller, headless=True, record=tmp_path / "first.pvd")
+    try:
+        top = controller.solver.positions[np.argmax(controller.solver.positions[:, 2])].copy()
+        controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
+        drag(app, top, 3)
+        app._toggle_recording()  # the panel's "stop recording"
+        assert controller.notice == f"recorded to {tmp_path / 'first.pvd'}" and app.recorder is None
+        assert app.ps.has_surface_mesh(SURFACE) and app.mesh is not None  # the window still shows the model
+        drag(app, top, 2)  # the frame callback runs on
+        app._toggle_recording()  # the panel's "record" again
+        second, started = app.record_path, app.sim_time
+        assert second != tmp_path / "first.pvd" and second.parent == tmp_path
+        drag(app, top, 3)
+    finally:
+        app.close()
+    first = read_recording(tmp_path / "first.pvd")
+    assert len(first) >= 1 and first[-1].time <= started  # how many frames stepped depends on the wall clock
+    assert read_recording(second)[0].time == started  # the new one begins with the frame it was started on
