@@ -1,12 +1,20 @@
-"""Every method answers as an elastic body (DESIGN "physics first"): its quasi-static equilibrium does not move with
-dt, node masses (density) or the iteration count, scales as 1/E at fixed strain, is linear in small loads, and
-responds to ν. The load is a pin-head contact (radius 8 mm) pressing on the cube's top, as in the contact protocol.
-``hybrid-near`` is the hybrid with its near field (the contact protocol's variant).
+"""Every method answers as an elastic body (DESIGN "physics first"), checked where it can fail: on the *stepped* path.
 
-The mass-spring baseline is checked apart, on the sphere: springs alone hold a flat patch against a normal load only
-through the tension the load itself builds (u ~ f^(1/3)), so on the cube's top it is neither linear nor cheap to
-settle. Its equilibrium still does not move with dt or density and scales as 1/E at fixed strain (tested below);
-it is linear to 1 % only below ~25 µm on the sphere, and springs have no ν (docs/solvers.md).
+A static solve never reads dt, the node masses or the sweep count, and a linear solve is linear in the load and
+scales as 1/E by construction, so those are not tested on it. What can fail is the time stepping: under a constant
+load, ``step`` must come to rest at the same state for every dt, density, iteration count and stiffness at fixed
+strain (E × 10 and the load × 10), and for the linear methods that state is the static answer. The load is a
+pin-head contact (radius 8 mm) on the top of a small cube, as in the contact protocol; ``hybrid-near`` is the hybrid
+with its near field. The paper's own PBD form (``form="pbd"``) is left out: its equilibrium is documented to move with
+dt and the masses (docs/solvers.md).
+
+The mass-spring baseline is stepped on the sphere: springs alone hold a flat patch against a normal load only through
+the tension the load itself builds, so on the cube's top it settles slowly (the slow run checks it there too).
+
+Tolerance: a run is at rest when one step moves no node by more than 1e-10 of the largest displacement; the slowest
+decay measured here (0.93 per step) leaves it within ~1e-8 of its limit, and the static solves are exact to
+round-off, so two rests of the same equilibrium agree to 1e-6 (relative to the largest displacement, max over nodes)
+with a hundredfold margin, while a rest state that moves with dt or the masses is off by 1e-2 or more.
 """
 
 import numpy as np
@@ -19,100 +27,123 @@ from tissuesim.mesh import models
 
 RADIUS = 0.008  # m
 #: Small load: the largest displacement stays below 2 % of the cube's 6 cm (checked below).
-FORCE = np.array([0.0, 0.0, -0.02])  # N
-METHODS = ["hybrid", "pbd", "embedded", "fem", "hybrid-near"]
+FORCE = np.array([0.0, 0.0, -0.05])  # N
+REST = 1e-10       # a step moving less than this fraction of the largest displacement is at rest
+AGREE = 1e-6       # two rests of one equilibrium agree to this fraction (module docstring)
+MAX_STEPS = 5000
+#: Variants of the stepped run that must not move its rest state (E × 10 goes with the load × 10: same strain).
+VARIANTS_OF_STEP = {"dt 2.5 ms": {"dt": 0.0025}, "dt 20 ms": {"dt": 0.02}, "density x0.1": {"density": 100.0},
+                    "density x10": {"density": 10000.0}, "E x10 at fixed strain": {"youngs_modulus": 55000.0}}
+LINEAR = ["hybrid", "pbd", "hybrid-near"]       # the implicit integrator: stepped to the static answer
+STATIC_METHODS = ["hybrid", "pbd", "embedded", "fem", "hybrid-near"]
 
 
 @pytest.fixture(scope="module")
 def cube():
-    return HybridMesh.build(models.cube(), fine_volume=True)
-
-
-@pytest.fixture(scope="module")
-def node(cube):
-    return load_node(cube.surface.vertices, cube.surface.triangles)
-
-
-def displacement(cube, node, method, *, force=FORCE, **options) -> np.ndarray:
-    """``(n, 3)`` equilibrium displacements [m] of ``method`` under ``force`` [N] on the contact patch."""
-    name, variant = VARIANTS.get(method, (method, {}))
-    solver = make_solver(name, cube, **variant, **options)
-    return solver.solve_static(node, force, radius=RADIUS) - cube.surface.vertices
-
-
-def relative_change(u, v) -> float:
-    return float(np.linalg.norm(u - v) / np.linalg.norm(v))
-
-
-@pytest.fixture(scope="module")
-def baseline(cube, node):
-    return {method: displacement(cube, node, method) for method in METHODS}
-
-
-@pytest.mark.parametrize("method", METHODS)
-def test_load_is_small_and_the_baseline_moves(baseline, method):
-    largest = np.linalg.norm(baseline[method], axis=1).max()
-    assert 1e-6 < largest < 0.02 * 0.06
-
-
-@pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("dt", [0.0025, 0.02])
-def test_equilibrium_does_not_depend_on_dt(cube, node, baseline, method, dt):
-    assert relative_change(displacement(cube, node, method, dt=dt), baseline[method]) < 0.01
-
-
-@pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("density", [100.0, 10000.0])
-def test_equilibrium_does_not_depend_on_density(cube, node, baseline, method, density):
-    assert relative_change(displacement(cube, node, method, density=density), baseline[method]) < 0.01
-
-
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "hybrid-near"])
-def test_equilibrium_does_not_depend_on_iterations(cube, node, baseline, method):
-    assert relative_change(displacement(cube, node, method, iterations=2), baseline[method]) < 0.01
-
-
-@pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("youngs_modulus", [550.0, 5.5e6])
-def test_displacement_times_modulus_is_constant_at_fixed_strain(cube, node, baseline, method, youngs_modulus):
-    scale = youngs_modulus / 5500.0
-    u = displacement(cube, node, method, youngs_modulus=youngs_modulus, force=FORCE * scale)
-    assert relative_change(u, baseline[method]) < 0.01
-
-
-@pytest.mark.parametrize("method", METHODS)
-def test_small_loads_are_linear(cube, node, baseline, method):
-    assert relative_change(displacement(cube, node, method, force=FORCE / 4) * 4, baseline[method]) < 0.01
-
-
-@pytest.mark.parametrize("method", METHODS)
-def test_equilibrium_responds_to_poisson_ratio(cube, node, baseline, method):
-    assert relative_change(displacement(cube, node, method, poisson_ratio=0.45), baseline[method]) > 0.01
-
-
-# ------------------------------------------------------------------ the mass-spring baseline, on a curved surface
-SPRING_FORCE = np.array([0.0, 0.0, -0.02])  # N: ~12 µm, where the springs' response is still nearly linear
+    return HybridMesh.build(models.cube(resolution=386), fine_volume=True)
 
 
 @pytest.fixture(scope="module")
 def sphere():
-    return HybridMesh.build(models.sphere(), fine_volume=False)
+    return HybridMesh.build(models.sphere(resolution=386), fine_volume=False)
 
 
-def spring_displacement(sphere, *, force=SPRING_FORCE, **options) -> np.ndarray:
-    solver = make_solver("mass-spring", sphere, **options)
-    node = load_node(sphere.surface.vertices, sphere.surface.triangles)
-    return solver.solve_static(node, force, radius=RADIUS) - sphere.surface.vertices
+def solver_for(mesh, method, **options):
+    name, variant = VARIANTS.get(method, (method, {}))
+    return make_solver(name, mesh, **variant, **options)
+
+
+def static_displacement(mesh, method, *, force=FORCE, **options) -> np.ndarray:
+    """``(n, 3)`` quasi-static displacements [m] of ``method`` under ``force`` [N] on the contact patch."""
+    solver = solver_for(mesh, method, **options)
+    node = load_node(mesh.surface.vertices, mesh.surface.triangles)
+    return solver.solve_static(node, force, radius=RADIUS) - mesh.surface.vertices
+
+
+def rest_displacement(mesh, method, *, force=FORCE, max_steps=MAX_STEPS, **options) -> np.ndarray:
+    """``(n, 3)`` displacements [m] where ``step`` comes to rest under a constant ``force`` [N] (module docstring);
+    E × k in ``options`` goes with ``force`` × k (the same strain, so the same displacements)."""
+    scale = options.get("youngs_modulus", 5500.0) / 5500.0
+    solver = solver_for(mesh, method, **options)
+    node = load_node(mesh.surface.vertices, mesh.surface.triangles)
+    solver.set_load(node, force * scale, radius=RADIUS)
+    previous = solver.positions.copy()
+    for _ in range(max_steps):
+        solver.step()
+        motion = np.abs(solver.positions - previous).max()
+        previous[:] = solver.positions
+        if motion <= REST * np.abs(solver.positions - mesh.surface.vertices).max():
+            return solver.positions - mesh.surface.vertices
+    pytest.fail(f"{method} {options} did not come to rest within {max_steps} steps (last step moved {motion:.3g} m)")
+
+
+def off(u, v) -> float:
+    """Largest node difference of ``u`` from ``v``, relative to ``v``'s largest displacement."""
+    return float(np.abs(u - v).max() / np.abs(v).max())
 
 
 @pytest.fixture(scope="module")
-def spring_baseline(sphere):
-    return spring_displacement(sphere)
+def static(cube):
+    return {method: static_displacement(cube, method) for method in STATIC_METHODS}
 
 
-@pytest.mark.parametrize("options", [{"dt": 0.0025}, {"dt": 0.02}, {"density": 100.0}, {"density": 10000.0},
-                                     {"youngs_modulus": 55000.0, "force": SPRING_FORCE * 10.0}],
-                         ids=["dt 2.5 ms", "dt 20 ms", "density x0.1", "density x10", "E x10 at fixed strain"])
-def test_mass_spring_equilibrium_ignores_dt_and_mass_and_scales_with_modulus(sphere, spring_baseline, options):
-    assert np.abs(spring_baseline).max() > 1e-6
-    assert relative_change(spring_displacement(sphere, **options), spring_baseline) < 0.01
+# ------------------------------------------------------------------------------------ static answers that can fail
+@pytest.mark.parametrize("method", STATIC_METHODS)
+def test_load_is_small_and_the_static_answer_moves(static, method):
+    largest = np.linalg.norm(static[method], axis=1).max()
+    assert 1e-6 < largest < 0.02 * 0.06
+
+
+@pytest.mark.parametrize("method", STATIC_METHODS)
+def test_equilibrium_responds_to_poisson_ratio(cube, static, method):
+    assert off(static_displacement(cube, method, poisson_ratio=0.45), static[method]) > 0.01
+
+
+# ------------------------------------------------------------------------------- the stepped path: linear methods
+@pytest.mark.parametrize("method", LINEAR + ["embedded", "fem"])
+def test_stepping_comes_to_rest_at_the_static_answer(cube, static, method):
+    assert off(rest_displacement(cube, method), static[method]) < AGREE
+
+
+@pytest.mark.parametrize("options", VARIANTS_OF_STEP.values(), ids=VARIANTS_OF_STEP.keys())
+@pytest.mark.parametrize("method", LINEAR)
+def test_rest_state_does_not_move_with_dt_mass_or_stiffness_at_fixed_strain(cube, static, method, options):
+    assert off(rest_displacement(cube, method, **options), static[method]) < AGREE
+
+
+# ------------------------------------------------------------ the stepped path: nonlinear ones (mass-spring, XPBD)
+@pytest.fixture(scope="module")
+def spring_rest(sphere):
+    return rest_displacement(sphere, "mass-spring", force=np.array([0.0, 0.0, -0.02]))
+
+
+@pytest.mark.parametrize("options", VARIANTS_OF_STEP.values(), ids=VARIANTS_OF_STEP.keys())
+def test_mass_spring_rest_state_does_not_move_with_dt_mass_or_stiffness(sphere, spring_rest, options):
+    assert np.abs(spring_rest).max() > 1e-6
+    u = rest_displacement(sphere, "mass-spring", force=np.array([0.0, 0.0, -0.02]), **options)
+    assert off(u, spring_rest) < AGREE
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("options", [{"dt": 0.0025}, {"density": 10000.0}], ids=["dt 2.5 ms", "density x10"])
+def test_mass_spring_rest_state_on_the_flat_top_does_not_move_with_dt_or_mass(cube, options):
+    """The springs' nonlinear regime (u ~ f^(1/3) on a flat patch): 5000-8000 steps to rest at these settings."""
+    u = rest_displacement(cube, "mass-spring", max_steps=20000)
+    assert off(rest_displacement(cube, "mass-spring", max_steps=20000, **options), u) < AGREE
+
+
+#: Measured on this cube, 0.05 N: the hybrid's XPBD rest moves by 0.19-0.97 of its displacement with dt, density,
+#: E at fixed strain or the sweeps, and rests 0.21 off the static answer at the defaults; pbd's moves by 0.8-6.9x and
+#: rests at 15x the static answer (1.28 mm against 0.085 mm). E and the masses enter only as E dt^2 / m.
+XPBD_REASON = ("the XPBD projection (multipliers reset each step, a fixed number of sweeps) rests at a state that "
+               "moves with dt, the masses, E at fixed strain and the sweeps (docs/solvers.md): a defect of that "
+               "integrator; the default implicit one rests at the static answer")
+
+
+@pytest.mark.xfail(strict=True, reason=XPBD_REASON)
+@pytest.mark.parametrize("options", [*VARIANTS_OF_STEP.values(), {"iterations": 2}, {"iterations": 40}],
+                         ids=[*VARIANTS_OF_STEP.keys(), "2 sweeps", "40 sweeps"])
+@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+def test_xpbd_integrator_rest_state_does_not_move_with_dt_mass_or_sweeps(cube, method, options):
+    u = rest_displacement(cube, method, integrator="xpbd")
+    assert off(rest_displacement(cube, method, integrator="xpbd", **options), u) < AGREE
