@@ -117,3 +117,10 @@ def test_render_fem_skips_the_incision_figure_in_one_line(tmp_path, capsys):
     skipped = [line for line in err.splitlines() if "incision figures skipped" in line]
     assert len(skipped) == 1 and "the fem reference cannot be cut" in skipped[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["deformation_cube.png"]
+
+
+def test_a_missing_second_model_is_refused_before_the_first_is_drawn(tmp_path, capsys):
+    out = tmp_path / "figures"
+    assert main(["render", "cube", "no-such-model", "--resolution", "300", "--output", str(out)]) == 1
+    assert "model 'no-such-model' is neither a built-in model" in _one_line_error(capsys)
+    assert not out.exists()

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import sys
 import time
-from pathlib import Path
 
 HELP = ("reproduce the paper's experiments (§8.3, Tables 1-5, Figs 12-15), or run the contact protocol against a "
         "converged reference, into a results folder")
@@ -49,7 +48,7 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
-    from ..experiments.run import ExperimentConfig, run_experiment
+    from ..experiments.run import ExperimentConfig, check_model_specs, run_experiment
     from ..mesh.models import MODELS
 
     output = check_output_folder(args.output)  # refuse a bad target before minutes of work
@@ -58,10 +57,7 @@ def run(args) -> int:
     if args.protocol == "contact":
         return _run_contact(args, output)
     models = tuple(args.models) or tuple(MODELS)
-    for spec in models:
-        if spec not in MODELS and not Path(spec).is_file():
-            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(MODELS)}) nor an existing "
-                              "file; name one of those or give a mesh path")
+    check_model_specs(models)
     options = {"models": models}
     if args.forces:
         options["forces"] = tuple(_number(value, "--forces", "newtons") for value in args.forces)
@@ -100,12 +96,10 @@ def _run_contact(args, output) -> int:
     from ..experiments import contact
     from ..experiments.output import earlier_outputs, write_contact_outputs
     from ..experiments.reference import default_cache_dir
+    from ..experiments.run import check_model_specs
     from ..mesh.models import MODELS
 
-    for spec in args.models:
-        if spec not in MODELS and not Path(spec).is_file():
-            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(MODELS)}) nor an existing "
-                              "file; name one of those or give a mesh path")
+    check_model_specs(args.models)
     if args.cache is not None and not args.cache.strip():
         raise SolverError("--cache is empty; give the folder of the cached references, or --no-cache to recompute "
                           "them")

@@ -46,6 +46,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..cutting.solver_update import refusal
     from ..experiments.output import check_output_folder
+    from ..experiments.run import check_model_specs
     from ..mesh.models import MODELS
     from ..solvers.checks import positive_number
     from ..viewer.controller import scalpel_class
@@ -56,6 +57,7 @@ def run(args: argparse.Namespace) -> int:
 
     # every argument is checked before any work; a value given is used as given, never replaced by a default
     solver_class(args.method)
+    check_model_specs(args.models)
     force = FIGURE_FORCE if args.force is None else positive_number("--force", args.force, "N")
     radius_mm = None if args.radius is None else positive_number("--radius", args.radius, "mm")
     if args.report is not None:

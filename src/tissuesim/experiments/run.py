@@ -121,6 +121,14 @@ def model_name(spec: str) -> str:
     return spec if spec in builtin_models.MODELS else Path(spec).stem
 
 
+def check_model_specs(specs) -> None:
+    """Refuse, before any work, a model that is neither a built-in name nor an existing file (SolverError)."""
+    for spec in specs:
+        if spec not in builtin_models.MODELS and not Path(spec).is_file():
+            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(builtin_models.MODELS)}) nor "
+                              "an existing file; name one of those or give a mesh path")
+
+
 def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     """The :class:`HybridMesh` (with fine volume) of a built-in name, a surface file, or a saved bundle."""
     from ..mesh.hybrid import HybridMesh
