@@ -124,3 +124,10 @@ def test_a_missing_second_model_is_refused_before_the_first_is_drawn(tmp_path, c
     assert main(["render", "cube", "no-such-model", "--resolution", "300", "--output", str(out)]) == 1
     assert "model 'no-such-model' is neither a built-in model" in _one_line_error(capsys)
     assert not out.exists()
+
+
+def test_an_empty_output_is_refused_not_taken_as_the_current_folder(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["render", "cube", "--resolution", "300", "--output", ""]) == 1
+    assert "output path is empty" in _one_line_error(capsys)
+    assert list(tmp_path.iterdir()) == []

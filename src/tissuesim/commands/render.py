@@ -27,7 +27,7 @@ SECTION = "## Figures"
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("models", nargs="*", metavar="MODEL",
                         help="built-in model, surface file or hybrid bundle (default: the four built-in models)")
-    parser.add_argument("--output", "-o", type=Path, default=Path("results"), metavar="DIR",
+    parser.add_argument("--output", "-o", default="results", metavar="DIR",
                         help="folder for the PNG files, created if absent (default: results)")
     parser.add_argument("--method", default="hybrid", help="solver drawn (default: hybrid)")
     parser.add_argument("--force", type=float, default=None, metavar="N",
@@ -62,6 +62,7 @@ def run(args: argparse.Namespace) -> int:
     radius_mm = None if args.radius is None else positive_number("--radius", args.radius, "mm")
     if args.report is not None:
         check_report(args.report)
+    output = check_output_folder(args.output)
     try:
         polyscope(headless=True)  # fail early, before any mesh is built
     except NoOpenGLError as error:
@@ -69,19 +70,19 @@ def run(args: argparse.Namespace) -> int:
             raise
         print(f"tissuesim render: figures skipped: {error}", file=sys.stderr)
         return 0
-    check_output_folder(args.output).mkdir(exist_ok=True)
+    output.mkdir(exist_ok=True)
     cutting = _cutting(scalpel_class() is not None, refusal(args.method))
     written = []
     for spec in args.models or MODELS:
         hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, progress=False)
-        written.append(deformation_figure(hybrid, name, args.output / f"deformation_{name}.png", method=args.method,
+        written.append(deformation_figure(hybrid, name, output / f"deformation_{name}.png", method=args.method,
                                           force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
         if cutting:
-            written.append(incision_figure(hybrid, name, args.output / f"incision_{name}.png", method=args.method))
+            written.append(incision_figure(hybrid, name, output / f"incision_{name}.png", method=args.method))
         print(f"rendered {name}", file=sys.stderr)
     if args.report is not None:
         link_figures(args.report, written)
-    print(f"wrote {len(written)} figures to {args.output}/", file=sys.stderr)
+    print(f"wrote {len(written)} figures to {output}/", file=sys.stderr)
     return 0
 
 
