@@ -11,7 +11,9 @@ drive it the same way.
 
 Choices where the paper is silent: x0 is the cursor position at the moment of the grab (as §8.2 says), not the
 node's position, so grabbing never applies a force by itself; the snap radius defaults to
-:data:`SNAP_RADIUS_EDGES` mean M_S edge lengths, and a point farther than that from every node is refused.
+:data:`SNAP_RADIUS_EDGES` mean M_S edge lengths, and a point farther than that from every node is refused. A node
+that a load would not move (a fixed node, or one whose contact patch reaches the fixed region) is passed over for
+the nearest one that it would, within the snap radius, and :attr:`PinHead.notice` says so.
 """
 
 from __future__ import annotations
@@ -39,6 +41,8 @@ class PinHead:
     Attributes:
         node: the grabbed M_S vertex index, or None.
         anchor: ``(3,) float64`` x0 of eq 24 [m] (cursor at grab time), or None.
+        notice: a sentence for the user when the last :meth:`grab` passed over the nearest node (it was fixed, or
+            its tip reached the fixed region) and holds a farther one; "" otherwise.
     """
 
     def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None, radius: float | None = None):
@@ -56,28 +60,57 @@ class PinHead:
         self.radius = None if radius is None else positive_number("contact radius", radius, "m")
         self.node: int | None = None
         self.anchor: np.ndarray | None = None
+        self.notice = ""
 
     @property
     def grabbed(self) -> bool:
         return self.node is not None
 
     def grab(self, point) -> int:
-        """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions; returns its index."""
+        """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions that a load would move;
+        returns its index.
+
+        A fixed node, or with a contact ``radius`` a node whose patch reaches the fixed region, is passed over for
+        the nearest node within the snap radius that a load moves, and :attr:`notice` says so. Raises SolverError
+        (holding nothing new) when no node lies within the snap radius, or none there can carry the load.
+        """
         point = checked_point(point)
         distance = np.linalg.norm(self.solver.positions - point, axis=1)
-        node = int(np.argmin(distance))
-        if distance[node] > self.snap_radius:
+        nearest = int(np.argmin(distance))
+        if distance[nearest] > self.snap_radius:
             raise SolverError(
-                f"nothing to grab: the nearest surface node ({node}) is {distance[node]:.4g} m from the point, "
+                f"nothing to grab: the nearest surface node ({nearest}) is {distance[nearest]:.4g} m from the point, "
                 f"farther than the snap radius {self.snap_radius:.4g} m; move the point onto the surface or pass "
                 "a larger snap_radius"
             )
-        if self.radius is not None:
-            self.solver.contact_patch(node, self.radius)  # refuse a tip that reaches the fixed region now
+        node = self._nearest_movable(distance, nearest)
         if self.node is not None:
             self.solver.clear_load()
         self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
+        self.notice = "" if node == nearest else (
+            f"node {nearest}, the nearest, {self._why_not(nearest)}; holding node {node} instead, the nearest that "
+            f"a load moves ({1e3 * distance[node]:.3g} mm from the point)")
         return node
+
+    def _nearest_movable(self, distance: np.ndarray, nearest: int) -> int:
+        """The node within the snap radius, nearest first by ``distance`` ``(n,)`` [m], whose load reaches no fixed
+        node; a SolverError naming ``nearest`` when there is none."""
+        within = np.flatnonzero(distance <= self.snap_radius)
+        for node in within[np.argsort(distance[within], kind="stable")]:
+            if not self.solver.support_reached(int(node), self.radius).size:
+                return int(node)
+        raise SolverError(
+            f"nothing to grab that a load would move: every surface node within the snap radius "
+            f"{self.snap_radius:.4g} m of the point is in or next to the fixed region (the nearest, node {nearest}, "
+            f"{self._why_not(nearest)}); grab farther from the support"
+            + ("" if self.radius is None else " or use a smaller contact radius")
+        )
+
+    def _why_not(self, node: int) -> str:
+        """Why a load at ``node`` would not move it, as a clause."""
+        if node in self.solver.support_reached(node, None):
+            return "is fixed"
+        return f"has a tip of radius {self.radius:g} m that reaches the fixed region"
 
     def force(self, point) -> np.ndarray:
         """``(3,) float64`` eq 24's f = k (x − x0) [N] for cursor ``point`` x [m]."""

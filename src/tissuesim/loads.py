@@ -70,8 +70,11 @@ def contact_patch(rest_positions: np.ndarray, triangles: np.ndarray, node: int,
 
 
 def contact_radius(radius) -> float:
-    """``radius`` as a float [m], or a :class:`SolverError` unless positive and finite."""
+    """``radius`` as a float [m], or a :class:`SolverError` unless positive and finite (a bool is refused: True
+    would mean a 1 m tip)."""
     try:
+        if isinstance(radius, (bool, np.bool_)):
+            raise TypeError
         value = float(radius)
     except (TypeError, ValueError):
         raise SolverError(f"contact radius must be a number of metres or None, got {radius!r}") from None

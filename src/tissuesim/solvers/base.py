@@ -19,8 +19,8 @@ Common options (keyword-only, the same for every method):
   z ≤ :func:`~tissuesim.mesh.regions.bottom_height` of the M_S vertices. The FEM-based methods fix the volume
   nodes below the same height (default) or the volume nodes that coincide with the given M_S vertices;
 * ``density`` [kg/m³] = 1000 (soft tissue is close to water); it sets node masses where a method has any;
-* ``dt`` [s] = 0.01: the step that :meth:`Solver.solve_static` uses when none is given (100 Hz, a haptics-free
-  interactive rate);
+* ``dt`` [s] = 0.01: the step that :meth:`Solver.step` and :meth:`Solver.solve_static` use when none is given
+  (100 Hz, a haptics-free interactive rate); every time step lies in [:data:`~.checks.MIN_DT`, ∞);
 * ``damping``: fraction of the velocity removed per step, in [0, 1).
 """
 
@@ -37,7 +37,7 @@ from numba import njit
 
 from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
-from .checks import check_force, fraction, is_integer, node_set, positive_number
+from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
@@ -206,7 +206,7 @@ class Solver(ABC):
         self.youngs_modulus = self.material.youngs_modulus
         self.poisson_ratio = self.material.poisson_ratio
         self.density = positive_number("density", density, "kg/m³")
-        self.dt = positive_number("dt", dt, "s")
+        self.dt = dt
         self.damping = fraction("damping", damping)
         self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
         n = len(self.rest_positions)
@@ -257,6 +257,15 @@ class Solver(ABC):
         return self.state.positions - self.rest_positions
 
     @property
+    def dt(self) -> float:
+        """The default time step [s] of :meth:`step` and :meth:`solve_static`; setting it checks it as they do."""
+        return self._dt
+
+    @dt.setter
+    def dt(self, value) -> None:
+        self._dt = time_step(value)
+
+    @property
     def load(self) -> tuple[int, np.ndarray] | None:
         """``(node, total force (3,) N)`` of the current load, or None."""
         if self._load_node < 0:
@@ -269,8 +278,9 @@ class Solver(ABC):
 
         ``radius`` None (default) loads that node alone; a radius R [m] spreads the force area-weighted over the M_S
         nodes within R of it at rest (:func:`tissuesim.loads.contact_patch`): the same nodal forces for every
-        method. The nodes carrying the load are :attr:`load_nodes`, their shares :attr:`load_shares`. A patch that
-        reaches the fixed region is refused (part of the force would vanish into the support).
+        method. The nodes carrying the load are :attr:`load_nodes`, their shares :attr:`load_shares`. A load on a
+        fixed node is refused (BoundaryConditionError: all of it would vanish into the support), and so is a patch
+        that reaches the fixed region (SolverError: part of it would); a refused load changes nothing.
         """
         node = self._check_node(node)
         force = check_force(force)
@@ -293,29 +303,67 @@ class Solver(ABC):
         """``(nodes (k,) int64, shares (k,) float64)`` that a load at ``node`` with tip ``radius`` [m] goes to.
 
         Cached per (node, radius), so an interactive drag that re-sets the load every frame costs nothing here.
-        Raises SolverError if the radius is not positive and finite, or if the patch reaches the fixed region.
+        Raises SolverError if the radius is not positive and finite or the patch reaches the fixed region, and
+        BoundaryConditionError if ``node`` itself is fixed (the load would vanish into the support).
         """
-        from ..loads import contact_patch, contact_radius, lumped_areas
-
-        key = (int(node), None if radius is None else contact_radius(radius))
+        key = self._patch_key(node, radius)
         patch = self._patches.get(key)
         if patch is None:
-            if self._lumped_areas is None:
-                self._lumped_areas = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
-            patch = contact_patch(self.rest_positions, self.hybrid.surface.triangles, key[0], key[1],
-                                  areas=self._lumped_areas)
-            if key[1] is not None:
-                pinned = np.intersect1d(patch[0], self.fixed)
-                if pinned.size:
-                    raise SolverError(
-                        f"the contact patch of radius {key[1]:g} m around node {node} reaches the fixed region "
-                        f"({pinned.size} of its {patch[0].size} nodes are held, first: {first_indices(pinned)}); "
-                        "use a smaller radius or load a node farther from the support"
-                    )
-            if len(self._patches) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
-                self._patches.clear()
-            self._patches[key] = patch
+            patch = self._new_patch(*key)
+            self._refuse_held(*key, patch[0])
+            self._remember(key, patch)
         return patch
+
+    def support_reached(self, node: int, radius: float | None = None) -> np.ndarray:
+        """``(k,) int64`` the fixed M_S nodes that a load at ``node`` with tip ``radius`` [m] would reach; empty
+        when :meth:`set_load` accepts that load (what :meth:`PinHead.grab <tissuesim.PinHead.grab>` looks for)."""
+        key = self._patch_key(node, radius)
+        if key in self._patches:
+            return np.zeros(0, dtype=np.int64)
+        patch = self._new_patch(*key)
+        held = self._held_in(patch[0])
+        if not held.size:
+            self._remember(key, patch)  # the grab that asked loads it next
+        return held
+
+    def _remember(self, key: tuple[int, float | None], patch: tuple[np.ndarray, np.ndarray]) -> None:
+        if len(self._patches) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
+            self._patches.clear()
+        self._patches[key] = patch
+
+    def _held_in(self, nodes: np.ndarray) -> np.ndarray:
+        """``(k,) int64`` the fixed nodes among ``nodes``."""
+        return np.intersect1d(nodes, self.fixed).astype(np.int64)
+
+    @staticmethod
+    def _patch_key(node: int, radius: float | None) -> tuple[int, float | None]:
+        from ..loads import contact_radius
+
+        return int(node), None if radius is None else contact_radius(radius)
+
+    def _new_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
+        from ..loads import contact_patch, lumped_areas
+
+        if self._lumped_areas is None:
+            self._lumped_areas = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
+        return contact_patch(self.rest_positions, self.hybrid.surface.triangles, node, radius,
+                             areas=self._lumped_areas)
+
+    def _refuse_held(self, node: int, radius: float | None, patch: np.ndarray) -> None:
+        """Refuse a load at ``node`` whose ``patch`` ``(k,)`` holds fixed nodes: part of it would vanish into the
+        support, all of it when ``node`` itself is fixed."""
+        held = self._held_in(patch)
+        if np.any(held == node):
+            raise BoundaryConditionError(
+                f"node {node} is fixed (held at rest by the support), so a load on it would vanish and nothing "
+                "would move; load a free node (PinHead.grab snaps to the nearest one), or leave it out of `fixed`"
+            )
+        if held.size:
+            raise SolverError(
+                f"the contact patch of radius {radius:g} m around node {node} reaches the fixed region "
+                f"({held.size} of its {patch.size} nodes are held, first: {first_indices(held)}); "
+                "use a smaller radius or load a node farther from the support"
+            )
 
     def _withdraw_load(self) -> None:
         if self._load_node >= 0:
@@ -375,6 +423,7 @@ class Solver(ABC):
         dt = self._check_dt(dt)
         node = self._check_node(node)
         force = check_force(force)
+        self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
         if reset:
             self.reset()
         self.set_load(node, force, radius=radius)
@@ -398,7 +447,7 @@ class Solver(ABC):
                                               *self._largest_displacement())
                 raise
             steps += 1
-            self._check_blow_up(dt, f" after {steps} steps")
+            self._check_blow_up(dt, f" after {steps} step" + "s" * (steps > 1))
             motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)
             history.append(motion)
             settled = motion <= tolerance or _remaining_error(history) <= rtol * largest or self.static
@@ -430,6 +479,11 @@ class Solver(ABC):
             what = f"node {node} has a non-finite position"
         load = "no load" if self._load_node < 0 else (
             f"{np.linalg.norm(self._load_force):.3g} N at node {self._load_node}")
+        if linear or self.static:  # no step to blame: the answer of a linear solve is out of float64's range
+            raise SolverError(
+                f"{self.name} solver's answer{when} is not finite ({what}) under {load}: the load is too large for "
+                f"this material (E = {self.youngs_modulus:g} Pa) to give a representable displacement; lower the "
+                "load, then call reset()")
         raise SolverError(
             f"{self.name} solver diverged{when} ({what}) under {load} with dt = {dt:g} s; the step is unstable for "
             "this load: lower dt, the load or the pin-head stiffness, or raise damping, then call reset()")
@@ -463,9 +517,7 @@ class Solver(ABC):
         return index
 
     def _check_dt(self, dt) -> float:
-        if dt is None:
-            return self.dt
-        return positive_number("time step dt", dt, "s")
+        return self.dt if dt is None else time_step(dt)
 
     def fixed_volume_nodes(self, volume_points: np.ndarray, surface_to_volume: np.ndarray | None) -> np.ndarray:
         """``(k,) int32`` fixed nodes of a volume mesh with nodes ``volume_points`` ``(N, 3)`` [m].

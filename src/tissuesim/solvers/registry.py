@@ -22,6 +22,9 @@ _REGISTRY: dict[str, type] = {}
 def register(name: str):
     """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
 
+    if not isinstance(name, str) or not name:
+        raise SolverError(f"a solver is registered under a non-empty string name, got {name!r}")
+
     def decorate(cls):
         if not (isinstance(cls, type) and issubclass(cls, Solver)):
             raise SolverError(f"only Solver subclasses can be registered, got {cls!r}")
@@ -39,6 +42,8 @@ def available_solvers() -> tuple[str, ...]:
 
 def solver_class(name: str) -> type:
     """The :class:`Solver` subclass registered as ``name``."""
+    if not isinstance(name, str):
+        raise SolverError(f"a solver name is a string, one of {', '.join(available_solvers())}; got {name!r}")
     if name not in _REGISTRY:
         if name not in _BUILTIN:
             raise SolverError(f"unknown solver {name!r}; choose one of {', '.join(available_solvers())}")
