@@ -106,6 +106,12 @@ def test_loading_a_folder_as_a_bundle_is_a_bundle_error(tmp_path):
         HybridMesh.load(tmp_path)
 
 
+@pytest.mark.parametrize("path", [None, 3])
+def test_a_bundle_path_that_is_not_a_path_is_a_bundle_error(path):
+    with pytest.raises(BundleError, match=f"a bundle path must be a str or pathlib.Path, got {type(path).__name__}"):
+        HybridMesh.load(path)
+
+
 @pytest.mark.parametrize("surface, words", [
     (None, "HybridMesh.build takes a SurfaceMesh, got NoneType None; read a surface file with "
            "tissuesim.read_surface"),

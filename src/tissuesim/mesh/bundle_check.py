@@ -142,9 +142,7 @@ def check_bundle_target(path) -> Path:
     Refused: an empty path; an existing folder, device or pipe; a place where no file can be created (tried for
     real in the nearest existing folder, then removed), so a build can be refused before it runs.
     """
-    if not str(path).strip():
-        raise BundleError("the bundle path is empty; give the path of a .npz file, e.g. --output cube.npz")
-    path = Path(path)
+    path = bundle_path(path)
     if path.exists() and not path.is_file():
         raise BundleError(f"cannot save the bundle to {path}: it exists and is not a regular file (a folder, "
                           "device or pipe); give the path of a new or existing .npz file")
@@ -158,6 +156,15 @@ def check_bundle_target(path) -> Path:
     os.close(handle)
     os.unlink(probe)
     return path
+
+
+def bundle_path(path) -> Path:
+    """``path`` as a Path, or a :class:`BundleError` unless it is a non-empty str or os.PathLike."""
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise BundleError(f"a bundle path must be a str or pathlib.Path, got {type(path).__name__} {path!r:.60}")
+    if not str(path).strip():
+        raise BundleError("the bundle path is empty; give the path of a .npz file, e.g. --output cube.npz")
+    return Path(path)
 
 
 def unsaveable(path: Path, error: OSError) -> str:

@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BundleError, MeshError
-from .bundle_check import check_arrays, check_bundle_target, check_header, unsaveable
+from .bundle_check import bundle_path, check_arrays, check_bundle_target, check_header, unsaveable
 from .surface import SurfaceMesh
 from .maps import closest_on_surface, embed_in_volume, own_corner
 from .tetmesh import TetMesh
@@ -184,7 +184,8 @@ class HybridMesh:
         """Write the bundle to ``path`` (``.npz``) atomically; return the path.
 
         Raises:
-            BundleError: ``path`` exists and is not a regular file (a folder, device or pipe would be replaced).
+            BundleError: ``path`` is empty or not a path, exists and is not a regular file (a folder, device or
+                pipe would be replaced), or no file can be written there (the message names ``path``).
         """
         from .. import __version__
 
@@ -231,9 +232,10 @@ class HybridMesh:
 
         Raises:
             FileNotFoundError: no such file.
-            BundleError: not a bundle, corrupt, or written in another bundle format version.
+            BundleError: ``path`` is not a path or is a folder; the file is not a bundle, is corrupt, or was written
+                in another bundle format version.
         """
-        path = Path(path)
+        path = bundle_path(path)
         if path.is_dir():
             raise BundleError(f"{path} is a folder, not a hybrid-mesh bundle; {WHAT_A_BUNDLE_IS}")
         if not path.is_file():
