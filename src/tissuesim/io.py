@@ -16,6 +16,9 @@ normals, groups and materials), and STL, PLY, OFF, VTK and VTU (through meshio).
    and logs every change on the ``tissuesim.repair`` logger at WARNING level.
 
 Steps 1-3 change the representation, not the shape; they are logged at INFO level on ``tissuesim.io``.
+
+:func:`replaced_atomically` writes any file whole or not at all (a temporary file beside it, then one rename): the
+figures and reports the commands write use it, so an interrupted run leaves no truncated file.
 """
 
 from __future__ import annotations
