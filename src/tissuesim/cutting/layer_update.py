@@ -6,7 +6,9 @@ triangle's rest lengths (eq 19–23, :func:`~tissuesim.cutting.lengths.barycentr
 and a hinge where the edge has two triangles. A hinge's rest angle is measured on the rest positions, which lie
 in the parent triangles' planes: sub-triangles of one hinge keep the original hinge's angle, and two pieces of one
 triangle are flat (§7). Edges that now border the cut have one triangle, so no hinge joins the two sides. The
-XPBD compliances come from :mod:`tissuesim.pbd.compliance` with the new lengths and areas.
+XPBD compliances come from :mod:`tissuesim.pbd.compliance` with the new lengths and areas, and the layer's thickness
+as built (β × M_S's mean edge length at build): a cut does not thin the tissue, and a thickness that followed the
+new, shorter edges would soften their hinges by the cube of the ratio (a flap beside a cut then swung metres away).
 """
 
 from __future__ import annotations
@@ -149,7 +151,8 @@ class SurfaceLayerCut(SolverCut):
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
 
     def _compliance(self, rows, hrows) -> None:
-        """XPBD compliance of the new rows from the material, with their own rest lengths and areas."""
+        """XPBD compliance of the new rows from the material, with their own rest lengths and areas and the
+        body's thickness (β × M_S's edge length as built), not one that shrinks with the cut's shorter edges."""
         from ..pbd.compliance import relative_shell_compliance
 
         s, a, b = self.solver, self.stretch.arrays, self.bend.arrays
@@ -161,7 +164,8 @@ class SurfaceLayerCut(SolverCut):
                               hinge_edge=np.arange(len(rows), len(rows) + len(hrows)),
                               hinge_area=b["hinge_area"][hrows])
         stretch, bend = relative_shell_compliance(new, youngs_modulus=s.youngs_modulus,
-                                                  poisson_ratio=s.poisson_ratio, thickness_ratio=s.thickness_ratio)
+                                                  poisson_ratio=s.poisson_ratio, thickness_ratio=s.thickness_ratio,
+                                                  thickness_length=s.hybrid.built_edge_length)
         a["compliance"][rows] = stretch[: len(rows)]
         b["compliance"][hrows] = bend
 

@@ -61,8 +61,11 @@ class MassSpringCut(SolverCut):
         a = self.rows.arrays
         a["springs"][rows] = np.concatenate([keys, across])
         a["rest"][rows] = np.concatenate([rest, across_rest])
-        a["stiffness"][rows] = (s.youngs_modulus * s.thickness_ratio * np.concatenate([area, area[two]])
-                                / a["rest"][rows])
+        # k = E h Σ A_T / l² with the body's thickness h = β × M_S's edge length as built (the method's own h = β l
+        # of an uncut edge): the cut's shorter springs are no thinner tissue
+        thickness = s.thickness_ratio * s.hybrid.built_edge_length
+        a["stiffness"][rows] = (s.youngs_modulus * thickness * np.concatenate([area, area[two]])
+                                / a["rest"][rows] ** 2)
         self.stretch_row.update(keys, rows[: len(keys)])
         self.bend_row.update(keys[two], rows[len(keys):])
         self._bind()

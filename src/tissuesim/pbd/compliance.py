@@ -71,17 +71,22 @@ def shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float =
 
 
 def relative_shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
-                              poisson_ratio: float = DEFAULT_POISSON_RATIO,
-                              thickness_ratio: float) -> tuple[np.ndarray, np.ndarray]:
+                              poisson_ratio: float = DEFAULT_POISSON_RATIO, thickness_ratio: float,
+                              thickness_length: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     """XPBD compliances of a layer whose thickness follows the mesh: h = β × the constraint's rest edge length.
 
     ``thickness_ratio`` β is dimensionless, so one calibrated value carries over between meshes of different
     resolution and between models of different size; the stiffness still scales with E (and the hinges with
-    1/(1 − ν²)). Returns ``(stretch (e,) [m/N], bending (b,) [1/(N·m)])``.
+    1/(1 − ν²)). ``thickness_length`` [m], if given, replaces the edge length in h: a cut's constraints pass the
+    body's edge length as built, since the short edges a cut makes are no thinner tissue (the hinges' stiffness goes
+    with h³, so an edge a quarter as long would bend 64 times more easily). Returns ``(stretch (e,) [m/N],
+    bending (b,) [1/(N·m)])``.
     """
     _check(youngs_modulus, poisson_ratio, thickness_ratio)
-    stretch_thickness = thickness_ratio * constraints.rest_length
-    hinge_thickness = thickness_ratio * constraints.rest_length[constraints.hinge_edge]
+    length = constraints.rest_length if thickness_length is None else np.full(len(constraints.rest_length),
+                                                                             float(thickness_length))
+    stretch_thickness = thickness_ratio * length
+    hinge_thickness = thickness_ratio * length[constraints.hinge_edge]
     k_e = youngs_modulus * stretch_thickness * constraints.edge_area / constraints.rest_length ** 2
     k_b = hinge_stiffness(constraints, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                           thickness=hinge_thickness)
