@@ -125,6 +125,8 @@ class Recorder:
         self.path = check_target(path)
         self.folder = frames_folder(self.path)
         self.min_motion = float(min_motion)
+        if not self.min_motion >= 0.0 or self.min_motion == float("inf"):
+            raise RecordingError(f"min_motion must be a finite distance of at least 0 m, got {min_motion!r}")
         try:
             self._partial = Path(tempfile.mkdtemp(prefix=f"{self.folder.name}.partial-", dir=self.path.parent))
         except OSError as error:
@@ -150,11 +152,15 @@ class Recorder:
             cut.append(np.ones(len(frame.cut_edges), dtype=np.int8))
         mesh = meshio.Mesh(frame.positions, cells, point_data={"displacement": frame.displacement,
                                                                "force": frame.force}, cell_data={"cut": cut})
-        mesh.write(self._partial / name, binary=True)
+        try:
+            mesh.write(self._partial / name, binary=True)
+            if (len(self._entries) + 1) % FLUSH_EVERY == 0:
+                _write_index(self._partial / self.path.name, self._entries + [(frame.time, name)], "")
+        except OSError as error:  # e.g. a full disk
+            where = f"frame {len(self._entries)} into {str(self._partial)!r}"
+            raise RecordingError(f"cannot write {where}: {error}") from None
         self._entries.append((frame.time, name))
         self._last = (frame.positions.copy(), np.array(frame.triangles), frame.force.copy())
-        if len(self._entries) % FLUSH_EVERY == 0:
-            _write_index(self._partial / self.path.name, self._entries, "")
         return True
 
     def _changed(self, frame: Frame) -> bool:
@@ -168,26 +174,14 @@ class Recorder:
         return float(np.max(np.linalg.norm(frame.positions - positions, axis=1))) > self.min_motion
 
     def close(self) -> Path:
-        """Write the ``.pvd`` index and put the recording in place of any old one of that name; returns its path.
-
-        The old frames folder is moved aside, the new one takes its name, then the index replaces the old index
-        in one atomic rename; only then are the old frames deleted."""
+        """Write the ``.pvd`` index and put the recording in place of any old one of that name; returns its path."""
         if self._partial is None:
             return self.path
-        index = self._partial / (self.path.name + ".final")
-        _write_index(index, self._entries, self.folder.name + "/")
-        (self._partial / self.path.name).unlink(missing_ok=True)  # the partial index, which names no folder
-        old = self._partial.with_name(self._partial.name + "-old") if self.folder.exists() else None
         try:
-            if old is not None:
-                self.folder.rename(old)
-            try:
-                self._partial.rename(self.folder)
-            except OSError:
-                if old is not None:
-                    old.rename(self.folder)
-                raise
-            os.replace(self.folder / index.name, self.path)
+            index = self._partial / (self.path.name + ".final")
+            _write_index(index, self._entries, self.folder.name + "/")
+            (self._partial / self.path.name).unlink(missing_ok=True)  # the partial index, which names no folder
+            old = self._swap(index.name)
         except OSError as error:
             where = self._partial if self._partial.exists() else self.folder
             raise RecordingError(f"cannot put the recording in place at {str(self.path)!r} ({error}); its frames "
@@ -196,6 +190,21 @@ class Recorder:
         if old is not None:
             shutil.rmtree(old, ignore_errors=True)
         return self.path
+
+    def _swap(self, index: str) -> Path | None:
+        """The new frames folder takes the old one's name (moved aside: returned, else None), then its ``index``
+        file replaces the old ``.pvd`` in one atomic rename."""
+        old = self._partial.with_name(self._partial.name + "-old") if self.folder.exists() else None
+        if old is not None:
+            self.folder.rename(old)
+        try:
+            self._partial.rename(self.folder)
+        except OSError:
+            if old is not None:
+                old.rename(self.folder)
+            raise
+        os.replace(self.folder / index, self.path)
+        return old
 
     def abort(self) -> None:
         """Discard this recording (its frames so far); an old recording of that name stays as it was."""
@@ -215,7 +224,8 @@ class Recorder:
 
 def _write_index(path: Path, entries, prefix: str) -> None:
     """The ParaView collection of ``entries`` ``[(time [s], VTU name)]``, each name under ``prefix``."""
-    rows = "\n".join(f'    <DataSet timestep="{float(t)!r}" part="0" file={quoteattr(prefix + f)}/>' for t, f in entries)
+    rows = "\n".join(f'    <DataSet timestep="{float(t)!r}" part="0" file={quoteattr(prefix + name)}/>'
+                     for t, name in entries)
     path.write_text('<?xml version="1.0"?>\n<VTKFile type="Collection" version="0.1" '
                     f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
 

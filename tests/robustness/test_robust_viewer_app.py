@@ -3,6 +3,8 @@
 Skipped where there is no OpenGL at all (as tests/unit/test_viewer_render.py).
 """
 
+import time
+
 import numpy as np
 import pytest
 
@@ -44,3 +46,24 @@ def test_stop_recording_keeps_the_window_and_the_next_recording_gets_its_own_nam
     first = read_recording(tmp_path / "first.pvd")
     assert len(first) >= 1 and first[-1].time <= started  # how many frames stepped depends on the wall clock
     assert read_recording(second)[0].time == started  # the new one begins with the frame it was started on
+
+
+def test_a_frame_that_cannot_be_written_ends_the_recording_and_the_session_goes_on(small_cube, tmp_path):
+    import shutil
+
+    from tissuesim.viewer.app import SURFACE, ViewerApp
+    from tissuesim.viewer.controller import Controller
+
+    controller = Controller(small_cube)
+    app = ViewerApp(controller, headless=True, record=tmp_path / "s.pvd")
+    try:
+        top = controller.solver.positions[np.argmax(controller.solver.positions[:, 2])].copy()
+        controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
+        shutil.rmtree(app.recorder._partial)  # where its frames go vanishes, as a full disk fails a write
+        app._last = time.perf_counter() - 0.05  # 50 ms since the last frame: this frame steps, whatever the clock
+        app.tick()
+        assert app.recorder is None and controller.notice.startswith("recording stopped and discarded: cannot write")
+        assert app.ps.has_surface_mesh(SURFACE)
+    finally:
+        app.close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing half-written is left

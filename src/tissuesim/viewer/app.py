@@ -109,7 +109,7 @@ class ViewerApp:
         self.sim_time += self.stats.steps * self.controller.settings.dt
         self.draw()
         if self.recorder is not None and self.stats.steps:
-            self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+            self._record_frame()
         self._panel(psim)
         self.callback_seconds = time.perf_counter() - now
 
@@ -318,6 +318,16 @@ class ViewerApp:
             self._topology = None
         except TissuesimError as error:
             self.controller.notice = str(error)
+
+    def _record_frame(self) -> None:
+        """Add the current frame; a frame that cannot be written (a full disk) ends the recording, discarded, and
+        the session goes on."""
+        try:
+            self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+        except TissuesimError as error:
+            self.recorder.abort()
+            self.recorder = None
+            self.controller.notice = f"recording stopped and discarded: {error}"
 
     def _toggle_recording(self) -> None:
         """The panel's record / stop recording: a new recording under a fresh name, starting with the current
