@@ -1,7 +1,7 @@
 """The ``tissuesim`` command: one sub-command per job, each in its own module under :mod:`tissuesim.commands`.
 
-User mistakes (any :class:`~tissuesim.errors.TissuesimError`, a missing file) print one line and exit 1; only
-genuine bugs show a traceback. SIGTERM, like Ctrl-C, unwinds the command (so half-written outputs are cleaned up)
+User mistakes (any :class:`~tissuesim.errors.TissuesimError`, a missing file) and what the machine refuses (any
+``OSError``: a full disk, a read-only place) print one line and exit 1; only genuine bugs show a traceback. SIGTERM, like Ctrl-C, unwinds the command (so half-written outputs are cleaned up)
 and exits with 128 + the signal number.
 """
 
@@ -64,7 +64,7 @@ def main(argv: list[str] | None = None) -> int:
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
     try:
         return int(args.run(args) or 0)
-    except (TissuesimError, FileNotFoundError, IsADirectoryError, PermissionError) as error:
+    except (TissuesimError, OSError) as error:
         print(f"tissuesim {args.command}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:

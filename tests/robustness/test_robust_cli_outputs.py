@@ -71,3 +71,18 @@ def test_an_empty_cache_folder_is_refused_not_replaced_by_the_default(cache, tmp
                  "--output", str(tmp_path / "out")]) == 1
     err = capsys.readouterr().err
     assert err.startswith("tissuesim experiment: error: --cache is empty") and err.count("\n") == 1
+
+
+def test_a_full_disk_while_writing_is_one_line_and_leaves_no_file(tmp_path, monkeypatch, capsys):
+    import errno
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(meshio, "write", full)
+    out = tmp_path / "cut"
+    assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    assert err.strip().splitlines()[-1] == "tissuesim incise: error: [Errno 28] No space left on device"
+    assert list(tmp_path.iterdir()) == []
