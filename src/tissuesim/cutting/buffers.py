@@ -54,6 +54,14 @@ class Spare:
         """``current`` as a view of buffer ``name`` (no rows added)."""
         return self.extend(name, current, np.zeros((0,) + np.shape(current)[1:], dtype=np.asarray(current).dtype))
 
+    def mark(self) -> tuple:
+        """Which views are current, so :meth:`restore` can take back the extends since (O(buffers))."""
+        return dict(self._full), dict(self._view)
+
+    def restore(self, mark: tuple) -> None:
+        """The buffers as at ``mark``: rows appended since are spare again (their views' rows were never written)."""
+        self._full, self._view = dict(mark[0]), dict(mark[1])
+
     @staticmethod
     def _allocate(current, length):
         current = np.asarray(current)
@@ -111,6 +119,23 @@ class CutSurface:
             plan = plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed,
                             fans=self.fans, near=candidate_triangles(self.positions, self.triangles, sweep))
         return plan
+
+    def mark(self, plan: CutPlan) -> tuple:
+        """What :meth:`apply` of ``plan`` changes in place, to :meth:`restore` it: the views and the fans of the
+        rows it rewrites (the buffers themselves are marked by :meth:`Spare.mark`)."""
+        patch = plan.patch
+        vertices = np.concatenate([plan.replaced.ravel(), np.asarray(list(patch.edited.values()) + patch.added,
+                                                                    dtype=np.int64).ravel()])
+        return (self.rest, self.positions, self.velocities, self.triangles,
+                self.fans.mark(np.unique(vertices), plan.old_count))
+
+    def restore(self, mark: tuple, plan: CutPlan) -> None:
+        """The surface as before :meth:`apply` of ``plan`` (the rows it rewrote get their content back)."""
+        self.rest, self.positions, self.velocities, self.triangles, fans = mark
+        old = plan.changed[plan.changed < len(self.triangles)]
+        # through the buffer: a view a SurfaceMesh holds is frozen
+        self.triangles.base[old] = plan.replaced
+        self.fans.restore(fans)
 
     def apply(self, plan: CutPlan, sweep: Sweep) -> CutResult:
         """Write ``plan`` into the buffers; the result's arrays are views of them."""

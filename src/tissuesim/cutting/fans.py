@@ -80,6 +80,21 @@ class VertexFans:
                 # swapping two ring links joins two rings (and would split one, hence the test)
                 self._ring[copy], self._ring[original] = self._ring[original], self._ring[copy]
 
+    def mark(self, vertices: np.ndarray, vertex_count: int) -> tuple:
+        """What :meth:`record` may change for rows holding ``vertices`` (and copies of them), to :meth:`restore` it:
+        O(len(vertices)). ``vertex_count``: n, the vertex count now (higher ids are the move's new vertices)."""
+        vertices = np.asarray(vertices, dtype=np.int64)
+        vertices = vertices[vertices < len(self._head)]
+        return self._slots, vertex_count, vertices, self._head[vertices], self._ring[vertices]
+
+    def restore(self, mark: tuple) -> None:
+        """Take back the :meth:`record` calls since ``mark`` (the slots they filled are free again)."""
+        slots, vertex_count, vertices, head, ring = mark
+        self._slots = slots
+        self._head[vertices], self._ring[vertices] = head, ring
+        self._head[vertex_count:] = -1
+        self._ring[vertex_count:] = np.arange(vertex_count, len(self._ring))
+
     def _grow_vertices(self, count: int) -> None:
         """Room for vertices up to ``count`` (×1.5 when full, so a cut's few new vertices cost O(1) amortised)."""
         old = len(self._head)

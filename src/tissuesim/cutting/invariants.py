@@ -8,6 +8,8 @@ Each check returns a sentence naming the defect and the first offenders; an empt
 * no triangle below :data:`MIN_QUALITY` (4√3 A / Σ l², 1 for equilateral) or a zero area, at rest and now;
 * Euler characteristic: χ = V − E + F = Σ over components of 2 − 2g − b; the genus g it implies must be a whole
   number between 0 and ``max_genus`` (cutting never adds a handle; an interior slit on a sphere: χ = 1);
+* optionally, every piece (connected component) holds an ``anchored`` node (a fixed or control node: what holds
+  it in place), so no piece cut loose drifts;
 * optionally, constraint rest lengths equal the rest distances (eq 19–23 are exact for the new rest positions),
   one live stretch constraint per edge, and the total mass is conserved.
 """
@@ -15,6 +17,7 @@ Each check returns a sentence naming the defect and the first offenders; an empt
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -39,7 +42,7 @@ def triangle_qualities(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
 def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: np.ndarray | None = None,
                          max_genus: int = 0, min_quality: float = MIN_QUALITY, edges: np.ndarray | None = None,
                          rest_length: np.ndarray | None = None, masses: np.ndarray | None = None,
-                         total_mass: float | None = None) -> list[str]:
+                         total_mass: float | None = None, anchored: np.ndarray | None = None) -> list[str]:
     """Defects of a (cut) surface; ``[]`` when every invariant holds (see the module docstring).
 
     Args:
@@ -49,6 +52,8 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
         min_quality: quality floor (default :data:`MIN_QUALITY`).
         edges, rest_length: ``(e, 2) int``, ``(e,) float64`` [m] the live stretch constraints, optional.
         masses: ``(n,) float64`` [kg] node masses and ``total_mass`` [kg] the mass before any cut, optional.
+        anchored: ``(a,) int`` the nodes that hold the surface in place (a solver's fixed and control nodes:
+            :func:`~tissuesim.cutting.solver_update.anchored_nodes`), optional: every piece must hold one.
     """
     triangles = np.asarray(triangles, dtype=np.int64)
     n, problems = len(rest), []
@@ -75,6 +80,11 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
             problems.append(f"{bad.size} triangles are slivers {name} (quality < {min_quality:g}; first: "
                             f"{first_indices(bad)}, worst {q[bad].min():.3g})")
     problems += _euler(triangles, unique, counts, n, max_genus)
+    if anchored is not None:
+        loose, pieces, first = unanchored_pieces(triangles, n, anchored)
+        if loose:
+            problems.append(f"{pieces} pieces of {loose} vertices in all hold no anchored (fixed or control) node "
+                            f"and would drift (first vertex: {first})")
     if edges is not None:
         problems += _lengths(rest, np.asarray(edges, dtype=np.int64), rest_length, unique, n)
     if masses is not None and total_mass is not None:
@@ -82,6 +92,70 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
         if abs(total - total_mass) > RELATIVE_TOLERANCE * abs(total_mass):
             problems.append(f"total mass changed from {total_mass:.12g} kg to {total:.12g} kg")
     return problems
+
+
+def unanchored_pieces(triangles: np.ndarray, n: int, anchored: np.ndarray, *, skip: np.ndarray | None = None,
+                      extra: np.ndarray | None = None, near: np.ndarray | None = None) -> tuple[int, int, int]:
+    """``(vertices, pieces, first vertex)`` of the pieces of a surface that hold none of the ``anchored`` vertices
+    (``(0, 0, -1)`` if none). One compiled union-find pass over the triangles, O(n + m).
+
+    Args:
+        triangles: ``(m, 3) int`` rows; n: the vertex count. anchored: ``(a,) int`` vertices that hold a piece.
+        skip: ``(s,) int`` rows of ``triangles`` left out and ``extra``: ``(e, 3) int`` rows added, to test a
+            surface that differs from ``triangles`` in a few rows without building it.
+        near: ``(k,) int`` only the pieces holding one of these vertices count (a cut's own: the pieces it may
+            have cut loose), default every piece.
+    """
+    none = np.zeros(0, dtype=np.int64)
+    return _unanchored(np.asarray(triangles), none if skip is None else np.asarray(skip, dtype=np.int64),
+                       np.zeros((0, 3), dtype=np.int64) if extra is None else np.asarray(extra, dtype=np.int64),
+                       n, np.asarray(anchored, dtype=np.int64),
+                       np.arange(n, dtype=np.int64) if near is None else np.asarray(near, dtype=np.int64))
+
+
+@njit(cache=True)
+def _unanchored(triangles, skip, extra, n, anchored, near):
+    parent = np.arange(n)
+    used = np.zeros(n, dtype=np.bool_)
+    left_out = np.zeros(triangles.shape[0], dtype=np.bool_)
+    left_out[skip] = True
+    for r in range(triangles.shape[0]):
+        if not left_out[r]:
+            _join(parent, used, triangles[r, 0], triangles[r, 1], triangles[r, 2])
+    for r in range(extra.shape[0]):
+        _join(parent, used, extra[r, 0], extra[r, 1], extra[r, 2])
+    flag = np.zeros(n, dtype=np.int8)      # per root: 1 a vertex of ``near``, 2 an anchored vertex
+    for v in near:
+        if used[v]:
+            flag[_root(parent, v)] |= 1
+    for v in anchored:
+        flag[_root(parent, v)] |= 2
+    vertices, pieces, first = 0, 0, -1
+    for v in range(n):
+        if used[v]:
+            root = _root(parent, v)
+            if flag[root] == 1:
+                vertices += 1
+                first = v if first < 0 else first
+                if root == v:
+                    pieces += 1
+    return vertices, pieces, first
+
+
+@njit(cache=True)
+def _root(parent, v):
+    while parent[v] != v:
+        parent[v] = parent[parent[v]]      # path halving
+        v = parent[v]
+    return v
+
+
+@njit(cache=True)
+def _join(parent, used, a, b, c):
+    used[a] = used[b] = used[c] = True
+    ra, rb, rc = _root(parent, a), _root(parent, b), _root(parent, c)
+    low = min(ra, rb, rc)          # the lowest root: a piece's root is its lowest vertex
+    parent[ra] = parent[rb] = parent[rc] = low
 
 
 def _manifold(triangles, edge_of_half, n):

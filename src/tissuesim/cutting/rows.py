@@ -29,11 +29,33 @@ class EdgeRows:
     def __init__(self, edges: np.ndarray, rows: np.ndarray):
         edges = np.sort(np.asarray(edges, dtype=np.int64).reshape(-1, 2), axis=1)
         self._row = dict(zip(_codes(edges), np.asarray(rows).tolist()))
+        self._journal: list | None = None       # (code, row before or None) per change, while a move may fail
+
+    def begin(self) -> None:
+        """Keep what changes from now on, so :meth:`undo` can take it back (O(changes), not O(edges))."""
+        self._journal = []
+
+    def undo(self) -> None:
+        """Take back every change since :meth:`begin`."""
+        row = self._row
+        for code, before in reversed(self._journal or []):
+            if before is None:
+                row.pop(code, None)
+            else:
+                row[code] = before
+        self._journal = None
+
+    def commit(self) -> None:
+        """Keep the changes since :meth:`begin` (and stop recording them)."""
+        self._journal = None
 
     def pop(self, keys: np.ndarray) -> list[int]:
         """Remove the edges of ``keys`` ``(k, 2) int`` (lo < hi) that have a row; their rows."""
         row = self._row
-        return [row.pop(c) for c in _codes(keys) if c in row]
+        popped = [(c, row.pop(c)) for c in _codes(keys) if c in row]
+        if self._journal is not None:
+            self._journal += popped
+        return [r for _, r in popped]
 
     def get(self, keys: np.ndarray) -> np.ndarray:
         """``(k,) int64`` the rows of the edges ``keys`` ``(k, 2) int`` (lo < hi), −1 where an edge has none."""
@@ -42,7 +64,10 @@ class EdgeRows:
 
     def update(self, keys: np.ndarray, rows: np.ndarray) -> None:
         """Edges ``keys`` ``(k, 2) int`` (lo < hi) now have rows ``rows`` ``(k,)``."""
-        self._row.update(zip(_codes(keys), np.asarray(rows).tolist()))
+        codes = _codes(keys)
+        if self._journal is not None:
+            self._journal += [(c, self._row.get(c)) for c in codes]
+        self._row.update(zip(codes, np.asarray(rows).tolist()))
 
 
 def _codes(keys) -> list[int]:
@@ -58,6 +83,30 @@ class Rows:
         self.retired = retired      # the no-op value of each array
         self.free: list[int] = []
         self.used = used
+        self._saved = None      # what :meth:`undo` restores, while a move may fail
+
+    def begin(self) -> None:
+        """Keep the state and every row retired from now on, so :meth:`undo` can take it back (O(changes))."""
+        self._saved = (dict(self.arrays), list(self.free), self.used, [])
+
+    def undo(self) -> None:
+        """Take back every change since :meth:`begin`: the arrays as they were (the rows retired get their content
+        back, the rows taken their no-op value), the free list and the count."""
+        arrays, free, used, retired = self._saved
+        taken = np.array(sorted(set(free) - set(self.free)) + list(range(used, min(self.used, self.capacity))),
+                         dtype=np.int64)
+        taken = taken[taken < len(next(iter(arrays.values())))]
+        for name, array in arrays.items():
+            array[taken] = self.retired[name]
+            for rows, content in reversed(retired):
+                array[rows] = content[name]
+        self.arrays.clear()
+        self.arrays.update(arrays)
+        self.free, self.used, self._saved = free, used, None
+
+    def commit(self) -> None:
+        """Keep the changes since :meth:`begin` (and stop recording them)."""
+        self._saved = None
 
     @property
     def capacity(self) -> int:
@@ -82,6 +131,8 @@ class Rows:
 
     def retire(self, rows) -> None:
         rows = np.asarray(rows, dtype=np.int64)
+        if self._saved is not None:
+            self._saved[3].append((rows, {name: array[rows].copy() for name, array in self.arrays.items()}))
         for name, array in self.arrays.items():
             array[rows] = self.retired[name]
         self.free += rows.tolist()

@@ -10,9 +10,12 @@ What every surface method gets:
 * **masses** stay the method's lumping (the body mass spread by lumped area): the cut only moves area between
   nodes, so the total is conserved (to round-off);
 * **fixed** nodes: a new vertex is fixed when all its parents are (a duplicate of a fixed node stays fixed);
-* **loose pieces**: a cut that joins an earlier opening may separate a piece of surface. A piece holding no
-  prescribed node would drift, so the methods that prescribe nodes refuse such a cut (nothing is changed and
-  the error says how many vertices the piece has); the embedded method keeps it (its embedding holds it).
+* **loose pieces**: a cut may separate a piece of surface (joining an earlier opening, or on a deformed surface).
+  Every move checks the pieces it touched on the new topology: a piece holding no prescribed node would drift, so
+  the methods that prescribe nodes refuse such a cut (nothing is changed and the error says how many vertices the
+  piece has); the embedded method keeps it (its embedding holds it) and reports it in ``loose_vertices``;
+* **all or nothing**: a refused move changes nothing, and a move that fails while it is written is taken back
+  (:class:`_Undo`) and raised as a SolverError, so stepping and ``reset()`` go on.
 """
 
 from __future__ import annotations
@@ -21,15 +24,14 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-
 from ..errors import SolverError
 from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
 from .core import CutResult
-from .remap import cut_hybrid
 from .fans import edge_owners, touched_edges
+from .invariants import unanchored_pieces
+from .remap import cut_hybrid
+from .rows import EdgeRows, Rows
 
 _REGISTRY: dict[str, type] = {}
 
@@ -42,7 +44,8 @@ class CutReport:
         triangles_split: triangles of M_S split by this call.
         vertices_added: new M_S vertices (edge and facet points, duplicates).
         control_released: control nodes released (both copies of each).
-        loose_vertices: vertices of pieces cut loose and kept by their embedding (embedded method only).
+        loose_vertices: vertices of the pieces this move touched that hold no prescribed node, kept by their
+            embedding (embedded method only: the others refuse such a move).
         seconds: wall time of the call [s].
     """
 
@@ -96,38 +99,50 @@ class SolverCut:
         self.closed = np.zeros((0, 2), dtype=np.int64)
         self.lumped = lumped_areas(solver.rest_positions, triangles)
         self.lumped_total = float(self.lumped.sum())        # conserved by every cut (area only moves)
-        # The cuts as a graph over vertex identities (a duplicate is its original): a piece can only come loose
-        # when a cut closes a cycle in it, so the O(m) component count runs only then.
+        #: ``(n,) int64`` the original vertex of each vertex (a duplicate's is its original's)
         self.identity = np.arange(len(solver.rest_positions))
-        self.cut_parent: dict[int, int] = {}
-        self.cut_seen: set[tuple[int, int]] = set()
 
     def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
-        the vertex where the cut stopped (−1 if nothing was cut)."""
+        the vertex where the cut stopped (−1 if nothing was cut).
+
+        A move is all or nothing: it is checked before anything is written (a piece cut loose is refused here), and
+        any error while it is written takes every change back and is raised as a SolverError."""
         start = time.perf_counter()
         s = self.solver
         self.surface.sync(s.state.positions, s.state.velocities)
         plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)
         if plan is None:
             return CutReport(seconds=time.perf_counter() - start), -1
-        if not s.hybrid.info.get("cuts"):
-            before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
-            if before is not None:
-                before()
         n = plan.old_count
         originals = np.unique(plan.new_copy_of[plan.new_copy_of >= 0])
         released = originals[_members(originals, s.hybrid.control)]
         new_fixed = n + np.flatnonzero(np.sum(plan.weights * _members(plan.parents, s.fixed), axis=1)
                                        >= 1.0 - 1e-12)
+        loose = self._loose(plan, self.held_nodes(np.concatenate([s.fixed, new_fixed]).astype(np.int64), released))
+        undo = _Undo(self, plan)
+        try:
+            result = self._write(plan, sweep, released, new_fixed)
+            undo.commit()
+        except Exception as error:
+            undo.restore()
+            if isinstance(error, SolverError):
+                raise
+            raise SolverError(f"the cut failed while it was applied ({type(error).__name__}: {error}); it was "
+                              "taken back and the solver is as before the move: move on, or report this as a bug "
+                              "with the move that caused it") from error
+        return CutReport(triangles_split=result.split_count, vertices_added=len(result.rest) - n,
+                         control_released=int(released.size), loose_vertices=loose,
+                         seconds=time.perf_counter() - start), result.end_vertex
+
+    def _write(self, plan, sweep, released, new_fixed) -> CutResult:
+        """Apply a checked ``plan``: the surface, the hybrid mesh, the state and the method's arrays."""
+        s, n = self.solver, plan.old_count
+        if not s.hybrid.info.get("cuts"):
+            before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
+            if before is not None:
+                before()
         new_identity = self._new_identity(plan)
-        parent, seen, cycle = self._cut_graph(plan.cut_list, new_identity, n)
-        if cycle:
-            fixed = np.concatenate([s.fixed, new_fixed]).astype(np.int64)
-            loose = self._loose(_preview(self.surface.triangles, plan), n + len(plan.parents),
-                                self.held_nodes(fixed, released))
-        else:
-            loose = 0
         result = self.surface.apply(plan, sweep)
         self._update_lumped(result)
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
@@ -136,10 +151,7 @@ class SolverCut:
         self._reload(result)
         self.closed = result.closed
         self.identity = self.spare.extend("identity", self.identity, new_identity)
-        self.cut_parent, self.cut_seen = parent, seen
-        return CutReport(triangles_split=result.split_count, vertices_added=len(result.rest) - n,
-                         control_released=int(released.size), loose_vertices=loose,
-                         seconds=time.perf_counter() - start), result.end_vertex
+        return result
 
     # ------------------------------------------------------------------------------------ shared steps
     def _new_identity(self, plan) -> np.ndarray:
@@ -208,46 +220,23 @@ class SolverCut:
         np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
-    def _cut_graph(self, cut_edges, new_identity, n):
-        """The cut graph with this cut's edges ``cut_edges`` (vertex pairs, as their originals) added (new copies,
-        the caller keeps them if the cut is applied), and whether one of them closed a cycle."""
-        parent, seen, cycle = dict(self.cut_parent), set(self.cut_seen), False
-
-        def find(v):
-            parent.setdefault(v, v)
-            while parent[v] != v:
-                parent[v] = parent[parent[v]]
-                v = parent[v]
-            return v
-
-        for a, b in cut_edges:
-            u, v = (int(self.identity[x] if x < n else new_identity[x - n]) for x in (a, b))
-            key = (u, v) if u < v else (v, u)
-            if key in seen or u == v:
-                continue
-            seen.add(key)
-            ru, rv = find(u), find(v)
-            cycle |= ru == rv
-            parent[ru] = rv
-        return parent, seen, cycle
-
-    def _loose(self, triangles: np.ndarray, n: int, held_nodes: np.ndarray) -> int:
-        """Vertices of pieces of ``triangles`` (n vertices) without a prescribed node (0 if none); refuses unless
-        :attr:`keeps_loose`."""
-        tri = triangles.astype(np.int64)
-        rows = np.repeat(np.arange(len(tri)), 3)
-        incidence = coo_matrix((np.ones(rows.size), (tri.ravel(), rows)), shape=(n, len(tri))).tocsr()
-        count, label = connected_components(incidence @ incidence.T, directed=False)
-        if count == 1:
-            return 0
-        held = np.zeros(count, dtype=bool)
-        held[label[held_nodes]] = True
-        loose = int(np.count_nonzero(~held[label]))
+    def _loose(self, plan, held_nodes: np.ndarray) -> int:
+        """Vertices of the pieces ``plan`` would leave without a prescribed node (0 if none), among the pieces
+        holding a vertex of its changed rows (a piece it cut loose holds one; a piece it did not touch was there
+        before). Refuses unless :attr:`keeps_loose`. O(n + m), compiled: it runs on every move, whatever the cut
+        graph, since a deformed or reloaded surface can be cut loose without closing a loop of cut edges."""
+        patch = plan.patch
+        changed = np.asarray(list(patch.edited.values()) + patch.added, dtype=np.int64).reshape(-1, 3)
+        near = np.unique(np.concatenate([plan.replaced.ravel(), changed.ravel()]))
+        loose, pieces, first = unanchored_pieces(self.surface.triangles, plan.old_count + len(plan.parents),
+                                                 held_nodes, skip=np.fromiter(patch.edited, dtype=np.int64),
+                                                 extra=changed, near=near)
         if loose and not self.keeps_loose:
+            which = "a piece" if pieces == 1 else f"{pieces} pieces"
             raise SolverError(
-                f"this cut would separate a piece of {loose} surface vertices from every prescribed node, and the "
-                f"{self.solver.name} method would let it drift; the cut was not applied (cut elsewhere, or use "
-                "the embedded method, which keeps such pieces)")
+                f"this cut would separate {which} of {loose} surface vertices (first: {first}) from every "
+                f"prescribed node, and the {self.solver.name} method would let it drift; the cut was not applied "
+                "(cut elsewhere, or use the embedded method, which keeps such pieces)")
         return loose
 
     def held_nodes(self, fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
@@ -259,20 +248,74 @@ class SolverCut:
         raise NotImplementedError
 
 
+class _Undo:
+    """What a move may change, kept before it writes so a failure halfway can be taken back: the attributes of the
+    solver, its state and the updater (a cut rebinds most arrays: extended views, new hybrid mesh), the surface's
+    rewritten rows and fans, the constraint rows and edge maps (journals of their changes), and copies of the few
+    per-vertex arrays a cut edits in place. Cost per move: O(k) but for those copies (O(n) memcpy, ~0.1 ms at 100k
+    vertices)."""
+
+    #: per-vertex arrays a cut writes in place at old vertices: (owner, attribute)
+    IN_PLACE = (("solver", "mass"), ("solver", "inv_mass"), ("solver", "_slot"), ("updater", "lumped"),
+                ("updater", "gershgorin"), ("updater", "_is_prescribed"))
+
+    def __init__(self, updater: SolverCut, plan):
+        s = updater.solver
+        self.updater, self.plan = updater, plan
+        self.attributes = [(o, dict(vars(o))) for o in (s, s.state, updater)]
+        self.spare, self.surface = updater.spare.mark(), updater.surface.mark(plan)
+        self.journals = [v for v in vars(updater).values() if isinstance(v, (Rows, EdgeRows))]
+        for journal in self.journals:
+            journal.begin()
+        owners = {"solver": s, "updater": updater}
+        arrays = [getattr(owners[o], name, None) for o, name in self.IN_PLACE]
+        self.copies = [(a, a.copy()) for a in arrays if isinstance(a, np.ndarray)]
+        held = s._load_node >= 0
+        self.load = (s.forces, s.load_nodes, s.forces[s.load_nodes].copy(), s._load_force.copy()) if held else None
+        self.patches = dict(s._patches)
+
+    def restore(self) -> None:
+        """Everything as when this was made."""
+        s, updater = self.updater.solver, self.updater
+        updater.surface.restore(self.surface, self.plan)
+        updater.spare.restore(self.spare)
+        for owner, attributes in self.attributes:
+            vars(owner).clear()
+            vars(owner).update(attributes)
+        for journal in self.journals:
+            journal.undo()
+        for array, copy in self.copies:
+            array[...] = copy
+        if self.load is not None:
+            forces, nodes, values, force = self.load
+            forces[nodes] = values
+            s._load_force[:] = force
+        s._patches.clear()
+        s._patches.update(self.patches)
+
+    def commit(self) -> None:
+        for journal in self.journals:
+            journal.commit()
+
+
+def anchored_nodes(solver) -> np.ndarray | None:
+    """``(a,) int64`` the vertices that hold ``solver``'s surface in place (fixed, and the hybrid's control nodes):
+    every piece of a cut surface must hold one (pass them to ``check_cut_invariants(anchored=...)``); None for a
+    method that holds every vertex by its embedding (embedded), or that cannot be cut."""
+    if refusal(getattr(solver, "name", "")) is not None:
+        return None
+    updater = cut_updater(solver)
+    if updater.keeps_loose:
+        return None
+    return updater.held_nodes(np.asarray(solver.fixed, dtype=np.int64), np.zeros(0, dtype=np.int64))
+
+
 def _members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
     """``values.shape bool``: whether each value is in ``sorted_set`` (ascending), by binary search."""
     if len(sorted_set) == 0:
         return np.zeros(np.shape(values), dtype=bool)
     where = np.minimum(np.searchsorted(sorted_set, values), len(sorted_set) - 1)
     return sorted_set[where] == values
-
-
-def _preview(triangles: np.ndarray, plan) -> np.ndarray:
-    """``(m', 3)`` the triangles after ``plan`` as a new array (only for the rare loose-piece test)."""
-    out = np.array(triangles, dtype=np.int64)
-    for r, content in plan.patch.edited.items():
-        out[r] = content
-    return np.concatenate([out, np.array(plan.patch.added, dtype=np.int64).reshape(-1, 3)])
 
 
 @register_cut("fem")
