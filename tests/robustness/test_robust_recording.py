@@ -127,12 +127,6 @@ def test_a_target_that_cannot_hold_a_recording_is_refused_before_the_session(tmp
     assert tree(tmp_path) == before  # nothing written
 
 
-def test_view_refuses_a_zero_stiffness_instead_of_using_the_default(capsys):
-    assert main(["view", "cube", "--stiffness", "0"]) == 1
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "--stiffness must be a positive finite number [N/m], got 0.0" in err
-
-
 # --------------------------------------------------------------------------------------------- re-recording
 def test_a_finished_re_recording_replaces_the_old_one_and_leaves_nothing_else(tmp_path):
     record(tmp_path / "s.pvd", [0.0, 0.001, 0.002, 0.003])

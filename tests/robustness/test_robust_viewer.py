@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from tissuesim import SolverError
+from tissuesim.cli import main
 from tissuesim.viewer.controller import MAX_STEPS_PER_FRAME, Controller
 
 DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down on the cube's top
@@ -109,3 +110,14 @@ def test_an_unknown_setting_is_a_solver_error_naming_it_and_the_valid_ones(small
         c.configure(bogus=1, dt=0.005)
     assert "youngs_modulus" in str(error.value) and "near_field" in str(error.value)
     assert c.settings == settings and c.solver.dt == settings.dt  # the valid change beside it is not applied
+
+
+@pytest.mark.parametrize("argument, said", [
+    (["--stiffness", "0"], "--stiffness must be a positive finite number [N/m], got 0.0"),  # never the default
+    (["--method", "magic"], "unknown method 'magic'"),
+    (["--prestrain", "0.9"], "prestrain"),
+])
+def test_view_refuses_a_bad_argument_in_one_line_before_building_anything(capsys, argument, said):
+    assert main(["view", "cube", *argument]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and said in err and "building" not in err
