@@ -1,8 +1,8 @@
 """Accuracy against the fine FEM reference (eq 26), reduced-resolution models, calibrated defaults.
 
-Measured when written (RMSE over 50 nodes, mm; reference RMS in brackets), 1 N pressure / tension:
-cube 386: hybrid 1.48 / 1.49, embedded 1.52, pbd 2.90 / 2.90, mass-spring 1.34 / 1.36 [3.18];
-sphere 400: hybrid 2.35 / 2.43, embedded 2.55, pbd 4.81 / 4.82, mass-spring 4.72 / 4.93 [5.04].
+Measured (RMSE over 50 nodes relative to the reference's RMS), 1 N pressure / tension:
+cube 386: hybrid 0.428, embedded 0.477, pbd 0.684, mass-spring 0.432 / 0.467;
+sphere 400: hybrid 0.452, embedded 0.506, pbd 0.627, mass-spring 0.951 / 0.986.
 """
 
 import pytest
@@ -21,12 +21,15 @@ def case(request):
 
 
 @pytest.mark.parametrize("direction", [-1.0, 1.0], ids=["pressure", "tension"])
-def test_hybrid_is_closer_to_the_fine_fem_than_pbd_and_than_standing_still(case, direction):
+def test_hybrid_is_closer_to_the_fine_fem_than_the_embedded_surface_and_pbd(case, direction):
+    """The hybrid is the embedded surface's coarse FEM (the same control displacements, the same load split) plus a
+    surface layer between the control nodes: it must be nearer the fine FEM than that FEM interpolated (else the
+    layer does harm; measured 0.90 and 0.89 of it), and nearer than PBD, the same layer with nothing under it but
+    the support (measured 0.63 and 0.72 of it). Both are direct static solves: nothing settles, nothing is tuned."""
     h, node, samples = case
     force = [0.0, 0.0, direction]
     reference = make_solver("fem", h).solve_static(node, force)
-    scale = rmse(reference, h.surface.vertices, samples)
-    hybrid = rmse(make_solver("hybrid", h).solve_static(node, force, tolerance=1e-6), reference, samples)
-    pbd = rmse(make_solver("pbd", h).solve_static(node, force, tolerance=1e-6), reference, samples)
-    assert hybrid < 0.6 * scale  # measured 0.46–0.48
-    assert hybrid < 0.75 * pbd  # measured 0.48–0.51
+    error = {method: rmse(make_solver(method, h).solve_static(node, force), reference, samples)
+             for method in ("hybrid", "embedded", "pbd")}
+    assert error["hybrid"] < error["embedded"] < rmse(reference, h.surface.vertices, samples)
+    assert error["hybrid"] < error["pbd"]

@@ -82,15 +82,21 @@ def test_membrane_springs_reproduce_the_youngs_modulus_under_uniaxial_stress():
     assert energy == pytest.approx(0.5 * E * h * tri.triangle_areas[0] * eps ** 2, rel=1e-4)
 
 
-def test_hinge_energy_of_a_sphere_approximates_the_plate_energy():
-    """Grinspun: Σ ½ k_b (θ − φ_flat)² over a sphere ≈ ½ D ∫ (2H)² dA = 8π D (measured 1.11–1.24 on our spheres)."""
-    surface = models.sphere(400)
+@pytest.mark.parametrize("resolution", [100, 400, 1600])
+def test_hinge_energy_of_a_sphere_approximates_the_plate_energy(resolution):
+    """Grinspun: Σ ½ k_b (θ − φ_flat)² over a sphere ≈ ½ D ∫ (2H)² dA = 8π D.
+
+    The dihedral-angle energy is not consistent on irregular meshes (Wardetzky et al. 2007): on the generator's
+    spheres it stays 1.11–1.24 of the plate energy from 100 to 3200 vertices (1.17, 1.11, 1.21 at 100, 400, 1600)
+    and does not converge, so no mesh size tightens it. The band is that non-convergent spread with 0.03 either
+    side; a wrong factor in k_b (2, 3/2, 1 − ν against 1 − ν²) lands outside it."""
+    surface = models.sphere(resolution)
     c = SurfaceConstraints.from_surface(surface)
     E, nu, h = 5500.0, 0.3, 1e-3
     k_b = hinge_stiffness(c, youngs_modulus=E, poisson_ratio=nu, thickness=h)
     energy = 0.5 * np.sum(k_b * (np.pi - c.rest_angle) ** 2)
     D = E * h ** 3 / (12 * (1 - nu ** 2))
-    assert 1.0 < energy / (8 * np.pi * D) < 1.3
+    assert 1.08 < energy / (8 * np.pi * D) < 1.27
 
 
 def test_compliance_is_inverse_stiffness_and_masses_sum_to_the_layer_mass(sphere):
