@@ -1,11 +1,26 @@
-"""The experiment on a small model: method ordering by RMSE, linear scaling with force, stored reference numbers,
-and the quick CLI run writing every output.
+"""The experiment on a small model: its numbers checked against an independent FEM where one exists, method ordering
+by RMSE, linear scaling with force, stored reference numbers, and the quick CLI run writing every output.
 
-The stored numbers (experiment_reference.json beside this file) are recomputed by::
+Where the numbers come from:
 
-    python -m tissuesim.experiments.run --write-reference tests/regression/experiment_reference.json
+* ``experiment_reference.json`` (beside this file) is this code's own output, written by::
+
+      python -m tissuesim.experiments.run --write-reference tests/regression/experiment_reference.json
+
+  last at commit 0df0c47 ("Regression reference and calibration test follow the quadratic reference and the new
+  calibration"). Pinning a record to it detects a change, not an error.
+* Independent checks, here: the ``fem`` reference (every M_S node, so every RMSE is measured against a checked
+  reference), the ``embedded`` surface and the hybrid's control nodes are recomputed with scikit-fem on the same
+  volumes, loads and supports (1e-9), and the embedding weights against the geometry (1e-12).
+* No independent reference exists for the hybrid's free nodes, pbd or mass-spring: their figures are the code's
+  own (regression only); their physics is checked in tests/validation/test_physical_consistency.py.
+* The paper's claim, the hybrid nearer the reference than every baseline, is asserted here against the fine linear
+  FEM under the paper's single-node load, whose value at the load node grows without bound as the mesh refines
+  (docs/experiments.md): it is a claim about this reference and this mesh, with a margin of 1.06 % over mass-spring
+  (pressure, 1 N). Against the contact protocol's converged reference, see test_contact_claims.
 """
 
+import importlib.util
 import json
 from pathlib import Path
 
@@ -51,7 +66,90 @@ def test_results_follow_the_schema(results):
     for record in results["records"]:
         assert len(record["displacements_mm"]) == protocol.PLOT_SAMPLES
         if record["method"] == protocol.REFERENCE:
-            assert record["rmse_mm"] == 0.0
+            assert record["rmse_mm"] == 0.0     # exact: the reference against itself, x − x = 0 in IEEE arithmetic
+
+
+def skfem_displacement(volume, forces, fixed):
+    """``(n, 3)`` displacements [m] by scikit-fem's P1 elasticity (tests/validation/test_fem_skfem.py), E = 5500 Pa,
+    ν = 0.3: the defaults of every solver here."""
+    path = Path(__file__).resolve().parents[1] / "validation" / "test_fem_skfem.py"
+    spec = importlib.util.spec_from_file_location("skfem_check", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.skfem_solution(volume, forces, fixed)[1]
+
+
+def supported(volume_points, surface):
+    """The support of every solver (docs/experiments.md): volume nodes at or below the bottom height of M_S."""
+    from tissuesim.mesh.regions import bottom_height, nodes_below
+
+    return nodes_below(volume_points, bottom_height(surface.vertices))
+
+
+def _case_force(load, force):
+    return force * np.asarray(protocol.LOAD_DIRECTIONS[load])
+
+
+@pytest.fixture(scope="module")
+def unit_cases(hybrid):
+    """Per load kind, the scikit-fem answers to 1 N: fine volume, coarse volume (embedded) and the hybrid's load split
+    onto M_V (§6.1). Every method here is linear in the force, so other forces scale these."""
+    h, rest = hybrid, np.asarray(hybrid.surface.vertices)
+    node = protocol.load_node(rest, h.surface.triangles)
+    answers = {}
+    for load in protocol.LOADS:
+        f = _case_force(load, 1.0)
+        fine = np.zeros((h.fine_volume.node_count, 3))
+        fine[h.fine_surface_nodes[node]] = f
+        embedded = np.zeros((h.volume.node_count, 3))
+        np.add.at(embedded, h.volume.tets[h.embedding_tet[node]], h.embedding_barycentric[node][:, None] * f)
+        split = np.zeros((h.volume.node_count, 3))
+        corners = np.asarray(h.coarse_volume_nodes)[h.coarse_surface.triangles[h.coarse_triangle[node]]]
+        np.add.at(split, corners, h.coarse_barycentric[node][:, None] * f)
+        answers[load] = {name: skfem_displacement(volume, forces, supported(volume.points, h.surface))
+                         for name, volume, forces in (("fine", h.fine_volume, fine), ("coarse", h.volume, embedded),
+                                                      ("split", h.volume, split))}
+    return node, answers
+
+
+def test_embedding_weights_reproduce_the_surface(hybrid):
+    h = hybrid
+    corners = h.volume.points[h.volume.tets[h.embedding_tet]]
+    mapped = np.einsum("ij,ijk->ik", h.embedding_barycentric, corners)
+    size = np.ptp(h.surface.vertices, axis=0).max()
+    assert np.abs(mapped - h.surface.vertices).max() <= 1e-12 * size      # round-off of a 4-term sum
+    assert np.all(h.embedding_barycentric >= -1e-12)
+
+
+def test_fem_and_embedded_records_equal_scikit_fem(results, hybrid, unit_cases):
+    """The reference every RMSE is measured against, over every M_S node, and the embedded surface's samples.
+    1e-9: two direct solves of the same linear system (test_fem_skfem.py measures ~1e-12)."""
+    h, rest = hybrid, np.asarray(hybrid.surface.vertices)
+    node, answers = unit_cases
+    fine_solver = make_solver("fem", h)
+    for (load, force), methods in _by_case(results).items():
+        fine = force * answers[load]["fine"][h.fine_surface_nodes]
+        positions = fine_solver.solve_static(node, _case_force(load, force))
+        assert np.abs(positions - rest - fine).max() <= 1e-9 * np.abs(fine).max(), (load, force)
+        samples = protocol.sample_nodes(rest, node, protocol.PLOT_SAMPLES)
+        expected = 1e3 * np.linalg.norm(fine[samples], axis=1)
+        np.testing.assert_allclose(methods["fem"]["displacements_mm"], expected, rtol=1e-9)
+        coarse = force * answers[load]["coarse"]
+        weights, tets = h.embedding_barycentric[samples], h.volume.tets[h.embedding_tet[samples]]
+        embedded = np.einsum("ij,ijk->ik", weights, coarse[tets])
+        np.testing.assert_allclose(methods["embedded"]["displacements_mm"], 1e3 * np.linalg.norm(embedded, axis=1),
+                                   rtol=1e-9)
+
+
+def test_hybrid_control_nodes_equal_scikit_fem(hybrid, unit_cases):
+    """§6.1–6.2: the load split over the coarse triangle's control nodes, M_V solved, the control nodes prescribed."""
+    h, rest = hybrid, np.asarray(hybrid.surface.vertices)
+    node, answers = unit_cases
+    control = np.asarray(h.control)
+    for load in protocol.LOADS:
+        positions = make_solver("hybrid", h).solve_static(node, _case_force(load, 1.0))
+        expected = answers[load]["split"][np.asarray(h.control_volume)]
+        assert np.abs(positions[control] - rest[control] - expected).max() <= 1e-9 * np.abs(expected).max(), load
 
 
 def test_hybrid_beats_surface_only_pbd(results):
