@@ -21,9 +21,9 @@ until the new one is complete.
 
 from __future__ import annotations
 
+import itertools
 import os
 import shutil
-import tempfile
 from dataclasses import dataclass
 from datetime import datetime
 from pathlib import Path
@@ -127,10 +127,7 @@ class Recorder:
         self.min_motion = float(min_motion)
         if not self.min_motion >= 0.0 or self.min_motion == float("inf"):
             raise RecordingError(f"min_motion must be a finite distance of at least 0 m, got {min_motion!r}")
-        try:
-            self._partial = Path(tempfile.mkdtemp(prefix=f"{self.folder.name}.partial-", dir=self.path.parent))
-        except OSError as error:
-            raise RecordingError(f"cannot record to {str(self.path)!r}: {error}") from None
+        self._partial = _fresh_folder(self.path.parent, f"{self.folder.name}.partial-{os.getpid()}")
         self._entries: list[tuple[float, str]] = []
         self._last = None  # (positions, triangles, force) of the last frame written
 
@@ -220,6 +217,19 @@ class Recorder:
             self.close()
         else:
             self.abort()
+
+
+def _fresh_folder(parent: Path, stem: str) -> Path:
+    """A new folder ``parent/stem-<n>`` (not tempfile's, whose folders only their owner may read)."""
+    for n in itertools.count():
+        folder = parent / f"{stem}-{n}"
+        try:
+            folder.mkdir()
+            return folder
+        except FileExistsError:
+            continue
+        except OSError as error:
+            raise RecordingError(f"cannot create {str(folder)!r} for a recording: {error}") from None
 
 
 def _write_index(path: Path, entries, prefix: str) -> None:

@@ -134,6 +134,8 @@ def test_a_finished_re_recording_replaces_the_old_one_and_leaves_nothing_else(tm
     frames = read_recording(tmp_path / "s.pvd")
     assert [f.positions[0, 0] for f in frames] == [0.0, 0.005]  # assigned values, written and read as float64
     assert tree(tmp_path) == ["s.pvd", "s_frames", "s_frames/frame_000000.vtu", "s_frames/frame_000001.vtu"]
+    (tmp_path / "plain").mkdir()  # the frames folder is made as any folder (the umask), readable by whom it allows
+    assert (tmp_path / "s_frames").stat().st_mode == (tmp_path / "plain").stat().st_mode
 
 
 def test_an_interrupted_or_failed_re_recording_leaves_the_old_one_intact(tmp_path):
