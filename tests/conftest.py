@@ -46,6 +46,26 @@ def private_cache(tmp_path_factory):
         yield
 
 
+def _assert_better_beyond_the_reference(errors: dict, better: str, worse: str, change: float) -> None:
+    """``errors[(method, case)]``: relative RMSE against a refined reference whose last level changed by ``change``.
+
+    An unconverged reference stands about its last change δ (RMS, relative) off its limit, the usual estimate for
+    refinement that converges geometrically; by the triangle inequality every method's relative RMSE against the
+    limit is within about δ of its value here. So ``better`` beats ``worse`` against the limit only where the gap
+    exceeds 2δ, in every case.
+    """
+    assert 0.0 < change < 0.2
+    for case in sorted({case for method, case in errors if method == better}):
+        gap = errors[(worse, case)] - errors[(better, case)]
+        assert gap > 2.0 * change, f"{better} vs {worse}, {case}: gap {gap:.3f}, reference change {change:.3f}"
+
+
+@pytest.fixture(scope="session")
+def better_beyond_the_reference():
+    """The check of :func:`_assert_better_beyond_the_reference`, for the tests of method orderings."""
+    return _assert_better_beyond_the_reference
+
+
 @pytest.fixture(scope="session")
 def meshes_dir() -> Path:
     if not MESHES.is_dir():

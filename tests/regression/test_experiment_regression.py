@@ -17,7 +17,7 @@ Where the numbers come from:
 * The paper's claim, the hybrid nearer the reference than every baseline, is asserted here against the fine linear
   FEM under the paper's single-node load, whose value at the load node grows without bound as the mesh refines
   (docs/experiments.md): it is a claim about this reference and this mesh, with a margin of 1.06 % over mass-spring
-  (pressure, 1 N). Against the contact protocol's converged reference, see test_contact_claims.
+  (pressure, 1 N). Against the contact protocol's refined reference, see test_contact_claims (slow).
 """
 
 import importlib.util
@@ -218,3 +218,28 @@ def test_quick_cli_run_writes_every_output(tmp_path, capsys):
     assert {(r["load"], r["force_N"]) for r in data["records"]} == {("tension", 2.0), ("pressure", 2.0)}
     assert "## Table 3" in (output / "tables.md").read_text()
     assert "Winner of each row" in (output / "report.md").read_text()
+
+
+@pytest.mark.slow
+def test_contact_claims(better_beyond_the_reference):
+    """The paper's claim against the contact protocol's refined reference (quadratic tets, refined at the contact;
+    ~90 s from a cold cache), on the same small cube, 1 N, both loads, tip radii 4 and 8 mm.
+
+    Measured: the reference stops unconverged (last changes 0.042 / 0.034 at R = 4 / 8 mm). The hybrid beats pbd by
+    0.14-0.21 of the reference RMS, well beyond that; its lead on the embedded surface (0.045) is within twice the
+    change, and mass-spring is *ahead* of it at R = 8 mm under pressure (0.471 against 0.489): the claim "the hybrid
+    beats every baseline" does not hold on this model against this reference, so only the pbd ordering is asserted.
+    The fast sibling is test_hybrid_beats_surface_only_pbd (against the fine linear FEM)."""
+    from tissuesim.experiments import contact
+    from tissuesim.experiments.reference import default_cache_dir
+
+    config = contact.ContactConfig(models=("cube",), resolution=reference_config().resolution, forces=(1.0,),
+                                   loads=protocol.LOADS, radii_mm=(4.0, 8.0),
+                                   methods=("hybrid", "pbd", "embedded", "mass-spring"),
+                                   cache_dir=str(default_cache_dir()))
+    run = contact.run_contact(config, progress=False)
+    references = run["metadata"]["models"]["cube"]["references"]
+    for radius in (4.0, 8.0):
+        errors = {(r["method"], r["load"]): r["relative_rmse"] for r in run["records"] if r["radius_mm"] == radius}
+        change = references[f"{radius:g}"]["levels"][-1]["change"]
+        better_beyond_the_reference(errors, "hybrid", "pbd", change)
