@@ -42,8 +42,9 @@ class Scalpel:
     Args:
         solver: a hybrid, pbd, mass-spring or embedded solver (the fem reference refuses, saying why).
         depth: blade length [m] from the tip into the tissue; default ``DEPTH_EDGES`` mean rest edge lengths.
-        snap: snap fraction of the local edge length in [0, 1/3) (default
-            :data:`tissuesim.cutting.core.DEFAULT_SNAP`).
+        snap: snap fraction of the local edge length in [0.05, 1/3) (default
+            :data:`tissuesim.cutting.core.DEFAULT_SNAP`; below :data:`tissuesim.cutting.sweep.MIN_SNAP` = 0.05 cut
+            points too close to merge make zero-area triangles, so it is refused).
 
     Attributes:
         tip: ``(3,) float64`` where the last cut stopped [m], or None when not pressed.
@@ -77,11 +78,7 @@ class Scalpel:
         if direction is None:
             normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])      # outward: counter-clockwise
             direction = -normal
-        direction = checked_point(direction)
-        length = np.linalg.norm(direction)
-        if length == 0.0:
-            raise SolverError("the blade direction must be a non-zero vector")
-        self.tip, self.direction = point, direction / length
+        self.tip, self.direction = point, _unit(direction)
         self._anchor = -1
         self._pressed_on = self.solver.hybrid.surface.triangles[tri].astype(np.int64)
         return CutReport(seconds=time.perf_counter() - start)
@@ -134,3 +131,23 @@ class Scalpel:
         """Lift the tool; the cut stays (its tips stay closed until a later cut goes on from them)."""
         self.tip, self.direction = None, None
         return CutReport()
+
+
+def _unit(direction) -> np.ndarray:
+    """``direction`` ``(3,)`` scaled to unit length: by its largest component first, so neither a huge vector
+    (whose squared length overflows) nor a tiny one (whose squared length underflows) loses it; SolverError for
+    anything but 3 finite numbers, not all zero."""
+    given = direction
+    try:
+        direction = np.asarray(direction, dtype=np.float64)
+    except (TypeError, ValueError):
+        direction = np.full(3, np.nan)
+    if direction.shape != (3,) or not np.all(np.isfinite(direction)):
+        raise SolverError("the blade direction must be 3 finite numbers (a vector into the tissue, any length), "
+                          f"got {given!r}; pass none for the inward normal")
+    largest = float(np.max(np.abs(direction)))
+    if largest == 0.0:
+        raise SolverError("the blade direction must be a non-zero vector, got [0, 0, 0]; pass the direction the "
+                          "blade points into the tissue, or none for the inward normal")
+    direction = direction / largest
+    return direction / np.linalg.norm(direction)

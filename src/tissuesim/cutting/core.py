@@ -54,8 +54,8 @@ class CutResult:
         cut_edges: ``(c, 2) int64`` the edges cut by this move (vertex pairs, before duplication).
         closed: ``(p, 2) int64`` cut edges still shared by two triangles (a cut's tips), to pass to the next cut.
         split_count: old triangles split.
-        end_vertex: the cut point farthest along the sweep (where the cut stopped), −1 if none; a progressive
-            cut starts its next sweep there so the wound stays one path.
+        end_vertex: the cut point farthest along the sweep (where the cut stopped) on the sheet nearest the tool
+            tip, −1 if none; a progressive cut starts its next sweep there so the wound stays one path.
     """
 
     rest: np.ndarray
@@ -329,11 +329,24 @@ def _mix(weights, parents, values):
 
 
 def _farthest(segments, positions, sweep) -> int:
-    """The segment end with the largest sweep coordinate s (the tip's side of the cut)."""
-    ends = np.unique(np.array(list(segments.values()), dtype=np.int64).ravel())
+    """The segment end farthest along the move (the tip's side of the cut), on the sheet nearest the tool tip.
+
+    A blade deeper than the body crosses two sheets (the top and the bottom of a slab entered from the side), whose
+    fronts lie level along the move to within the snapping. The blade enters the sheet nearest its tip first, so a
+    front point shallower by more than a cut segment's length (more than one sheet can slope between two points a
+    segment apart) wins: the next move's walk then follows that sheet."""
+    pairs = np.array(list(segments.values()), dtype=np.int64).reshape(-1, 2)
+    ends = np.unique(pairs.ravel())
     if ends.size == 0:
         return -1
-    return int(ends[np.argmax(sweep.plane_coordinates(positions[ends])[:, 0])])
+    st = sweep.plane_coordinates(positions[ends])
+    along, deep = st[:, 0] * np.linalg.norm(sweep.u), st[:, 1] * np.linalg.norm(sweep.v)     # [m]
+    reach = float(np.linalg.norm(positions[pairs[:, 0]] - positions[pairs[:, 1]], axis=1).max())
+    best = int(np.argmax(along))
+    front = np.flatnonzero((along >= along[best] - reach) & (deep < deep[best] - reach))
+    if front.size:
+        best = int(front[np.argmin(deep[front])])
+    return int(ends[best])
 
 
 def _affected(segments, points, patch) -> list[int]:

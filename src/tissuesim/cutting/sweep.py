@@ -7,10 +7,11 @@ the triangle's barycentric coordinates; the ends lie on an edge (the paper's *ed
 parallelogram's border stops inside the triangle, inside it (*facet points*). Barycentric coordinates carry the
 points to the rest surface unchanged (§7, Fig 8).
 
-Snapping (the paper is silent): with ``snap`` = σ, an edge point within σ × the edge's length of an end goes onto
-that vertex, and a facet point whose weight on a corner is below σ (closer to the opposite edge than σ × the
-triangle's height there) goes onto that edge (or, for two such weights, onto the vertex). No new point is therefore
-closer than that to an existing vertex or edge, which bounds the aspect ratio of the sub-triangles.
+Snapping (the paper is silent): with ``snap`` = σ in [:data:`MIN_SNAP`, 1/3), an edge point within σ × the edge's
+length of an end goes onto that vertex, and a facet point whose weight on a corner is below σ (closer to the
+opposite edge than σ × the triangle's height there) goes onto that edge (or, for two such weights, onto the vertex).
+No new point is therefore closer than that to an existing vertex or edge, which bounds the aspect ratio of the
+sub-triangles; points of one move closer than that to each other are merged.
 """
 
 from __future__ import annotations
@@ -26,6 +27,12 @@ from ..errors import SolverError
 
 #: Relative tolerance [1] under which a vertex counts as lying on the sweep plane (fraction of the edge length).
 PLANE_TOLERANCE = 1e-9
+#: Smallest snap fraction accepted. Snapping also sets how close two cut points of one move may come before they
+#: are merged, so at 0 two crossings at one place make two vertices there: zero-length edges, zero-area triangles
+#: and non-manifold vertices (at 0 every random move on the cube was refused or broke the surface). Measured on
+#: random 12-move strokes on the cube: 0.001 left slivers (quality 0.003–0.009) in 5 of 25 strokes; 0.005 to 0.15
+#: none in 300 moves each. 0.05 keeps a factor of 10 from the smallest clean value.
+MIN_SNAP = 0.05
 
 
 @dataclass(frozen=True)
@@ -236,11 +243,15 @@ def _clip_bound(a, b, lo, hi):
 
 
 def check_snap(snap: float) -> float:
-    """``snap`` as a float in [0, 1/3), or a SolverError saying so."""
+    """``snap`` as a float in [:data:`MIN_SNAP`, 1/3), or a SolverError naming the option, the range and why."""
     try:
-        snap = float(snap)
+        value = float(snap)
     except (TypeError, ValueError):
-        raise SolverError(f"snap must be a fraction of the local edge length in [0, 1/3), got {snap!r}") from None
-    if not 0.0 <= snap < 1.0 / 3.0:
-        raise SolverError(f"snap must be a fraction of the local edge length in [0, 1/3), got {snap!r}")
-    return snap
+        value = math.nan
+    if not MIN_SNAP <= value < 1.0 / 3.0:
+        why = (f"; below {MIN_SNAP:g} cut points closer together than snap x the edge are not merged, which leaves "
+               "coincident vertices and zero-area triangles") if 0.0 <= value < MIN_SNAP else ""
+        raise SolverError(f"the scalpel's snap option must be a fraction of the local edge length in "
+                          f"[{MIN_SNAP:g}, 1/3), got {snap!r}{why}; pass a snap from {MIN_SNAP:g} up to below 1/3 "
+                          "(default 0.25)")
+    return value
