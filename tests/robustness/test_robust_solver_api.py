@@ -108,6 +108,14 @@ def test_a_solver_name_that_is_no_string_is_refused(small_cube, name):
         make_solver(name, small_cube)
 
 
+@pytest.mark.parametrize("rtol", [1.0, 1e300])
+def test_an_rtol_that_accepts_any_state_is_refused(small_cube, small_cube_top, rtol):
+    solver = make_solver("mass-spring", small_cube)
+    with pytest.raises(SolverError, match=r"rtol .* must lie in \(0, 1\)"):
+        solver.solve_static(small_cube_top, [0.0, 0.0, 1.0], rtol=rtol)
+    assert solver.last_solve is None and solver.load is None
+
+
 def test_a_linear_answer_out_of_range_blames_the_load_not_dt(small_cube, small_cube_top):
     solver = make_solver("embedded", small_cube, youngs_modulus=1e-200)
     with pytest.raises(SolverError, match="lower the load") as error:

@@ -418,6 +418,8 @@ class Solver(ABC):
         """
         tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
         rtol = positive_number("rtol", rtol, "1")
+        if rtol >= 1.0:  # a remaining error as large as the answer itself accepts any state as settled
+            raise SolverError(f"rtol is a relative accuracy and must lie in (0, 1), got {rtol!r}; e.g. 1e-5")
         if not is_integer(max_steps) or max_steps < 1:
             raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
