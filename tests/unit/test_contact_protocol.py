@@ -50,7 +50,7 @@ def test_small_run_records_and_metrics(small_run, better_beyond_the_reference):
     records = small_run["records"]
     assert len(records) == 2 * 5  # two forces × five methods
     for r in records:
-        assert r["role"] == "held out" and r["radius_mm"] == 8.0
+        assert r["role"] == "held out" and r["radius_mm"] == 8.0  # exact: the option
         for key in ("rmse", "rmse_outside", "contact_error"):
             assert r[f"{key}_mm"] > 0 and r[f"relative_{key}"] == pytest.approx(r[f"{key}_mm"] / r["reference_rms_mm"])
     by = {(r["method"], r["force_N"]): r for r in records}

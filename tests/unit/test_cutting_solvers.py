@@ -85,6 +85,7 @@ def test_a_held_pin_head_keeps_its_node_and_stepping_goes_on(cube):
         solver.step()
     scalpel.release()
     assert report.seconds > 0.0
+    # exact: the anchor is a copy of the rest row
     assert pin.node == node and np.array_equal(solver.rest_positions[node], anchor)
     assert solver.load[0] == node and np.allclose(solver.load[1], [0.0, 0.4, 0.0])
     for _ in range(500):
@@ -123,7 +124,7 @@ def test_control_nodes_on_the_cut_are_released_on_both_sides(cube):
     assert was_control.size >= 1
     assert np.intersect1d(was_control, h.control).size == 0
     assert np.intersect1d(on_cut, solver.prescribed).size == 0
-    assert np.array_equal(cube.volume.points[h.coarse_volume_nodes], cube.coarse_surface.vertices)
+    assert np.array_equal(cube.volume.points[h.coarse_volume_nodes], cube.coarse_surface.vertices)  # exact: copies
 
 
 def test_embedded_surface_is_cut_but_cannot_open_while_the_hybrid_does(cube):

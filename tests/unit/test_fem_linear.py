@@ -50,7 +50,7 @@ def test_fast_path_equals_full_solve(fem, box):
     # Writing into a caller's buffer gives the same numbers (and reuses it).
     buffer = np.full((out_nodes.size, 3), np.nan)
     again = fem.point_load_response(load_nodes, load_forces, output_nodes=out_nodes, out=buffer)
-    assert again is buffer and np.array_equal(buffer, fast)
+    assert again is buffer and np.array_equal(buffer, fast)  # exact: the same buffer
 
 
 def test_load_on_a_fixed_node_moves_nothing(fem, box):

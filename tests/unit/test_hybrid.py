@@ -34,9 +34,10 @@ def test_control_nodes_are_surface_vertices_and_the_volume_boundary(hybrids):
     for name, h in hybrids.items():
         n = h.surface.vertex_count
         assert np.all(np.diff(h.control) > 0) and 0 <= h.control[0] and h.control[-1] < n, name
-        assert np.array_equal(h.coarse_surface.vertices, h.surface.vertices[h.control]), name
+        assert np.array_equal(h.coarse_surface.vertices, h.surface.vertices[h.control]), name  # exact: copied rows
         # M_V boundary node set == control set, coordinates bit-identical.
         assert np.array_equal(np.sort(h.control_volume), h.volume.boundary_nodes), name
+        # exact: TetGen Y keeps them
         assert np.array_equal(h.volume.points[h.control_volume], h.surface.vertices[h.control]), name
         assert np.all(h.volume.volumes > 0), name
         validate_surface(h.coarse_surface)
@@ -74,7 +75,7 @@ def test_embedding_reproduces_every_vertex(hybrids):
 def test_fine_volume_surface_nodes_are_the_surface_vertices(hybrids, small_with_fine):
     for h in (hybrids["sofa/liver2"], small_with_fine):
         nodes = h.fine_surface_nodes
-        assert np.array_equal(h.fine_volume.points[nodes], h.surface.vertices)
+        assert np.array_equal(h.fine_volume.points[nodes], h.surface.vertices)  # exact: TetGen Y keeps them
         assert np.array_equal(np.sort(nodes), h.fine_volume.boundary_nodes)
         assert np.all(h.fine_volume.volumes > 0)
         assert h.fine_volume.node_count > h.surface.vertex_count        # interior nodes from the quality switch

@@ -37,6 +37,7 @@ def test_obj_merges_seams_drops_unused_and_scales(tmp_path):
     path.write_text(OBJ_WITH_SEAMS)
     surface = read_surface(path, scale=0.01)
     assert surface.vertex_count == 4 and surface.triangle_count == 4
+    # exact: 1 × 0.01
     np.testing.assert_array_equal(surface.vertices, [[0, 0, 0], [0.01, 0, 0], [0, 0.01, 0], [0, 0, 0.01]])
     assert surface.triangles[1].tolist() == [0, 1, 3]  # the seam copy 5 became vertex 0
     assert surface.signed_volume == pytest.approx(1e-6 / 6)

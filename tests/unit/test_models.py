@@ -19,6 +19,7 @@ def test_default_models_are_closed_outward_and_table1_sized(model_name):
 
 def test_models_are_deterministic(model_name):
     a, b = models.model(model_name), models.model(model_name)
+    # determinism: bit for bit
     assert np.array_equal(a.vertices, b.vertices) and np.array_equal(a.triangles, b.triangles)
 
 

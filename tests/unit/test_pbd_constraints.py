@@ -63,7 +63,7 @@ def test_stretch_projection_restores_rest_length_and_respects_masses():
     assert np.linalg.norm((p1 + dp[0]) - (p2 + dp[1])) == pytest.approx(0.2, abs=1e-15)
     assert np.allclose(dp[0] + dp[1], 0.0)  # equal masses: centre of mass kept
     dp = C.stretch_correction(p1, p2, 0.0, 2.0, 0.2)  # p1 prescribed
-    assert np.all(dp[0] == 0.0)
+    assert np.all(dp[0] == 0.0)  # exact: inverse mass 0 times a finite step
     assert np.linalg.norm(p1 - (p2 + dp[1])) == pytest.approx(0.2, abs=1e-15)
     half = C.stretch_correction(p1, p2, 1.0, 1.0, 0.2, stiffness=0.5)
     assert np.linalg.norm((p1 + half[0]) - (p2 + half[1])) == pytest.approx(0.35, abs=1e-15)
@@ -92,7 +92,7 @@ def test_bending_projection_never_moves_a_prescribed_node():
 def test_degenerate_constraints_give_zero_correction_not_nan():
     same = np.zeros(3)
     assert np.all(C.stretch_correction(same, same, 1.0, 1.0, 0.1) == 0.0)
-    assert np.all(C.stretch_gradient(same, same) == 0.0)
+    assert np.all(C.stretch_gradient(same, same) == 0.0)  # exact: no direction, assigned 0
     flat = np.array([[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0]], dtype=float)
     assert np.all(C.bending_correction(*flat, np.ones(4), 2.0) == 0.0)  # sin θ = 0: no direction
     sliver = flat.copy()

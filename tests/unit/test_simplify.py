@@ -21,7 +21,7 @@ def test_result_is_a_valid_closed_surface_of_original_vertices(simplified_models
         validate_surface(coarse)            # closed, manifold, outward, no degenerate or intersecting triangles
         assert np.all(np.diff(result.kept) > 0), name
         # Every kept vertex is an M_S vertex at its original position, bit for bit.
-        assert np.array_equal(coarse.vertices, fine.vertices[result.kept]), name
+        assert np.array_equal(coarse.vertices, fine.vertices[result.kept]), name  # exact: kept rows are copied
         assert coarse.signed_volume > 0.9 * fine.signed_volume, name
 
 

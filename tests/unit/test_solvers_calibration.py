@@ -36,7 +36,7 @@ def test_write_calibrated_round_trips(tmp_path):
     spec = importlib.util.spec_from_file_location("written", path)
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
-    assert module.value("hybrid", "pbd") == 0.4321
+    assert module.value("hybrid", "pbd") == 0.4321  # exact: written as repr
     assert module.CALIBRATED["hybrid"]["pbd"][2:] == (1e-3, 2e-3)
     assert module.MASS_SPRING_THICKNESS == calibrated.MASS_SPRING_THICKNESS
     assert np.isnan(module.CALIBRATED["hybrid"]["xpbd"][2]) == np.isnan(calibrated.CALIBRATED["hybrid"]["xpbd"][2])

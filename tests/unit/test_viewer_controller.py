@@ -158,6 +158,7 @@ def test_method_switch_is_live_and_keeps_the_held_load(hybrid):
 def test_settings_reach_the_solver_and_pin_head(hybrid):
     c = Controller(hybrid)
     c.configure(youngs_modulus=11000.0, poisson_ratio=0.45, iterations=4, dt=0.005, stiffness=80.0)
+    # exact: the settings as assigned
     assert c.solver.youngs_modulus == 11000.0 and c.solver.poisson_ratio == 0.45
     assert c.solver.iterations == 4 and c.solver.dt == 0.005 and c.pin.stiffness == 80.0
     c.configure(method="embedded")  # a method without iterations keeps working
