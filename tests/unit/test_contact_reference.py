@@ -62,15 +62,13 @@ def test_quadratic_levels_change_less_than_linear_ones(cube):
     assert last["quadratic"].change < 0.75 * last["linear"].change
 
 
-def test_reference_table_and_response_are_linear(cube):
+def test_reference_table_and_the_direction_of_the_response(cube):
     surface, node = cube
     ref = reference.contact_reference(surface, node, 8e-3, settings=QUICK)
     assert [row.level for row in ref.levels] == [0, 1, 2]
     assert ref.levels[0].change is None and all(row.change > 0 for row in ref.levels[1:])
     assert ref.levels[2].tets > ref.levels[0].tets and ref.levels[2].contact_size_mm < ref.levels[0].contact_size_mm
     assert ref.converged == (ref.levels[-1].change < QUICK.tolerance)
-    force = np.array([0.2, -0.1, 3.0])
-    assert np.allclose(ref.displacements(force), sum(ref.response[:, :, a] * force[a] for a in range(3)))
     assert ref.displacements([0, 0, 1.0])[node, 2] > 0  # tension lifts the contact
     assert ref.levels[-1].sample_rms_mm == pytest.approx(
         1e3 * np.sqrt(np.mean(np.sum(ref.displacements([0, 0, -1.0])[ref.samples] ** 2, axis=1))))
