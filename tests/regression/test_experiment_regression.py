@@ -1,5 +1,5 @@
 """The experiment on a small model: its numbers checked against an independent FEM where one exists, method ordering
-by RMSE, linear scaling with force, stored reference numbers, and the quick CLI run writing every output.
+by RMSE, stored reference numbers, and the quick CLI run writing every output.
 
 Where the numbers come from:
 
@@ -135,10 +135,13 @@ def test_fem_and_embedded_records_equal_scikit_fem(results, hybrid, unit_cases):
         expected = 1e3 * np.linalg.norm(fine[samples], axis=1)
         np.testing.assert_allclose(methods["fem"]["displacements_mm"], expected, rtol=1e-9)
         coarse = force * answers[load]["coarse"]
-        weights, tets = h.embedding_barycentric[samples], h.volume.tets[h.embedding_tet[samples]]
-        embedded = np.einsum("ij,ijk->ik", weights, coarse[tets])
-        np.testing.assert_allclose(methods["embedded"]["displacements_mm"], 1e3 * np.linalg.norm(embedded, axis=1),
-                                   rtol=1e-9)
+        embedded = np.einsum("ij,ijk->ik", h.embedding_barycentric, coarse[h.volume.tets[h.embedding_tet]])
+        np.testing.assert_allclose(methods["embedded"]["displacements_mm"],
+                                   1e3 * np.linalg.norm(embedded[samples], axis=1), rtol=1e-9)
+        # eq 26 over the RMSE samples, from the two scikit-fem answers alone
+        rmse_samples = protocol.sample_nodes(rest, node, protocol.RMSE_SAMPLES)
+        error = np.sqrt(np.mean(np.sum((embedded - fine)[rmse_samples] ** 2, axis=1)))
+        assert methods["embedded"]["rmse_mm"] == pytest.approx(1e3 * error, rel=1e-9), (load, force)
 
 
 def test_hybrid_control_nodes_equal_scikit_fem(hybrid, unit_cases):
@@ -168,29 +171,6 @@ def test_ordering_of_methods_matches_the_stored_one(results):
     for case, methods in _by_case(results).items():
         ours = [m for _, m in sorted((r["rmse_mm"], m) for m, r in methods.items())]
         assert ours == [m for _, m in sorted(expected[case])], case
-
-
-def test_linear_methods_scale_linearly_with_force(results, hybrid):
-    table = _by_case(results)
-    small, large = sorted(reference_config().forces)[:2]
-    factor = large / small
-    for load in protocol.LOADS:
-        for method in ("embedded", "fem"):
-            a, b = table[(load, small)][method], table[(load, large)][method]
-            assert np.array(b["displacements_mm"]) == pytest.approx(factor * np.array(a["displacements_mm"]),
-                                                                    rel=1e-9)
-        a, b = table[(load, small)]["embedded"], table[(load, large)]["embedded"]
-        assert b["rmse_mm"] == pytest.approx(factor * a["rmse_mm"], rel=1e-9)
-        assert b["relative_rmse"] == pytest.approx(a["relative_rmse"], rel=1e-9)
-    # The hybrid's FEM part: control nodes take the coarse FEM positions, linear in the force.
-    solver = make_solver("hybrid", hybrid)
-    rest = np.asarray(hybrid.surface.vertices)
-    node = protocol.load_node(rest, hybrid.surface.triangles)
-    control = np.asarray(hybrid.control)
-    u_small = solver.solve_static(node, [0.0, 0.0, -small])[control] - rest[control]
-    u_large = solver.solve_static(node, [0.0, 0.0, -large])[control] - rest[control]
-    assert np.abs(u_large).max() > 0
-    assert u_large == pytest.approx(factor * u_small, rel=1e-6, abs=1e-12)
 
 
 def test_figures_match_the_stored_reference(results):
