@@ -28,6 +28,8 @@ def _state(solver):
     for name in ("mass", "inv_mass", "prescribed", "targets", "springs", "rest_lengths", "stiffness"):
         if hasattr(solver, name):
             arrays[name] = getattr(solver, name)
+    if hasattr(solver, "applied_forces"):
+        arrays["applied"] = solver.applied_forces()
     constraints = getattr(solver, "constraints", None)
     for name in ("edges", "rest_length", "bending", "rest_angle"):
         if constraints is not None:
@@ -56,21 +58,26 @@ def _deformed(cube, method):
     return solver, scalpel
 
 
+@pytest.mark.parametrize("stage", ["_update_lumped", "update", "_reload"])
 @pytest.mark.parametrize("method", METHODS)
-def test_a_move_that_fails_while_it_is_written_is_taken_back(cube, method):
+def test_a_move_that_fails_while_it_is_written_is_taken_back(cube, method, stage):
+    """An error after a stage of the move has written its part (the surface and lumped areas; the method's
+    constraints, masses and prescribed nodes; the held load re-applied), like the sweep's F5 IndexError."""
     solver, scalpel = _deformed(cube, method)
     updater = cut_updater(solver)
-    real = updater.update
+    real = getattr(updater, stage)
 
-    def failing(*args):      # the sweep's F5: an IndexError after the surface and the masses were written
+    def failing(*args):
         real(*args)
         raise IndexError("index 1403 is out of bounds for axis 0 with size 1380")
 
-    updater.update = failing
+    setattr(updater, stage, failing)
     before = _state(solver)
+    load = solver.load_nodes.copy(), solver.load_shares.copy()
     with pytest.raises(SolverError, match=r"IndexError.*taken back.*as before the move"):
         scalpel.move(STROKE[2])
-    del updater.update
+    delattr(updater, stage)
+    assert np.array_equal(solver.load_nodes, load[0]) and np.array_equal(solver.load_shares, load[1])
     _assert_same(before, _state(solver))
     # the same moves and steps as a solver that never tried it, bit for bit
     twin, twin_scalpel = _deformed(cube, method)

@@ -134,6 +134,16 @@ class VertexFans:
                          self._next, self._gained, self._row_mark, self._walks, self._queue)
         return np.sort(self._queue[:count])
 
+    def joined(self, triangles: np.ndarray, vertex_count: int, vertices: np.ndarray, budget: int) -> bool:
+        """Whether all of ``vertices`` ``(k,) int`` (ascending) are reached from the first through the triangles
+        (``vertex_count`` vertices) sharing vertices (not twins: a cut separates them), visiting at most ``budget``
+        vertices: a local proof that a cut split no piece; False says only that the search gave up or did not
+        reach them all."""
+        vertices = np.asarray(vertices, dtype=np.int64)
+        self._new_walk(vertex_count, len(triangles))
+        return _joined(read_only(triangles), vertices, int(budget), self._rows, self._start, self._built,
+                       self._head, self._next, self._gained, self._vertex_mark, self._walks)
+
     def _new_walk(self, vertex_count: int, row_count: int) -> None:
         """Room in the marks and the queue, and a new walk number (which unmarks everything at once)."""
         self._grow_vertices(vertex_count)
@@ -225,6 +235,48 @@ def _holding(triangles, vertices, rows, start, built, head, next_slot, gained, r
             count = _take_if_holding(triangles, gained[slot], v, row_mark, walk, out, count)
             slot = next_slot[slot]
     return count
+
+
+@njit(cache=True)
+def _joined(triangles, targets, budget, rows, start, built, head, next_slot, gained, vertex_mark, walk):
+    """Breadth-first from ``targets[0]`` over the rows holding each vertex; True once every vertex of the ascending
+    ``targets`` is reached, False when ``budget`` vertices were visited first or the piece ends."""
+    if targets.size == 0:
+        return True
+    queue = np.empty(budget + 3, dtype=np.int64)
+    queue[0] = targets[0]
+    vertex_mark[targets[0]] = walk
+    found, size, head_of_queue = 1, 1, 0
+    while head_of_queue < size:
+        v = queue[head_of_queue]
+        head_of_queue += 1
+        slot = head[v] if v < head.size else -1
+        k = start[v] if v < built else 0
+        end = start[v + 1] if v < built else 0
+        while k < end or slot >= 0:
+            if k < end:
+                r = rows[k]
+                k += 1
+            else:
+                r = gained[slot]
+                slot = next_slot[slot]
+            if r >= triangles.shape[0] or not (triangles[r, 0] == v or triangles[r, 1] == v or triangles[r, 2] == v):
+                continue
+            for c in range(3):
+                w = triangles[r, c]
+                if vertex_mark[w] == walk:
+                    continue
+                if size > budget:
+                    return False
+                vertex_mark[w] = walk
+                queue[size] = w
+                size += 1
+                at = np.searchsorted(targets, w)
+                if at < targets.size and targets[at] == w:
+                    found += 1
+                    if found == targets.size:
+                        return True
+    return False
 
 
 @njit(cache=True)

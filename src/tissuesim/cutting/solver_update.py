@@ -11,7 +11,7 @@ What every surface method gets:
   nodes, so the total is conserved (to round-off);
 * **fixed** nodes: a new vertex is fixed when all its parents are (a duplicate of a fixed node stays fixed);
 * **loose pieces**: a cut may separate a piece of surface (joining an earlier opening, or on a deformed surface).
-  Every move checks the pieces it touched on the new topology: a piece holding no prescribed node would drift, so
+  Every move checks the pieces it split on the new topology: a piece holding no prescribed node would drift, so
   the methods that prescribe nodes refuse such a cut (nothing is changed and the error says how many vertices the
   piece has); the embedded method keeps it (its embedding holds it) and reports it in ``loose_vertices``;
 * **all or nothing**: a refused move changes nothing, and a move that fails while it is written is taken back
@@ -34,6 +34,9 @@ from .remap import cut_hybrid
 from .rows import EdgeRows, Rows
 
 _REGISTRY: dict[str, type] = {}
+#: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
+#: question to the whole-surface count.
+LOCAL_SEARCH = 256
 
 
 @dataclass(frozen=True)
@@ -44,8 +47,8 @@ class CutReport:
         triangles_split: triangles of M_S split by this call.
         vertices_added: new M_S vertices (edge and facet points, duplicates).
         control_released: control nodes released (both copies of each).
-        loose_vertices: vertices of the pieces this move touched that hold no prescribed node, kept by their
-            embedding (embedded method only: the others refuse such a move).
+        loose_vertices: vertices this move cut loose from every prescribed node, kept by their embedding
+            (embedded method only: the others refuse such a move).
         seconds: wall time of the call [s].
     """
 
@@ -106,8 +109,8 @@ class SolverCut:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
         the vertex where the cut stopped (−1 if nothing was cut).
 
-        A move is all or nothing: it is checked before anything is written (a piece cut loose is refused here), and
-        any error while it is written takes every change back and is raised as a SolverError."""
+        A move is all or nothing: a refusal (a piece cut loose) or any error while it is written takes every change
+        back; an error that is not a SolverError is raised as one."""
         start = time.perf_counter()
         s = self.solver
         self.surface.sync(s.state.positions, s.state.velocities)
@@ -119,14 +122,13 @@ class SolverCut:
         released = originals[_members(originals, s.hybrid.control)]
         new_fixed = n + np.flatnonzero(np.sum(plan.weights * _members(plan.parents, s.fixed), axis=1)
                                        >= 1.0 - 1e-12)
-        loose = self._loose(plan, self.held_nodes(np.concatenate([s.fixed, new_fixed]).astype(np.int64), released))
         undo = _Undo(self, plan)
         try:
-            result = self._write(plan, sweep, released, new_fixed)
+            result, loose = self._write(plan, sweep, released, new_fixed)
             undo.commit()
         except Exception as error:
             undo.restore()
-            if isinstance(error, SolverError):
+            if isinstance(error, SolverError):      # a refusal (a loose piece), or a method's own
                 raise
             raise SolverError(f"the cut failed while it was applied ({type(error).__name__}: {error}); it was "
                               "taken back and the solver is as before the move: move on, or report this as a bug "
@@ -135,8 +137,9 @@ class SolverCut:
                          control_released=int(released.size), loose_vertices=loose,
                          seconds=time.perf_counter() - start), result.end_vertex
 
-    def _write(self, plan, sweep, released, new_fixed) -> CutResult:
-        """Apply a checked ``plan``: the surface, the hybrid mesh, the state and the method's arrays."""
+    def _write(self, plan, sweep, released, new_fixed) -> tuple[CutResult, int]:
+        """Apply ``plan``: the surface, the loose-piece test on it (a refusal raises, and the caller takes the
+        surface back), the hybrid mesh, the state and the method's arrays; the result and the loose vertices."""
         s, n = self.solver, plan.old_count
         if not s.hybrid.info.get("cuts"):
             before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
@@ -144,14 +147,16 @@ class SolverCut:
                 before()
         new_identity = self._new_identity(plan)
         result = self.surface.apply(plan, sweep)
+        touched = self.touched(result)
+        loose = self._loose(result, touched, np.concatenate([s.fixed, new_fixed]).astype(np.int64), released)
         self._update_lumped(result)
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
         self._carry_state(result, new_fixed)
-        self.update(result, n, released, self.touched(result))
+        self.update(result, n, released, touched)
         self._reload(result)
         self.closed = result.closed
         self.identity = self.spare.extend("identity", self.identity, new_identity)
-        return result
+        return result, loose
 
     # ------------------------------------------------------------------------------------ shared steps
     def _new_identity(self, plan) -> np.ndarray:
@@ -220,17 +225,21 @@ class SolverCut:
         np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
-    def _loose(self, plan, held_nodes: np.ndarray) -> int:
-        """Vertices of the pieces ``plan`` would leave without a prescribed node (0 if none), among the pieces
-        holding a vertex of its changed rows (a piece it cut loose holds one; a piece it did not touch was there
-        before). Refuses unless :attr:`keeps_loose`. O(n + m), compiled: it runs on every move, whatever the cut
-        graph, since a deformed or reloaded surface can be cut loose without closing a loop of cut edges."""
-        patch = plan.patch
-        changed = np.asarray(list(patch.edited.values()) + patch.added, dtype=np.int64).reshape(-1, 3)
-        near = np.unique(np.concatenate([plan.replaced.ravel(), changed.ravel()]))
-        loose, pieces, first = unanchored_pieces(self.surface.triangles, plan.old_count + len(plan.parents),
-                                                 held_nodes, skip=np.fromiter(patch.edited, dtype=np.int64),
-                                                 extra=changed, near=near)
+    def _loose(self, result: CutResult, touched: np.ndarray, fixed: np.ndarray, released: np.ndarray) -> int:
+        """Vertices this cut left in pieces without a prescribed node (0 if none); refuses unless
+        :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends inside an edge an
+        earlier move had cut closes a loop that no cut edge of its own closes.
+
+        Every vertex of the cut surface is joined to a vertex of the changed triangles (``touched``) as before, so
+        a piece came loose only if the touched vertices are no longer all joined. A search of a few rings from one
+        of them (compiled, ~10 µs) usually reaches them all around the cut's tip; only when it does not are the
+        pieces holding them counted over the whole surface (one compiled union-find, O(n + m)), and those without
+        a prescribed node (``fixed`` and the method's :meth:`held_nodes`, ``released`` excluded) are loose."""
+        if self.surface.fans.joined(self.surface.triangles, len(result.rest), touched,
+                                    budget=LOCAL_SEARCH + 16 * len(touched)):
+            return 0
+        loose, pieces, first = unanchored_pieces(self.surface.triangles, len(result.rest),
+                                                 self.held_nodes(fixed, released), near=touched)
         if loose and not self.keeps_loose:
             which = "a piece" if pieces == 1 else f"{pieces} pieces"
             raise SolverError(
