@@ -121,3 +121,19 @@ def test_a_refused_loose_piece_changes_nothing(cube, method):
     for _ in range(3):
         solver.step()
     assert np.all(np.isfinite(solver.positions))
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_a_move_that_fails_while_it_is_planned_changes_nothing(cube, method, monkeypatch):
+    """An internal error before anything is written (in the planning of the cut) comes out as a SolverError too."""
+    solver, scalpel = _deformed(cube, method)
+    surface = cut_updater(solver).surface
+
+    def failing(*args, **kwargs):
+        raise ValueError("could not broadcast input array from shape (1403,3) into shape (1380,3)")
+
+    monkeypatch.setattr(surface, "plan", failing)
+    before = _state(solver)
+    with pytest.raises(SolverError, match=r"could not be planned \(ValueError.*nothing was changed"):
+        scalpel.move(STROKE[2])
+    _assert_same(before, _state(solver))

@@ -24,7 +24,7 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from ..errors import SolverError
+from ..errors import SolverError, TissuesimError
 from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
 from .core import CutResult
@@ -114,7 +114,13 @@ class SolverCut:
         start = time.perf_counter()
         s = self.solver
         self.surface.sync(s.state.positions, s.state.velocities)
-        plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)
+        try:
+            plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)     # writes nothing
+        except TissuesimError:
+            raise
+        except Exception as error:
+            raise SolverError(f"the cut could not be planned ({type(error).__name__}: {error}); nothing was "
+                              "changed: move on, or report this as a bug with the move that caused it") from error
         if plan is None:
             return CutReport(seconds=time.perf_counter() - start), -1
         n = plan.old_count
