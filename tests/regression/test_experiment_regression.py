@@ -12,8 +12,10 @@ Where the numbers come from:
 * Independent checks, here: the ``fem`` reference (every M_S node, so every RMSE is measured against a checked
   reference), the ``embedded`` surface and the hybrid's control nodes are recomputed with scikit-fem on the same
   volumes, loads and supports (1e-9), and the embedding weights against the geometry (1e-12).
-* No independent reference exists for the hybrid's free nodes, pbd or mass-spring: their figures are the code's
-  own (regression only); their physics is checked in tests/validation/test_physical_consistency.py.
+* No independent solver exists for the hybrid's free nodes, pbd or mass-spring. Their answers are checked as
+  equilibria of their own energies, written independently of the solvers (the layer's constraint energy from the
+  NumPy reference constraints, the springs' forces written out), and their physics in
+  tests/validation/test_physical_consistency.py; the stored figures themselves are the code's own (regression).
 * The paper's claim, the hybrid nearer the reference than every baseline, is asserted here against the fine linear
   FEM under the paper's single-node load, whose value at the load node grows without bound as the mesh refines
   (docs/experiments.md): it is a claim about this reference and this mesh, with a margin of 1.06 % over mass-spring
