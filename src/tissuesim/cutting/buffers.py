@@ -123,11 +123,8 @@ class CutSurface:
     def mark(self, plan: CutPlan) -> tuple:
         """What :meth:`apply` of ``plan`` changes in place, to :meth:`restore` it: the views and the fans of the
         rows it rewrites (the buffers themselves are marked by :meth:`Spare.mark`)."""
-        patch = plan.patch
-        vertices = np.concatenate([plan.replaced.ravel(), np.asarray(list(patch.edited.values()) + patch.added,
-                                                                    dtype=np.int64).ravel()])
         return (self.rest, self.positions, self.velocities, self.triangles,
-                self.fans.mark(np.unique(vertices), plan.old_count))
+                self.fans.mark(plan.vertices(), plan.old_count))
 
     def restore(self, mark: tuple, plan: CutPlan) -> None:
         """The surface as before :meth:`apply` of ``plan`` (the rows it rewrote get their content back)."""

@@ -261,6 +261,11 @@ class CutPlan:
         """``(v, ...)`` per-vertex ``values`` ``(n, ...)`` at the new vertices (their parents' barycentric mix)."""
         return _mix(self.weights, self.parents, values)
 
+    def vertices(self) -> np.ndarray:
+        """``(k,) int64`` every vertex of the rows this plan rewrites or appends, before and after it, ascending."""
+        rows = list(self.patch.edited.values()) + self.patch.added
+        return np.unique(np.concatenate([self.replaced.ravel(), np.asarray(rows, dtype=np.int64).ravel()]))
+
     def result(self, rest, positions, velocities, triangles, sweep) -> CutResult:
         return CutResult(rest=rest, positions=positions, velocities=velocities, triangles=triangles,
                          old_count=self.old_count, parents=self.parents, weights=self.weights,

@@ -267,12 +267,13 @@ class _Undo:
     """What a move may change, kept before it writes so a failure halfway can be taken back: the attributes of the
     solver, its state and the updater (a cut rebinds most arrays: extended views, new hybrid mesh), the surface's
     rewritten rows and fans, the constraint rows and edge maps (journals of their changes), and copies of the few
-    per-vertex arrays a cut edits in place. Cost per move: O(k) but for those copies (O(n) memcpy, ~0.1 ms at 100k
-    vertices)."""
+    per-vertex arrays a cut edits in place (their rows at the changed triangles, or whole where a cut writes farther:
+    the mass-spring's bound rows, the hybrid's M_V slots)."""
 
-    #: per-vertex arrays a cut writes in place at old vertices: (owner, attribute)
-    IN_PLACE = (("solver", "mass"), ("solver", "inv_mass"), ("solver", "_slot"), ("updater", "lumped"),
-                ("updater", "gershgorin"), ("updater", "_is_prescribed"))
+    #: per-vertex arrays a cut writes in place at old vertices of its changed rows only: (owner, attribute)
+    AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "_is_prescribed"))
+    #: arrays it writes in place elsewhere too (the bound rows of spring neighbours, the hybrid's M_V slots)
+    WHOLE = (("solver", "_slot"), ("updater", "gershgorin"))
 
     def __init__(self, updater: SolverCut, plan):
         s = updater.solver
@@ -283,8 +284,11 @@ class _Undo:
         for journal in self.journals:
             journal.begin()
         owners = {"solver": s, "updater": updater}
-        arrays = [getattr(owners[o], name, None) for o, name in self.IN_PLACE]
-        self.copies = [(a, a.copy()) for a in arrays if isinstance(a, np.ndarray)]
+        rows = plan.vertices()
+        rows = rows[rows < plan.old_count]
+        arrays = [(getattr(owners[o], name, None), rows) for o, name in self.AT_ROWS]
+        arrays += [(getattr(owners[o], name, None), slice(None)) for o, name in self.WHOLE]
+        self.copies = [(a, at, a[at].copy()) for a, at in arrays if isinstance(a, np.ndarray)]
         held = s._load_node >= 0
         self.load = (s.forces, s.load_nodes, s.forces[s.load_nodes].copy(), s._load_force.copy()) if held else None
         self.patches = dict(s._patches)
@@ -299,8 +303,8 @@ class _Undo:
             vars(owner).update(attributes)
         for journal in self.journals:
             journal.undo()
-        for array, copy in self.copies:
-            array[...] = copy
+        for array, at, copy in self.copies:
+            array[at] = copy
         if self.load is not None:
             forces, nodes, values, force = self.load
             forces[nodes] = values
