@@ -113,13 +113,13 @@ def test_the_sweeps_reproduction_leaves_no_loose_piece(cube):
 
 
 def test_the_checker_finds_a_piece_without_an_anchored_node():
-    """Two disjoint tetrahedra, one anchored: the other is a loose piece, whatever made it."""
+    """Two disjoint cubes, one anchored: the other is a loose piece, whatever made it."""
     a = models.cube(resolution=386)
     v = np.concatenate([a.vertices, a.vertices + [1.0, 0.0, 0.0]])
     t = np.concatenate([a.triangles, a.triangles + len(a.vertices)])
     problems = check_cut_invariants(v, t, anchored=np.array([0]))
     assert len(problems) == 1
-    assert f"1 pieces of {len(a.vertices)} vertices" in problems[0] and f"first vertex: {len(a.vertices)}" in problems[0]
+    assert f"1 piece ({len(a.vertices)} vertices; first: {len(a.vertices)})" in problems[0]
     assert check_cut_invariants(v, t, anchored=np.array([0, len(a.vertices)])) == []
     assert check_cut_invariants(v, t) == []            # the check is asked for, as the others that need data
 

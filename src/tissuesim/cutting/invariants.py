@@ -83,8 +83,9 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
     if anchored is not None:
         loose, pieces, first = unanchored_pieces(triangles, n, anchored)
         if loose:
-            problems.append(f"{pieces} pieces of {loose} vertices in all hold no anchored (fixed or control) node "
-                            f"and would drift (first vertex: {first})")
+            which = "1 piece" if pieces == 1 else f"{pieces} pieces"
+            problems.append(f"{which} ({loose} vertices; first: {first}) hold no anchored (fixed or control) node "
+                            "and would drift")
     if edges is not None:
         problems += _lengths(rest, np.asarray(edges, dtype=np.int64), rest_length, unique, n)
     if masses is not None and total_mass is not None:
