@@ -132,9 +132,9 @@ class SolverCut:
         try:
             result, loose = self._write(plan, sweep, released, new_fixed)
             undo.commit()
-        except Exception as error:
+        except BaseException as error:           # an interrupt too: never leave a move half written
             undo.restore()
-            if isinstance(error, SolverError):      # a refusal (a loose piece), or a method's own
+            if isinstance(error, SolverError) or not isinstance(error, Exception):     # a refusal, an interrupt
                 raise
             raise SolverError(f"the cut failed while it was applied ({type(error).__name__}: {error}); it was "
                               "taken back and the solver is as before the move: move on, or report this as a bug "
