@@ -70,7 +70,8 @@ class Scalpel:
         return self.tip is not None
 
     def press(self, point, direction=None) -> CutReport:
-        """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` (default inward)."""
+        """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` ``(3,)``, a vector of
+        any finite, non-zero length (default: the inward normal there); SolverError for anything else."""
         start = time.perf_counter()
         point = checked_point(point)
         tri, bary = self._touch(point)
