@@ -1,10 +1,11 @@
 """Random progressive cuts (Hypothesis): through vertices, along edges, grazing, crossing and re-cutting earlier
 cuts, on deformed states, across control nodes and the fixed region, on the built-in models and the shared livers.
-After every move every invariant must hold; a refused cut (a loose piece) must leave the solver untouched."""
+After every move every invariant must hold; a refused cut (a loose piece) must leave the solver untouched, and
+most moves must cut (a scalpel that refused or skipped every move would otherwise pass)."""
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given, seed, settings
 from hypothesis import strategies as st
 
 import tissuesim
@@ -51,13 +52,14 @@ def _run(solver, plan, mass):
     h = solver.hybrid
     edge = float(np.mean(np.linalg.norm(h.surface.vertices[h.surface.edges[:, 0]]
                                         - h.surface.vertices[h.surface.edges[:, 1]], axis=1)))
-    cuts = 0
+    moves = cuts = 0
     for stroke in plan:
         rng = np.random.default_rng(stroke["seed"])
         s = solver.hybrid.surface
         x = solver.positions
         if stroke["deform"]:
-            node = int(rng.integers(solver.node_count))
+            free = np.setdiff1d(np.arange(solver.node_count), solver.fixed)   # a load on a fixed node is refused
+            node = int(rng.choice(free))
             solver.set_load(node, rng.normal(size=3) * 0.2)
             for _ in range(3):
                 solver.step()
@@ -93,13 +95,14 @@ def _run(solver, plan, mass):
             before = (solver.node_count, solver.hybrid.surface.triangle_count)
             # the quality now is the cut's to keep only where the deformation had not already spoiled it
             sound_now = not any("now" in p for p in _problems(solver, mass, now=True))
+            moves += 1
             try:
-                scalpel.move(tip)
+                report = scalpel.move(tip)
             except SolverError as error:
-                assert "separate a piece" in str(error), error
+                assert "would separate" in str(error), error
                 assert (solver.node_count, solver.hybrid.surface.triangle_count) == before
                 continue
-            cuts += 1
+            cuts += report.triangles_split > 0
             assert _problems(solver, mass, now=sound_now) == []
             if solver.name == "hybrid":
                 assert np.all(np.isin(solver.hybrid.control, solver.prescribed))
@@ -107,7 +110,7 @@ def _run(solver, plan, mass):
     for _ in range(5):
         solver.step()
     assert np.all(np.isfinite(solver.positions))
-    return cuts
+    return moves, cuts
 
 
 def _problems(solver, mass, *, now):
@@ -119,22 +122,36 @@ def _problems(solver, mass, *, now):
                                 rest_length=c.rest_length[live], masses=solver.mass, total_mass=mass)
 
 
-def _fuzz(meshes_dir, model, method, plan):
-    solver = tissuesim.make_solver(method, _hybrid(model, meshes_dir))
-    _run(solver, plan, solver.mass.sum())
+def _fuzz(meshes_dir, examples, rng_seed):
+    """Run ``examples`` random plans drawn from ``rng_seed`` (pinned: a failure replays, and the example database
+    keeps it); ``(moves, moves that cut)`` over all of them."""
+    tally = np.zeros(2, dtype=int)
+
+    @seed(rng_seed)
+    @settings(max_examples=examples, deadline=None)
+    @given(model=st.sampled_from(MODELS), method=st.sampled_from(["hybrid", "pbd"]), plan=strokes())
+    def run(model, method, plan):
+        solver = tissuesim.make_solver(method, _hybrid(model, meshes_dir))
+        tally[:] += _run(solver, plan, solver.mass.sum())
+
+    run()
+    return tally
 
 
 MODELS = [*sorted(models.MODELS), *SHARED]
+#: Smallest share of the moves that must cut. Measured: 45 of 109 moves (0.41) in the fast run, 754 of 1,271
+#: (0.59) in 250 unseeded examples; the others are moves shorter than the snap (kept for the next move), grazing
+#: blades that miss, and refused loose pieces. A quarter fails a scalpel that cuts nothing, or one move in five.
+MIN_CUTTING_SHARE = 0.25
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=list(HealthCheck))
-@given(model=st.sampled_from(MODELS), method=st.sampled_from(["hybrid", "pbd"]), plan=strokes())
-def test_random_cuts_keep_every_invariant(meshes_dir, model, method, plan):
-    _fuzz(meshes_dir, model, method, plan)
+def test_random_cuts_keep_every_invariant(meshes_dir):
+    moves, cuts = _fuzz(meshes_dir, 25, 2611)
+    print(f"\n{cuts} of {moves} moves cut")
+    assert moves > 0 and cuts >= MIN_CUTTING_SHARE * moves, (cuts, moves)
 
 
 @pytest.mark.slow
-@settings(max_examples=250, deadline=None, suppress_health_check=list(HealthCheck))
-@given(model=st.sampled_from(MODELS), method=st.sampled_from(["hybrid", "pbd"]), plan=strokes())
-def test_a_thousand_random_cuts_keep_every_invariant(meshes_dir, model, method, plan):
-    _fuzz(meshes_dir, model, method, plan)
+def test_a_thousand_random_cuts_keep_every_invariant(meshes_dir):
+    moves, cuts = _fuzz(meshes_dir, 250, 2612)
+    assert moves > 0 and cuts >= MIN_CUTTING_SHARE * moves, (cuts, moves)
