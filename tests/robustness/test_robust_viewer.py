@@ -121,3 +121,13 @@ def test_view_refuses_a_bad_argument_in_one_line_before_building_anything(capsys
     assert main(["view", "cube", *argument]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and said in err and "building" not in err
+
+
+def test_a_click_on_the_support_holds_the_nearest_free_node_and_says_so(small_cube):
+    c = Controller(small_cube, clock=Clock())
+    solver = c.solver
+    lowest_fixed = solver.fixed[np.argmin(solver.positions[solver.fixed, 2])]
+    point = solver.positions[lowest_fixed].copy()
+    c.pointer_down(point, point + [0.0, 0.0, 1.0], DOWN)
+    assert c.pin.grabbed and c.pin.node not in solver.fixed
+    assert c.notice == c.pin.notice and f"node {lowest_fixed}" in c.notice

@@ -184,6 +184,7 @@ class Controller:
             except SolverError as error:
                 self.notice = str(error)
                 return
+            self.notice = self.pin.notice   # the grab may have held a farther node than the one clicked: say so
             self.cursor, self.force = hit, np.zeros(3)
         else:
             tip = self._lifted(hit, ray_direction)
