@@ -131,3 +131,32 @@ def test_the_anchored_nodes_are_what_the_method_prescribes(cube, method, control
     expected = np.union1d(solver.fixed, cube.control) if control else np.asarray(solver.fixed)
     assert np.array_equal(np.unique(anchored), expected)
     assert anchored_nodes(make_solver("embedded", cube)) is None
+
+
+def test_releasing_the_last_control_node_of_a_piece_is_refused(cube):
+    """A square cut out around one control node of the hybrid stays held by it; a slit through that node inside
+    the square releases it without splitting anything, and would leave the square held by nothing."""
+    solver = make_solver("hybrid", cube)
+    rest, top = solver.rest_positions, solver.rest_positions[:, 2].max()
+    on_top = cube.control[np.isclose(rest[cube.control, 2], top)]
+    node = int(on_top[np.argmin(np.linalg.norm(rest[on_top, :2], axis=1))])      # the top's middle one
+    others = np.setdiff1d(cube.control, [node])
+    assert np.linalg.norm(rest[others] - rest[node], axis=1).min() > 0.0065     # none inside the square
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * 0.004 + rest[node, :2] + [0.0011, 0.0013]
+    points = [np.array([x, y, top + 0.001]) for x, y in corners]
+    scalpel = Scalpel(solver, depth=0.004)
+    scalpel.press(points[0], direction=[0, 0, -1])
+    for a, b in zip(points, points[1:]):
+        for f in (1 / 3, 2 / 3, 1.0):
+            scalpel.move(a + f * (b - a))
+    h = solver.hybrid
+    assert _unheld_vertices(h.surface.triangles, solver.node_count, anchored_nodes(solver)) == 0
+    assert _unheld_vertices(h.surface.triangles, solver.node_count, solver.fixed) > 0      # the square is cut out
+    scalpel.release()
+    scalpel.press(rest[node] + [-0.0024, 0.0007, 0.001], direction=[0, 0, -1])
+    before = np.array(solver.positions), np.array(h.surface.triangles), np.array(solver.prescribed)
+    with pytest.raises(SolverError, match=r"separate a piece of \d+ surface vertices \(first: "):
+        scalpel.move(rest[node] + [0.0024, 0.0007, 0.001])
+    after = solver.positions, solver.hybrid.surface.triangles, solver.prescribed
+    assert all(np.array_equal(a, b) for a, b in zip(before, after))
+    assert node in solver.prescribed

@@ -134,15 +134,17 @@ class VertexFans:
                          self._next, self._gained, self._row_mark, self._walks, self._queue)
         return np.sort(self._queue[:count])
 
-    def joined(self, triangles: np.ndarray, vertex_count: int, vertices: np.ndarray, budget: int) -> bool:
+    def joined(self, triangles: np.ndarray, vertex_count: int, vertices: np.ndarray, budget: int, *,
+               held: np.ndarray | None = None) -> bool:
         """Whether all of ``vertices`` ``(k,) int`` (ascending) are reached from the first through the triangles
-        (``vertex_count`` vertices) sharing vertices (not twins: a cut separates them), visiting at most ``budget``
-        vertices: a local proof that a cut split no piece; False says only that the search gave up or did not
-        reach them all."""
+        (``vertex_count`` vertices) sharing vertices (not twins: a cut separates them), and, with ``held``
+        ``(vertex_count,) bool``, a held vertex too, visiting at most ``budget`` vertices: a local proof that a
+        cut split no piece (and left it held); False says only that the search gave up or did not reach them."""
         vertices = np.asarray(vertices, dtype=np.int64)
         self._new_walk(vertex_count, len(triangles))
-        return _joined(read_only(triangles), vertices, int(budget), self._rows, self._start, self._built,
-                       self._head, self._next, self._gained, self._vertex_mark, self._walks)
+        return _joined(read_only(triangles), vertices, int(budget), np.ones(vertex_count, dtype=np.bool_)
+                       if held is None else held, self._rows, self._start, self._built, self._head, self._next,
+                       self._gained, self._vertex_mark, self._walks)
 
     def _new_walk(self, vertex_count: int, row_count: int) -> None:
         """Room in the marks and the queue, and a new walk number (which unmarks everything at once)."""
@@ -238,15 +240,18 @@ def _holding(triangles, vertices, rows, start, built, head, next_slot, gained, r
 
 
 @njit(cache=True)
-def _joined(triangles, targets, budget, rows, start, built, head, next_slot, gained, vertex_mark, walk):
+def _joined(triangles, targets, budget, held, rows, start, built, head, next_slot, gained, vertex_mark, walk):
     """Breadth-first from ``targets[0]`` over the rows holding each vertex; True once every vertex of the ascending
-    ``targets`` is reached, False when ``budget`` vertices were visited first or the piece ends."""
+    ``targets`` and a ``held`` one are reached, False when ``budget`` vertices were visited first or the piece
+    ends."""
     if targets.size == 0:
         return True
     queue = np.empty(budget + 3, dtype=np.int64)
     queue[0] = targets[0]
     vertex_mark[targets[0]] = walk
-    found, size, head_of_queue = 1, 1, 0
+    found, size, head_of_queue, anchored = 1, 1, 0, held[targets[0]]
+    if found == targets.size and anchored:
+        return True
     while head_of_queue < size:
         v = queue[head_of_queue]
         head_of_queue += 1
@@ -271,11 +276,12 @@ def _joined(triangles, targets, budget, rows, start, built, head, next_slot, gai
                 vertex_mark[w] = walk
                 queue[size] = w
                 size += 1
+                anchored = anchored or held[w]
                 at = np.searchsorted(targets, w)
                 if at < targets.size and targets[at] == w:
                     found += 1
-                    if found == targets.size:
-                        return True
+                if found == targets.size and anchored:
+                    return True
     return False
 
 

@@ -154,7 +154,7 @@ class SolverCut:
         new_identity = self._new_identity(plan)
         result = self.surface.apply(plan, sweep)
         touched = self.touched(result)
-        loose = self._loose(result, touched, np.concatenate([s.fixed, new_fixed]).astype(np.int64), released)
+        loose = self._loose(result, touched, new_fixed, released)
         self._update_lumped(result)
         s.hybrid = cut_hybrid(s.hybrid, result, released, self.spare)
         self._carry_state(result, new_fixed)
@@ -231,21 +231,22 @@ class SolverCut:
         np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
         self.lumped = lumped
 
-    def _loose(self, result: CutResult, touched: np.ndarray, fixed: np.ndarray, released: np.ndarray) -> int:
+    def _loose(self, result: CutResult, touched: np.ndarray, new_fixed: np.ndarray, released: np.ndarray) -> int:
         """Vertices this cut left in pieces without a prescribed node (0 if none); refuses unless
         :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends inside an edge an
         earlier move had cut closes a loop that no cut edge of its own closes.
 
         Every vertex of the cut surface is joined to a vertex of the changed triangles (``touched``) as before, so
-        a piece came loose only if the touched vertices are no longer all joined. A search of a few rings from one
-        of them (compiled, ~10 µs) usually reaches them all around the cut's tip; only when it does not are the
-        pieces holding them counted over the whole surface (one compiled union-find, O(n + m)), and those without
-        a prescribed node (``fixed`` and the method's :meth:`held_nodes`, ``released`` excluded) are loose."""
+        a piece came loose only if the touched vertices are no longer all joined, or if the move ``released`` the
+        control nodes that held their piece. A search of a few rings from one of them (compiled, ~20 µs) usually
+        reaches them all around the cut's tip (and, after a release, a held node); only when it does not are the
+        pieces holding them counted over the whole surface (one compiled union-find, O(n + m))."""
+        held = self._held(len(result.rest), new_fixed, released)
         if self.surface.fans.joined(self.surface.triangles, len(result.rest), touched,
-                                    budget=LOCAL_SEARCH + 16 * len(touched)):
+                                    budget=LOCAL_SEARCH + 16 * len(touched), held=held if released.size else None):
             return 0
-        loose, pieces, first = unanchored_pieces(self.surface.triangles, len(result.rest),
-                                                 self.held_nodes(fixed, released), near=touched)
+        loose, pieces, first = unanchored_pieces(self.surface.triangles, len(result.rest), np.flatnonzero(held),
+                                                 near=touched)
         if loose and not self.keeps_loose:
             which = "a piece" if pieces == 1 else f"{pieces} pieces"
             raise SolverError(
@@ -253,6 +254,21 @@ class SolverCut:
                 f"prescribed node, and the {self.solver.name} method would let it drift; the cut was not applied "
                 "(cut elsewhere, or use the embedded method, which keeps such pieces)")
         return loose
+
+    def _held(self, count: int, new_fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
+        """``(count,) bool`` whether each vertex holds its piece after this move (:meth:`held_nodes`), kept per
+        move: the ``new_fixed`` vertices join, the ``released`` control nodes leave (O(k), no set operations over
+        the mesh)."""
+        mask = getattr(self, "_held_mask", None)
+        if mask is None:
+            s = self.solver
+            mask = np.zeros(len(s.rest_positions), dtype=bool)
+            mask[self.held_nodes(np.asarray(s.fixed, dtype=np.int64), np.zeros(0, dtype=np.int64))] = True
+        mask = self.spare.extend("held", mask, np.zeros(count - len(mask), dtype=bool))
+        mask[new_fixed] = True
+        mask[released] = False
+        self._held_mask = mask
+        return mask
 
     def held_nodes(self, fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
         """Vertices (new numbering) that hold a piece in place after a cut: the ``fixed`` ones here."""
@@ -271,7 +287,8 @@ class _Undo:
     the mass-spring's bound rows, the hybrid's M_V slots)."""
 
     #: per-vertex arrays a cut writes in place at old vertices of its changed rows only: (owner, attribute)
-    AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "_is_prescribed"))
+    AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "_is_prescribed"),
+               ("updater", "_held_mask"))
     #: arrays it writes in place elsewhere too (the bound rows of spring neighbours, the hybrid's M_V slots)
     WHOLE = (("solver", "_slot"), ("updater", "gershgorin"))
 
