@@ -42,9 +42,9 @@ class Scalpel:
     Args:
         solver: a hybrid, pbd, mass-spring or embedded solver (the fem reference refuses, saying why).
         depth: blade length [m] from the tip into the tissue; default ``DEPTH_EDGES`` mean rest edge lengths.
-        snap: snap fraction of the local edge length in [0.05, 1/3) (default
-            :data:`tissuesim.cutting.core.DEFAULT_SNAP`; below :data:`tissuesim.cutting.sweep.MIN_SNAP` = 0.05 cut
-            points too close to merge make zero-area triangles, so it is refused).
+        snap: snap fraction of the local edge length in [0.15, 1/3) (default
+            :data:`tissuesim.cutting.core.DEFAULT_SNAP`; below :data:`tissuesim.cutting.sweep.MIN_SNAP` = 0.15 cut
+            points too close to merge make zero-area triangles or slivers, so it is refused).
 
     Attributes:
         tip: ``(3,) float64`` where the last cut stopped [m], or None when not pressed.

@@ -16,10 +16,10 @@ def cube():
     return HybridMesh.build(models.cube(), fine_volume=False)
 
 
-@pytest.mark.parametrize("snap", [0, 0.0, 0.01, MIN_SNAP / 2])
+@pytest.mark.parametrize("snap", [0, 0.0, 0.01, 0.05, 0.1])
 def test_a_snap_too_small_to_merge_points_is_refused_naming_the_option(cube, snap):
     solver = make_solver("hybrid", cube)
-    with pytest.raises(SolverError, match=r"snap option .*\[0\.05, 1/3\), got .*zero-area triangles; pass a snap"):
+    with pytest.raises(SolverError, match=r"snap option .*\[0\.15, 1/3\), got .*slivers .*zero-area triangles\); pass a snap"):
         Scalpel(solver, depth=0.02670576901311135, snap=snap)
     s = cube.surface
     sweep = Sweep.between([0.0, 0.0011, 0.081], [0.01, 0.0011, 0.081], [0.0, 0.0, -0.004])
@@ -47,3 +47,31 @@ def test_the_smallest_snap_cuts_the_sweeps_stroke_soundly(cube, method):
     solver.set_load(10, [0.0, 0.0, 0.3])
     solver.step()
     assert np.all(np.isfinite(solver.positions))
+
+
+@pytest.mark.parametrize("method", ["embedded", "mass-spring"])
+def test_random_strokes_at_the_smallest_snap_keep_every_invariant(cube, method):
+    """The sweep's F7 found zero-area triangles, non-manifold vertices and zero rest lengths with snap = 0 on these
+    two methods; at the smallest snap accepted, 20 random 12-move strokes on the top keep every invariant (rng 7,
+    whose strokes left a sliver of quality 0.0074 at snap 0.05 on the mass-spring method)."""
+    rng = np.random.default_rng(7)
+    top = cube.surface.vertices[:, 2].max()
+    cuts = 0
+    for _ in range(20):
+        solver = make_solver(method, cube)
+        scalpel = Scalpel(solver, depth=0.004 + 0.02 * rng.random(), snap=MIN_SNAP)
+        tip = np.array([rng.uniform(-0.03, 0.03), rng.uniform(-0.03, 0.03), top + 0.001])
+        scalpel.press(tip, direction=[0, 0, -1])
+        heading = rng.normal(size=2)
+        for _ in range(12):
+            heading = heading / np.linalg.norm(heading) + 0.5 * rng.normal(size=2)
+            tip = tip + np.append(rng.uniform(0.3, 3) * 0.0027 * heading / np.linalg.norm(heading), 0.0)
+            try:
+                scalpel.move(tip)
+            except SolverError as error:
+                assert "separate a piece" in str(error)
+                continue
+            cuts += 1
+            h = solver.hybrid
+            assert check_cut_invariants(h.surface.vertices, h.surface.triangles) == []
+    assert cuts > 200

@@ -29,10 +29,12 @@ from ..errors import SolverError
 PLANE_TOLERANCE = 1e-9
 #: Smallest snap fraction accepted. Snapping also sets how close two cut points of one move may come before they
 #: are merged, so at 0 two crossings at one place make two vertices there: zero-length edges, zero-area triangles
-#: and non-manifold vertices (at 0 every random move on the cube was refused or broke the surface). Measured on
-#: random 12-move strokes on the cube: 0.001 left slivers (quality 0.003–0.009) in 5 of 25 strokes; 0.005 to 0.15
-#: none in 300 moves each. 0.05 keeps a factor of 10 from the smallest clean value.
-MIN_SNAP = 0.05
+#: and non-manifold vertices (at 0 every random move on the cube was refused or broke the surface). Below the
+#: quality guard's reach, slivers between two new points remain: random 12-move strokes on the cube (20 per seed,
+#: ~240 moves, mass-spring and embedded) left a triangle of quality 0.0074 (below the invariants' 0.01) with 0.05 in
+#: 4 of 10 seeds and with 0.1 in 1 of 16; 0.001 left slivers in 5 of 25 strokes. 0.15 left none in 25 seeds (~5,900
+#: moves, every method).
+MIN_SNAP = 0.15
 
 
 @dataclass(frozen=True)
@@ -249,8 +251,8 @@ def check_snap(snap: float) -> float:
     except (TypeError, ValueError):
         value = math.nan
     if not MIN_SNAP <= value < 1.0 / 3.0:
-        why = (f"; below {MIN_SNAP:g} cut points closer together than snap x the edge are not merged, which leaves "
-               "coincident vertices and zero-area triangles") if 0.0 <= value < MIN_SNAP else ""
+        why = (f"; below {MIN_SNAP:g} the cut's points are merged only when closer than snap x the edge, which "
+               "leaves slivers (at 0, coincident vertices and zero-area triangles)") if 0.0 <= value < MIN_SNAP else ""
         raise SolverError(f"the scalpel's snap option must be a fraction of the local edge length in "
                           f"[{MIN_SNAP:g}, 1/3), got {snap!r}{why}; pass a snap from {MIN_SNAP:g} up to below 1/3 "
                           "(default 0.25)")
