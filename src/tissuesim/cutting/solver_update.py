@@ -330,6 +330,7 @@ class _Undo:
         s._patches.update(self.patches)
 
     def commit(self) -> None:
+        """Keep the move: the journals stop recording."""
         for journal in self.journals:
             journal.commit()
 
