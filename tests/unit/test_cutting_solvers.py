@@ -50,23 +50,46 @@ def test_surface_layer_after_an_incision(cube, method, options):
 
 
 def test_new_constraints_take_the_material_compliance_of_their_new_lengths_and_areas(cube):
+    """Rows a cut wrote take the material's compliance for their new lengths and areas at the body's thickness as
+    built (β × M_S's mean edge length at build: a cut does not thin the tissue); the rows it left keep their own."""
     solver = tissuesim.make_solver("hybrid", cube, form="xpbd")
+    before = _rows_by_key(solver)
     scripted_incision(solver)
     fresh = SurfaceConstraints.from_surface(solver.hybrid.surface)
-    stretch, bend = relative_shell_compliance(fresh, youngs_modulus=solver.youngs_modulus,
-                                              poisson_ratio=solver.poisson_ratio,
-                                              thickness_ratio=solver.thickness_ratio)
-    n = solver.node_count
-    edges, _, keep = _live(solver)
-    ours = dict(zip((np.minimum(edges[:, 0], edges[:, 1]).astype(np.int64) * n
-                     + np.maximum(edges[:, 0], edges[:, 1])).tolist(), solver.stretch_compliance[keep]))
-    theirs = dict(zip((fresh.edges[:, 0].astype(np.int64) * n + fresh.edges[:, 1]).tolist(), stretch))
-    assert ours.keys() == theirs.keys()
-    assert np.allclose([ours[k] for k in theirs], list(theirs.values()), rtol=1e-9)
+    material = dict(youngs_modulus=solver.youngs_modulus, poisson_ratio=solver.poisson_ratio,
+                    thickness_ratio=solver.thickness_ratio)
+    own = relative_shell_compliance(fresh, **material)
+    built = relative_shell_compliance(fresh, **material, thickness_length=solver.hybrid.built_edge_length)
+    fresh_keys = (_keys(fresh.edges), _keys(fresh.bending[:, :2]))
+    ours = _rows_by_key(solver)
+    for kind in range(2):       # stretch rows, then hinges
+        assert ours[kind].keys() == set(fresh_keys[kind].tolist())
+        as_own = dict(zip(fresh_keys[kind].tolist(), own[kind]))
+        as_built = dict(zip(fresh_keys[kind].tolist(), built[kind]))
+        new = ours[kind].keys() - before[kind].keys()
+        assert new and all(np.isclose(ours[kind][k], as_built[k], rtol=1e-9) for k in new)
+        for k in ours[kind].keys() & before[kind].keys():   # untouched (as built) or rewritten by the cut
+            assert (np.isclose(ours[kind][k], as_own[k], rtol=1e-9) and np.isclose(ours[kind][k], before[kind][k],
+                                                                                    rtol=1e-12)
+                    or np.isclose(ours[kind][k], as_built[k], rtol=1e-9)), k
     c = solver.constraints
     live = c.bending[:, 0] != c.bending[:, 1]
-    assert np.allclose(np.sort(solver.bend_compliance[live]), np.sort(bend), rtol=1e-9)
     assert np.allclose(np.sort(c.rest_angle[live]), np.sort(fresh.rest_angle), atol=1e-9)
+
+
+def _keys(pairs) -> np.ndarray:
+    """``(k,) int64`` an undirected key per node pair, the same before and after a cut adds nodes."""
+    pairs = np.asarray(pairs, dtype=np.int64)
+    return np.minimum(pairs[:, 0], pairs[:, 1]) * 2**32 + np.maximum(pairs[:, 0], pairs[:, 1])
+
+
+def _rows_by_key(solver) -> tuple[dict, dict]:
+    """The solver's live stretch and bending compliances, each keyed by its (hinge) edge."""
+    c = solver.constraints
+    edges, _, keep = _live(solver)
+    live = c.bending[:, 0] != c.bending[:, 1]
+    return (dict(zip(_keys(edges).tolist(), solver.stretch_compliance[keep])),
+            dict(zip(_keys(c.bending[live, :2]).tolist(), solver.bend_compliance[live])))
 
 
 def test_a_held_pin_head_keeps_its_node_and_stepping_goes_on(cube):
