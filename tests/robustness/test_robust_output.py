@@ -18,16 +18,16 @@ SRC = Path(tissuesim.__file__).resolve().parents[1]      # the package under tes
 
 def test_a_place_where_staging_fails_is_refused_before_the_run(tmp_path, monkeypatch):
     target = tmp_path / "p" / "out"
-    target.mkdir(parents=True)              # the folder itself is writable, its parent is not
+    target.mkdir(parents=True)              # the folder exists, so its results are staged inside it
     real = tempfile.mkdtemp
 
-    def unwritable_parent(*args, dir=None, **kwargs):
-        if Path(dir) == target.parent:
+    def unwritable_folder(*args, dir=None, **kwargs):
+        if Path(dir) == target.resolve():
             raise PermissionError(13, "Permission denied", str(dir))
         return real(*args, dir=dir, **kwargs)
 
-    monkeypatch.setattr(tempfile, "mkdtemp", unwritable_parent)
-    with pytest.raises(output.OutputError, match="staging folder.*Permission denied"):
+    monkeypatch.setattr(tempfile, "mkdtemp", unwritable_folder)
+    with pytest.raises(output.OutputError, match="creating in .*out.* failed .Permission denied"):
         output.check_output_folder(target)
 
 

@@ -10,9 +10,10 @@ progressively in 15 moves, then a small force beside the cut, solved to equilibr
 
 MODELS are built-in model names, surface files or saved hybrid bundles (``tissuesim build ... -o FILE.npz``). Every
 argument is checked and every model read before the first cut: a bad one, or a model the 3 cm incision does not fit,
-is refused at once. DIR is written all or nothing (:mod:`tissuesim.experiments.output`): the results are staged
-beside it and moved in at the end, so an interrupted run leaves DIR as it was; a finished run replaces the files of
-an earlier one (``incision.*``, ``*_<method>.obj``/``.vtu``) as a whole and says in one line which.
+is refused at once. DIR is written all or nothing (:mod:`tissuesim.experiments.output`): the results are staged on
+its file system and moved in at the end, so an interrupted run leaves DIR as it was; a finished run replaces the files
+of an earlier one (those its ``incision.json`` lists) as a whole and says in one line which; no other file in DIR is
+touched.
 
 With ``--prestrain ε`` the surface-layer methods (hybrid, pbd) carry a prestressed capsule
 (:mod:`tissuesim.pbd.prestress`): the table gives the gap of the wound with no force first, then with the force.
@@ -51,7 +52,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     from ..errors import SolverError
-    from ..experiments.output import check_output_folder, earlier_outputs, replacement_note, write_staged
+    from ..experiments.output import (check_no_folder, check_output_folder, earlier_outputs, replacement_note,
+                                      write_staged)
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from ..pbd.prestress import check_prestrain
@@ -64,6 +66,8 @@ def run(args) -> int:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     prestrain = check_prestrain(args.prestrain)
     sources = [_source(spec, scale=args.scale, resolution=args.resolution) for spec in args.models or list(MODELS)]
+    check_no_folder(output, ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
+                                                               for method in args.methods for ext in ("obj", "vtu"))])
     rows, cuts = [], {}
     for name, source in sources:
         if not isinstance(source, HybridMesh):
@@ -74,9 +78,8 @@ def run(args) -> int:
             rows.append(row)
             if cut is not None:
                 cuts[f"{name}_{method}"] = cut
-    patterns = _patterns()
-    earlier = earlier_outputs(output, patterns=patterns)
-    written = write_staged(output, lambda staging: _fill(staging, rows, cuts), patterns=patterns)
+    earlier = earlier_outputs(output, ours=incision_files)
+    written = write_staged(output, lambda staging: _fill(staging, rows, cuts), ours=incision_files)
     note = replacement_note(output, earlier, written)
     if note:
         print(note, file=sys.stderr)
@@ -167,12 +170,17 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     return row, (np.array(solver.positions), cut.triangles.astype(np.int64), np.array(solver.displacements))
 
 
-def _patterns() -> tuple:
-    """Glob patterns of the files an incise run writes (replaced as a whole by the next run into the folder)."""
-    from ..solvers.registry import available_solvers
+def incision_files(folder: Path) -> set[str]:
+    """Names of the files an earlier incise run wrote into ``folder``, as its ``incision.json`` lists them (the
+    index, the table and each cut model and method's OBJ and VTU); empty without a readable index of ours, so no
+    other file is ever taken for one of ours."""
+    from ..experiments.output import read_index
 
-    cut = tuple(f"*_{method}.{ext}" for method in available_solvers() for ext in ("obj", "vtu"))
-    return ("incision.json", "incision.md", *cut)
+    rows = read_index(folder / "incision.json")
+    if not isinstance(rows, list) or not all(isinstance(r, dict) and {"model", "method"} <= r.keys() for r in rows):
+        return set()
+    cut = {f"{r['model']}_{r['method']}.{ext}" for r in rows if "refused" not in r for ext in ("obj", "vtu")}
+    return {"incision.json", "incision.md", *cut}
 
 
 def _fill(staging: Path, rows: list, cuts: dict) -> None:
