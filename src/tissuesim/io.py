@@ -54,6 +54,28 @@ def check_scale(scale) -> float:
     return float(scale)
 
 
+#: Sizes [m] (bounding-box diagonal) a model may have: a surface outside is far more likely read in the wrong unit
+#: than meant, and float64 geometry (areas, distances squared) loses its meaning far beyond them.
+MODEL_SIZE_RANGE = (1e-6, 100.0)
+
+
+def check_model_size(vertices: np.ndarray, *, scale: float, source: str) -> None:
+    """Refuse (MeshError) a model whose ``(n, 3)`` vertices, in the file's unit, times ``scale`` span a bounding-box
+    diagonal outside :data:`MODEL_SIZE_RANGE` (1 µm to 100 m), naming the scale as the likely cause. Call it before
+    scaling: the product may overflow or underflow float64."""
+    extent = np.ptp(np.asarray(vertices, dtype=np.float64), axis=0) if len(vertices) else np.zeros(3)
+    if not np.all(np.isfinite(extent)):
+        return                              # validation names the non-finite coordinates
+    largest = float(extent.max())
+    size = largest * float(np.linalg.norm(extent / largest)) * scale if largest > 0 else 0.0   # no overflow
+    low, high = MODEL_SIZE_RANGE
+    if low <= size <= high:
+        return
+    raise MeshError(f"{source} is {size:.3g} m across after scale {scale:g}; a model must be between {low * 1e6:g} µm "
+                    f"and {high:g} m across: check the scale (--scale on the command line, scale= in Python), the "
+                    "factor from the file's unit to metres (0.01 for cm, 0.001 for mm)")
+
+
 def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
     """Read a closed triangle surface from ``path`` (OBJ, STL, PLY, OFF, VTK, VTU) and validate it.
 
@@ -68,12 +90,14 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
 
     Raises:
         FileNotFoundError: the file does not exist.
-        MeshError: ``path`` is not a path (e.g. None), unknown extension, unreadable file, no triangles, or a defect
-            that validation finds (and, with ``repair=True``, that repair could not fix).
+        MeshError: ``path`` is not a path (e.g. None), unknown extension, unreadable file, no triangles, a model
+            outside 1 µm to 100 m across once scaled (:func:`check_model_size`), or a defect that validation finds (and, with ``repair=True``, that repair could not fix).
     """
     check_scale(scale)
     vertices, polygons = read_polygons(_file_path(path, "read_surface"))
-    surface = surface_from_polygons(vertices * float(scale), polygons, source=str(path))
+    surface = surface_from_polygons(vertices, polygons, source=str(path))
+    check_model_size(surface.vertices, scale=scale, source=str(path))
+    surface = surface.with_vertices(surface.vertices * float(scale))
     from .mesh.validate import validate_surface
 
     if repair:

@@ -32,13 +32,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution: int | None = None):
     """The surface named on the command line: a built-in model name or a surface file path."""
-    from ..io import check_scale
+    from ..io import check_model_size, check_scale
     from ..mesh import models
 
     scale = check_scale(scale)      # for every source: a built-in model is scaled too
     if name in models.MODELS and not Path(name).exists():
         surface = models.model(name, resolution)
         if scale != 1.0:
+            check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
             surface = surface.with_vertices(surface.vertices * scale)
         return surface
     if not Path(name).exists() and not Path(name).suffix:

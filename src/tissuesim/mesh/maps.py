@@ -23,15 +23,23 @@ def closest_on_surface(surface: SurfaceMesh, points: np.ndarray) -> tuple[np.nda
 
     Exact: a first pass over the ``NEAREST_CANDIDATES`` nearest triangle centroids bounds the distance d; a second
     pass checks every triangle whose centroid lies within d + (largest centroid-to-corner distance).
+
+    Raises:
+        MeshError: coordinates so large that squared distances overflow float64 (the search would be meaningless).
     """
     from scipy.spatial import cKDTree
 
     p = surface.vertices[surface.triangles]
     centroids = p.mean(axis=1)
-    reach = float(np.linalg.norm(p - centroids[:, None, :], axis=2).max())
+    with np.errstate(over="ignore", invalid="ignore"):
+        reach = float(np.linalg.norm(p - centroids[:, None, :], axis=2).max())
     tree = cKDTree(centroids)
     k = min(NEAREST_CANDIDATES, surface.triangle_count)
-    _, near = tree.query(points, k=k)
+    distance, near = tree.query(points, k=k)
+    # an overflowing distance makes the tree answer "no neighbour" (index = count), which the kernel must never see
+    if not (np.isfinite(reach) and np.all(np.isfinite(distance))):
+        raise MeshError("closest-point search: coordinates too large to measure distances in float64 (a surface "
+                        f"{reach:.3g} m from centroid to corner, or points that far); give positions in metres")
     near = np.asarray(near, dtype=np.int64).reshape(len(points), k)
     starts = np.arange(0, len(points) * k + 1, k, dtype=np.int64)
     tri, bary, dist = _closest_kernel(surface.vertices, surface.triangles, points, starts, near.ravel())
