@@ -7,6 +7,7 @@ Progress goes to stderr; the Table-1 row (Markdown, with header) and a one-line 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -55,7 +56,8 @@ def run(args: argparse.Namespace) -> int:
     from ..mesh.hybrid import HybridMesh, table1_markdown, table1_row
 
     if args.output is not None:
-        check_bundle_target(args.output)  # an unwritable target is refused before the build, not after
+        # an unwritable target, or the input itself, is refused before the build, not after
+        _check_not_input(args.mesh, check_bundle_target(args.output))
     print(f"reading {args.mesh}", file=sys.stderr)
     surface = load_mesh(args.mesh, scale=args.scale, repair=args.repair, resolution=args.resolution)
     start = time.perf_counter()
@@ -70,6 +72,16 @@ def run(args: argparse.Namespace) -> int:
         path = hybrid.save(args.output)
         print(f"saved {path}", file=sys.stderr)
     return 0
+
+
+def _check_not_input(mesh: str, output: Path) -> None:
+    """Refuse an ``-o`` that is the input surface file (the same file, through any link): saving would replace it."""
+    from ..errors import BundleError
+
+    if Path(mesh).is_file() and output.exists() and os.path.samefile(mesh, output):
+        raise BundleError(f"-o {output} is the input surface {mesh} itself: saving the bundle would replace it; give "
+                          "another path, e.g. -o " + str(output.with_suffix(".npz") if output.suffix != ".npz"
+                                                        else output.with_name(f"{output.stem}_bundle.npz")))
 
 
 def _reasons(rejected: dict) -> str:

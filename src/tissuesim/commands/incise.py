@@ -54,6 +54,7 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import (check_no_folder, check_output_folder, earlier_outputs, replacement_note,
                                       write_staged)
+    from ..experiments.run import check_model_names
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from ..pbd.prestress import check_prestrain
@@ -65,6 +66,7 @@ def run(args) -> int:
     if unknown:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     prestrain = check_prestrain(args.prestrain)
+    check_model_names(args.models)
     sources = [_source(spec, scale=args.scale, resolution=args.resolution) for spec in args.models or list(MODELS)]
     check_no_folder(output, ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
                                                                for method in args.methods for ext in ("obj", "vtu"))])

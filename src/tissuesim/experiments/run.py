@@ -122,11 +122,25 @@ def model_name(spec: str) -> str:
 
 
 def check_model_specs(specs) -> None:
-    """Refuse, before any work, a model that is neither a built-in name nor an existing file (SolverError)."""
+    """Refuse, before any work, a model that is neither a built-in name nor an existing file, or two models reported
+    under one name (SolverError)."""
     for spec in specs:
         if spec not in builtin_models.MODELS and not Path(spec).is_file():
             raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(builtin_models.MODELS)}) nor "
                               "an existing file; name one of those or give a mesh path")
+    check_model_names(specs)
+
+
+def check_model_names(specs) -> None:
+    """Refuse (SolverError) two models reported under one name (:func:`model_name`): their rows and files would
+    overwrite each other."""
+    seen = {}
+    for spec in specs:
+        name = model_name(spec)
+        if name in seen:
+            raise SolverError(f"models {seen[name]!r} and {spec!r} are both named {name!r}, so their results and files "
+                              "would overwrite each other; give each model once, or copy a file under another name")
+        seen[name] = spec
 
 
 def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
@@ -169,9 +183,8 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
     cases = protocol.load_cases(config.forces, config.loads)
     # Reference first, so every other method's RMSE can be computed as soon as it is solved.
     methods = [protocol.REFERENCE] + [m for m in config.methods if m != protocol.REFERENCE]
+    check_model_names(config.models)
     names = [model_name(spec) for spec in config.models]
-    if len(set(names)) != len(names):
-        raise SolverError(f"two models share a name in {', '.join(names)}; rename one of the files")
     records, model_info = [], {}
     bar = tqdm(total=len(config.models) * len(methods) * len(cases), desc="experiment", unit="case",
                file=sys.stderr, disable=not progress, dynamic_ncols=True)

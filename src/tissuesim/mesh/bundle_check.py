@@ -150,12 +150,18 @@ def check_bundle_target(path) -> Path:
     while not folder.exists() and folder != folder.parent:  # save creates the missing folders
         folder = folder.parent
     try:
-        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        handle, probe = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=folder)
     except OSError as error:
         raise BundleError(unsaveable(path, error)) from None
     os.close(handle)
     os.unlink(probe)
     return path
+
+
+def temporary_prefix(path: Path) -> str:
+    """The name prefix of a temporary file written beside ``path``: hidden, and short enough that with mkstemp's
+    letters and a suffix it stays a valid file name (at most 255 bytes) whatever the length of ``path``'s name."""
+    return f".{path.name[:100]}."
 
 
 def bundle_path(path) -> Path:

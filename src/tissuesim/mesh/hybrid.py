@@ -36,7 +36,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BundleError, MeshError
-from .bundle_check import bundle_path, check_arrays, check_bundle_target, check_header, unsaveable
+from .bundle_check import bundle_path, check_arrays, check_bundle_target, check_header, temporary_prefix, unsaveable
 from .surface import SurfaceMesh
 from .maps import closest_on_surface, embed_in_volume, own_corner
 from .tetmesh import TetMesh
@@ -207,7 +207,7 @@ class HybridMesh:
         arrays["header"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+            handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=path.parent)
         except OSError as error:
             raise BundleError(unsaveable(path, error)) from None
         try:
