@@ -23,7 +23,7 @@ def cube():
     return tissuesim.HybridMesh.build(models.cube(), fine_volume=False)
 
 
-def _rim_cut(solver):
+def rim_cut(solver):
     """Eight 4 mm moves along +x, the blade 1 cm deep and 1.1 mm inside the rim."""
     start = solver.rest_positions[RIM_NODE] + [0.0, 0.0011, 0.0]
     scalpel = tissuesim.Scalpel(solver, depth=0.01)
@@ -37,7 +37,7 @@ def _dragged(cube, method, *, cut, steps=20):
     """Largest displacement [m] after ``steps`` steps of the pin-head pulling outward (−y) beside the cut."""
     solver = tissuesim.make_solver(method, cube)
     if cut:
-        _rim_cut(solver)
+        rim_cut(solver)
     pin = tissuesim.PinHead(solver, stiffness=50.0, radius=0.004)
     grab = cube.surface.vertices[RIM_NODE] + [0.012, 0.0, 0.0]
     pin.grab(grab)
@@ -58,7 +58,7 @@ def test_a_flap_beside_a_cut_moves_a_few_times_the_uncut_surface_not_metres(cube
 
 def test_the_flap_solved_statically_says_it_left_linear_elasticity(cube):
     solver = tissuesim.make_solver("hybrid", cube)
-    _rim_cut(solver)
+    rim_cut(solver)
     node = tissuesim.PinHead(solver, stiffness=50.0).grab(cube.surface.vertices[RIM_NODE] + [0.012, 0.0, 0.0])
     solver.solve_static(node, [0.0, -PULL, 0.0], radius=0.004)
     # 169 mm on a 139 mm model: beyond the small-strain range, and the report must say so
@@ -70,7 +70,7 @@ def test_the_flap_solved_statically_says_it_left_linear_elasticity(cube):
 def test_a_cut_keeps_the_layer_thickness_of_the_body(cube, method):
     solver = tissuesim.make_solver(method, cube)
     before = solver.constraints.stretch_count
-    _rim_cut(solver)
+    rim_cut(solver)
     c = solver.constraints
     new = np.arange(before, c.stretch_count)
     new = new[c.edges[new, 0] != c.edges[new, 1]]        # rows retired since are no-ops
@@ -115,7 +115,7 @@ def _spanned_areas(rest, triangles):
 def test_a_cut_keeps_the_spring_thickness_of_the_body(cube):
     solver = tissuesim.make_solver("mass-spring", cube)
     before = len(solver.springs)
-    _rim_cut(solver)
+    rim_cut(solver)
     new = np.arange(before, len(solver.springs))
     new = new[solver.springs[new, 0] != solver.springs[new, 1]]       # rows retired since are no-ops
     assert new.size
