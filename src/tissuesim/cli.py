@@ -59,19 +59,21 @@ def _terminate(signum, frame):
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
+    name = "tissuesim"                      # until the command is known: an interrupt may come while parsing
     try:
+        args = build_parser().parse_args(argv)
+        name = f"tissuesim {args.command}"
         return int(args.run(args) or 0)
     except (TissuesimError, OSError) as error:
-        print(f"tissuesim {args.command}: error: {error}", file=sys.stderr)
+        print(f"{name}: error: {error}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
-        print(f"tissuesim {args.command}: interrupted", file=sys.stderr)
+        print(f"{name}: interrupted", file=sys.stderr)
         return 130
     except Terminated:
-        print(f"tissuesim {args.command}: terminated", file=sys.stderr)
+        print(f"{name}: terminated", file=sys.stderr)
         return 128 + signal.SIGTERM
     finally:
         if in_main_thread:

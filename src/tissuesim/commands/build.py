@@ -38,7 +38,9 @@ def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution
 
     scale = check_scale(scale)      # for every source: a built-in model is scaled too
     if name in models.MODELS and not Path(name).exists():
-        surface = models.model(name, resolution)
+        from ..experiments.run import check_resolution
+
+        surface = models.model(name, None if resolution is None else check_resolution(resolution))
         if scale != 1.0:
             check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
             surface = surface.with_vertices(surface.vertices * scale)

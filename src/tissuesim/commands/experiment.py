@@ -48,7 +48,7 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
-    from ..experiments.run import ExperimentConfig, check_model_specs, run_experiment
+    from ..experiments.run import ExperimentConfig, check_model_specs, check_resolution, run_experiment
     from ..mesh.models import MODELS
 
     output = check_output_folder(args.output)  # refuse a bad target before minutes of work
@@ -69,7 +69,7 @@ def run(args) -> int:
         if unknown:
             raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     if args.resolution is not None:
-        options["resolution"] = int(_number(args.resolution, "--resolution", "vertices", integer=True))
+        options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["scale"] = _number(args.scale, "--scale", "factor")
     options["repair"] = bool(args.repair)
     if args.steps is not None:
@@ -95,8 +95,8 @@ def _run_contact(args, output) -> int:
     from ..errors import SolverError
     from ..experiments import contact
     from ..experiments.output import earlier_outputs, write_contact_outputs
-    from ..experiments.reference import default_cache_dir
-    from ..experiments.run import check_model_specs
+    from ..experiments.reference import check_cache_dir, default_cache_dir
+    from ..experiments.run import check_model_specs, check_resolution
     from ..mesh.models import MODELS
 
     check_model_specs(args.models)
@@ -121,12 +121,13 @@ def _run_contact(args, output) -> int:
     if args.methods:
         options["methods"] = tuple(dict.fromkeys(args.methods))
     if args.resolution is not None:
-        options["resolution"] = int(_number(args.resolution, "--resolution", "vertices", integer=True))
+        options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     if args.levels is not None:
         settings = options.get("settings", contact.ContactConfig().settings)
         options["settings"] = replace(settings, max_levels=int(_number(args.levels, "--levels", "levels",
                                                                        integer=True)))
-    options["cache_dir"] = None if args.no_cache else str(default_cache_dir() if args.cache is None else args.cache)
+    options["cache_dir"] = None if args.no_cache else str(check_cache_dir(default_cache_dir() if args.cache is None
+                                                                          else args.cache))
     start = time.perf_counter()
     data = contact.run_contact(contact.ContactConfig(**options), progress=not args.quiet)
     earlier = earlier_outputs(output)

@@ -217,11 +217,13 @@ def _remove_abandoned_staging(target: Path) -> None:
             if not path.name.startswith(prefix):
                 continue
             pid = path.name[len(prefix):].split("-", 1)[0]
-            if pid.isdigit() and int(pid) not in (0, os.getpid()) and not _running(int(pid)) and path.is_dir():
+            abandoned = pid.isdigit() and int(pid) not in (0, os.getpid()) and not process_running(int(pid))
+            if abandoned and path.is_dir():
                 shutil.rmtree(path, ignore_errors=True)
 
 
-def _running(pid: int) -> bool:
+def process_running(pid: int) -> bool:
+    """Whether process ``pid`` runs (any user's): a partial file of a process that does not was abandoned."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:

@@ -41,6 +41,9 @@ SURFACE_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 QUICK_RESOLUTION = 400
 QUICK_FORCES_N = (1.0, 10.0)
 QUICK_MAX_STEPS = 500
+#: Largest vertex count of a built-in model: 70 times the Table-1 sizes (about 1400), so a typo such as 1e12 is refused
+#: at once instead of exhausting the memory while the model is built.
+MAX_RESOLUTION = 100_000
 
 
 @dataclass(frozen=True)
@@ -101,8 +104,8 @@ class ExperimentConfig:
                               f"{self.timing_steps}")
         if not (self.scale > 0 and np.isfinite(self.scale)):
             raise SolverError(f"scale must be a positive factor to metres, got {self.scale!r}")
-        if self.resolution is not None and self.resolution < builtin_models.MIN_RESOLUTION:
-            raise MeshError(f"resolution must be ≥ {builtin_models.MIN_RESOLUTION} vertices, got {self.resolution}")
+        if self.resolution is not None:
+            check_resolution(self.resolution)
 
     @classmethod
     def quick(cls, **overrides) -> "ExperimentConfig":
@@ -114,6 +117,17 @@ class ExperimentConfig:
 
     def with_(self, **changes) -> "ExperimentConfig":
         return replace(self, **changes)
+
+
+def check_resolution(resolution) -> int:
+    """``resolution`` (vertices of a built-in model) as an int, or a MeshError naming the accepted range."""
+    low, high = builtin_models.MIN_RESOLUTION, MAX_RESOLUTION
+    number = isinstance(resolution, (int, float)) and not isinstance(resolution, bool)
+    if not (number and low <= resolution <= high and resolution == int(resolution)):
+        given = f"{resolution:g}" if number else repr(resolution)
+        raise MeshError(f"--resolution (vertices of a built-in model) must be a whole number from {low} to {high}, "
+                        f"got {given}; the Table-1 sizes are about 1400")
+    return int(resolution)
 
 
 def model_name(spec: str) -> str:
