@@ -26,6 +26,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import stat
 import tempfile
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from io import StringIO
@@ -34,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import MeshError
+from .mesh.bundle_check import temporary_prefix
 from .mesh.surface import SurfaceMesh
 
 logger = logging.getLogger(__name__)
@@ -123,15 +125,22 @@ def _file_path(path, caller: str) -> Path:
 def replaced_atomically(path):
     """Yield a temporary path beside ``path`` (same suffix) to write the whole file to; on success it replaces
     ``path`` in one rename, so a reader never sees half a file; on any error or interruption it is removed and
-    ``path`` is left as it was. The file gets the permissions the umask gives a new file."""
+    ``path`` is left as it was. A symbolic link is written through (its target is replaced, the link kept); an
+    existing file keeps its permissions, a new one gets those the umask gives a new file."""
     path = Path(path)
-    handle, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=f".partial{path.suffix}", dir=path.parent)
+    if path.is_symlink():
+        path = path.resolve()
+    mode = stat.S_IMODE(path.stat().st_mode) if path.is_file() else None
+    handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=f".partial{path.suffix}",
+                                         dir=path.parent)
     os.close(handle)
     try:
         yield Path(temporary)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(temporary, 0o666 & ~umask)     # mkstemp makes it private; ours are ordinary files
+        if mode is None:
+            umask = os.umask(0)
+            os.umask(umask)
+            mode = 0o666 & ~umask           # mkstemp makes it private; ours are ordinary files
+        os.chmod(temporary, mode)
         os.replace(temporary, path)
     except BaseException:
         Path(temporary).unlink(missing_ok=True)

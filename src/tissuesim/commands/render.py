@@ -125,15 +125,26 @@ def check_report(report: Path) -> None:
 
 def link_figures(report: Path, figures: list[Path]) -> None:
     """Add or replace the Figures section of the Markdown ``report``, linking ``figures`` by paths relative to it
-    (written whole or not at all)."""
+    (written whole or not at all, through a symbolic link to its target, keeping the file's mode). The section runs
+    to the next heading of its level or higher; what follows it is kept."""
     from ..io import replaced_atomically
 
     text = report.read_text() if report.exists() else ""
-    text = text.split(f"\n{SECTION}\n")[0].strip("\n")
+    before, after = _around_section(text)
     links = "\n\n".join(f"![{f.stem}]({_destination(f, report.parent)})" for f in figures)
+    section = (f"{SECTION}\n\nDrawn by `tissuesim render` (Fig 11: deformation; Fig 16: incision).\n\n{links}\n")
     with replaced_atomically(report) as partial:
-        partial.write_text(f"{text}\n\n{SECTION}\n\nDrawn by `tissuesim render` (Fig 11: deformation; Fig 16: "
-                           f"incision).\n\n{links}\n")
+        partial.write_text(f"{before}\n\n{section}" + (f"\n{after}" if after else ""))
+
+
+def _around_section(text: str) -> tuple[str, str]:
+    """The Markdown ``text`` before and after its Figures section (the whole text and "" where it has none)."""
+    match = re.search(rf"^{re.escape(SECTION)}[ \t]*$", text, flags=re.MULTILINE)
+    if match is None:
+        return text.strip("\n"), ""
+    following = re.search(r"^#{1,2}[ \t]", text[match.end():], flags=re.MULTILINE)
+    after = "" if following is None else text[match.end() + following.start():]
+    return text[:match.start()].strip("\n"), after
 
 
 def _destination(path: Path, folder: Path) -> str:
