@@ -51,6 +51,7 @@ from numba import njit
 
 from ..errors import InversionError, SolverError
 from ..loads import lumped_areas
+from ..mesh.surface import SurfaceMesh
 from .base import Solver
 from .checks import positive_number
 from .registry import register
@@ -232,21 +233,15 @@ class MassSpringSolver(Solver):
                 "hybrid method (reset() returns to rest)"
             )
 
-
     def _inside_out_beyond_flaps(self) -> tuple[int, int]:
         """``(count, first)`` of the triangles turned against their rest normal, less those of flaps that swung
         (:func:`swung_flaps`); only called when the O(m) pass found some on a cut surface."""
-        triangles = np.asarray(self.hybrid.surface.triangles, dtype=np.int64)
-        now, rest = _unit_normals(self.state.positions, triangles), _unit_normals(self.rest_positions, triangles)
+        surface = self.hybrid.surface
+        now = SurfaceMesh.trusted(self.state.positions.copy(), surface.triangles).triangle_normals
+        rest = surface.triangle_normals
         turned = np.flatnonzero(np.sum(now * rest, axis=1) < 0.0)
-        turned = turned[~swung_flaps(triangles, turned, now, rest)]
+        turned = turned[~swung_flaps(np.asarray(surface.triangles, dtype=np.int64), turned, now, rest)]
         return turned.size, int(turned[0]) if turned.size else -1
-
-
-def _unit_normals(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    p = points[triangles]
-    normal = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
-    return normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
 
 
 def swung_flaps(triangles: np.ndarray, turned: np.ndarray, now: np.ndarray, rest: np.ndarray) -> np.ndarray:
