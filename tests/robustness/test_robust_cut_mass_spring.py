@@ -47,10 +47,10 @@ def test_a_flap_on_the_lip_swings_past_a_right_angle_and_comes_back(cube, cut_so
                                               solver.hybrid.surface.triangles)[0])
     assert swung > 0        # the flap did turn triangles past a right angle from rest
     solver.clear_load()
-    for _ in range(1000):
+    for _ in range(300):
         solver.step()
     # Springs pull it back: no triangle against its rest normal. The lip's restoring force is of second order in the
-    # swing (its springs lie in the plane at rest), so it creeps back: 0.38 mm after 10 s, 0.23 mm after 30 s.
+    # swing (its springs lie in the plane at rest), so it creeps back: 0.61 mm after 3 s, 0.23 mm after 30 s.
     assert inverted_triangles(solver.rest_positions, solver.positions, solver.hybrid.surface.triangles)[0] == 0
     assert np.abs(solver.displacements).max() < 1e-3
 
