@@ -45,6 +45,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
     parser.add_argument("--resolution", type=int, default=None,
                         help="vertex count of a built-in model (default: its Table-1 size)")
+    parser.add_argument("--repair", action="store_true",
+                        help="repair safe defects of a surface file (orientation, self-intersections) instead of "
+                             "refusing them")
     parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
                         help="in-plane prestrain of the surface (e.g. 0.05), so the wound gapes without force; "
                              "methods without a surface layer take none (default: 0)")
@@ -67,7 +70,8 @@ def run(args) -> int:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     prestrain = check_prestrain(args.prestrain)
     check_model_names(args.models)
-    sources = [_source(spec, scale=args.scale, resolution=args.resolution) for spec in args.models or list(MODELS)]
+    sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair)
+               for spec in args.models or list(MODELS)]
     check_no_folder(output, ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
                                                                for method in args.methods for ext in ("obj", "vtu"))])
     rows, cuts = [], {}
@@ -93,7 +97,7 @@ def run(args) -> int:
     return 0
 
 
-def _source(spec: str, *, scale: float, resolution):
+def _source(spec: str, *, scale: float, resolution, repair: bool):
     """``(name, SurfaceMesh or HybridMesh)`` of a built-in model, a surface file or a saved bundle, checked to fit
     the incision."""
     from ..experiments.run import SURFACE_SUFFIXES, model_name
@@ -105,7 +109,7 @@ def _source(spec: str, *, scale: float, resolution):
         source = HybridMesh.load(path)      # a bundle is in metres: --scale is for surface files
         surface = source.surface
     else:
-        source = surface = load_mesh(spec, scale=scale, resolution=resolution)
+        source = surface = load_mesh(spec, scale=scale, resolution=resolution, repair=repair)
     name = model_name(spec)
     _check_fits(name, surface)
     return name, source
@@ -122,12 +126,19 @@ def _check_fits(name: str, surface) -> None:
     start, _ = incision_line(vertices)
     triangle, weights = closest_on_surface(surface, start[None])
     distance = float(np.linalg.norm(weights[0] @ vertices[surface.triangles[triangle[0]]] - start))
-    if distance > INCISION_DEPTH:
-        raise SolverError(
-            f"the scripted {1e2 * INCISION_LENGTH:g} cm incision does not fit {name}: the model is "
-            f"{1e2 * np.ptp(vertices[:, 0]):.3g} cm long along x, so where the incision starts the surface is "
-            f"{1e2 * distance:.3g} cm from the blade, beyond its {1e2 * INCISION_DEPTH:g} cm reach; give a model "
-            "longer than the incision (a surface file in cm or mm needs --scale 0.01 or 0.001)")
+    if distance <= INCISION_DEPTH:
+        return
+    length = float(np.ptp(vertices[:, 0]))
+    where = (f"where the incision starts the surface is {1e2 * distance:.3g} cm from the blade, beyond its "
+             f"{1e2 * INCISION_DEPTH:g} cm reach")
+    if length < INCISION_LENGTH:
+        why = (f"the model is {1e2 * length:.3g} cm long along x, shorter than the incision, so {where}; give a "
+               "longer model (a surface file in cm or mm needs --scale 0.01 or 0.001)")
+    else:
+        why = (f"the model is {1e2 * length:.3g} cm long along x, but its top is not flat there: "
+               f"{1e2 * INCISION_LENGTH / 2:g} cm from the top's centre along x, {where}; give a model with a broader "
+               "top (the incision runs across it along x, centred)")
+    raise SolverError(f"the scripted {1e2 * INCISION_LENGTH:g} cm incision does not fit {name}: {why}")
 
 
 def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple | None]:
@@ -135,7 +146,8 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
     from ..cutting.invariants import check_cut_invariants
     from ..cutting.solver_update import refusal
-    from ..cutting.wound import open_wound, scripted_incision, unloaded_openings
+    from ..cutting.wound import open_wound, pull_node, scripted_incision, unloaded_openings
+    from ..experiments.run import check_free_node
     from ..solvers import make_solver
     from ..solvers.registry import solver_options
 
@@ -145,6 +157,8 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     prestressed = prestrain > 0.0 and "prestrain" in solver_options(method)
     solver = make_solver(method, hybrid, **({"prestrain": prestrain} if prestressed else {}))
     run = scripted_incision(solver)
+    check_free_node(solver, pull_node(solver.rest_positions, run["line"]), model,
+                    role="the pull beside the incision")
     unloaded = unloaded_openings(solver, run["line"]) if prestressed else None
     # a linear answer beyond linear validity is measured, not dropped, and says so in the table
     beyond = [solver.last_solve.warning] if prestressed and solver.last_solve.warning else []

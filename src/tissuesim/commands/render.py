@@ -37,6 +37,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "as the experiments)")
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of the built-in models")
     parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
+    parser.add_argument("--repair", action="store_true",
+                        help="repair safe defects of a surface file (orientation, self-intersections) instead of "
+                             "refusing them")
     parser.add_argument("--report", type=Path, default=None, metavar="FILE.md",
                         help="add a Figures section linking the images to this Markdown report")
     parser.add_argument("--if-available", action="store_true",
@@ -74,7 +77,8 @@ def run(args: argparse.Namespace) -> int:
     cutting = _cutting(scalpel_class() is not None, refusal(args.method))
     written = []
     for spec in args.models or MODELS:
-        hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, progress=False)
+        hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, repair=args.repair,
+                                   progress=False)
         written.append(deformation_figure(hybrid, name, output / f"deformation_{name}.png", method=args.method,
                                           force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
         if cutting:

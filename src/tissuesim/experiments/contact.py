@@ -103,7 +103,7 @@ def shared_livers(folder=None) -> dict:
 def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
     """Run the contact protocol; return its results document (JSON-ready)."""
     from ..solvers import available_solvers
-    from .run import ExperimentConfig, load_model, model_name
+    from .run import ExperimentConfig, check_free_node, load_model, model_name
 
     config = config or ContactConfig()
     start = time.perf_counter()
@@ -116,6 +116,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
         node = protocol.load_node(rest, hybrid.surface.triangles)
         solvers = {m: _make_method(m, hybrid) for m in methods}
+        check_free_node(solvers[methods[0]], node, name, role="the contact load at its top centre")
         patches, skipped = {}, {}
         for radius_mm in config.radii_mm:
             try:

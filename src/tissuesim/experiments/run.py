@@ -130,6 +130,17 @@ def check_resolution(resolution) -> int:
     return int(resolution)
 
 
+def check_free_node(solver, node: int, model: str, *, role: str) -> None:
+    """Refuse (SolverError), in command-line terms, a command's load on a node of ``model`` that ``solver``'s support
+    holds: the model is too small or coarse for the load (``role`` says which load)."""
+    fixed = np.asarray(solver.fixed)
+    if np.any(fixed == node):
+        raise SolverError(f"{model} is too small or too coarse for {role}: node {node}, where it is applied, lies in "
+                          f"the supported bottom region ({fixed.size} of its {len(solver.rest_positions)} surface "
+                          "nodes are held); give a larger model (a surface file in cm or mm needs --scale 0.01 or "
+                          "0.001) or a finer one (--resolution for a built-in)")
+
+
 def model_name(spec: str) -> str:
     """The name a model is reported under: the built-in name, or a file's stem."""
     return spec if spec in builtin_models.MODELS else Path(spec).stem
@@ -223,8 +234,13 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
             for method in methods:
                 bar.set_postfix_str(f"{name}: {method}")
                 solver = make_solver(method, hybrid, **config.solver_options.get(method, {}))
+                check_free_node(solver, node, name, role="the experiments' load at its top centre")
                 for case in cases:
-                    record = _measure(solver, case, node, config)
+                    try:
+                        record = _measure(solver, case, node, config)
+                    except SolverError as error:
+                        raise SolverError(f"{name}: {method} cannot carry {case.label}: {_defect(error)}; give "
+                                          "smaller --forces (the run stops here, nothing is written)") from None
                     positions = record.pop("positions")
                     if method == protocol.REFERENCE:
                         reference[case] = positions
@@ -249,6 +265,12 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
     data = {"schema": SCHEMA_VERSION, "metadata": metadata, "records": records}
     check_results(data)
     return data
+
+
+def _defect(error: SolverError) -> str:
+    """What went wrong, from a solver's message, without its advice to a programmer (calls a command-line user cannot
+    make): the text before its first semicolon."""
+    return str(error).split(";", 1)[0]
 
 
 def _measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfig) -> dict:

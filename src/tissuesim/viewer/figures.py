@@ -116,11 +116,13 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
                        radius: float | None = None) -> Path:
     """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
     or spread over a contact patch of ``radius`` [m] around it)."""
+    from ..experiments.run import check_free_node
     from ..solvers.registry import make_solver
 
     surface = hybrid.surface
     node = load_node(surface.vertices, surface.triangles)
     solver = make_solver(method, hybrid)
+    check_free_node(solver, node, name, role="the figure's load at its top centre")
     frames = [surface.vertices] + [solver.solve_static(node, force * np.asarray(LOAD_DIRECTIONS[kind]), radius=radius)
                                    for kind in ("tension", "pressure")]
     images, vmax = render_panels(surface.vertices, surface.triangles, frames, markers=[None, node, node])
