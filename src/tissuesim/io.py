@@ -26,6 +26,7 @@ from __future__ import annotations
 import logging
 import math
 import os
+import re
 import stat
 import tempfile
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
@@ -121,6 +122,29 @@ def _file_path(path, caller: str) -> Path:
     return Path(path)
 
 
+def process_running(pid: int) -> bool:
+    """Whether process ``pid`` runs (any user's): a partial file of a process that does not was abandoned."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True                         # another user's process
+    return True
+
+
+#: The name of :func:`replaced_atomically`'s temporary file: ``.<name>.<pid>.<mkstemp's 8 letters>.partial<suffix>``.
+_PARTIAL = re.compile(r"^\..+\.(?P<pid>\d+)\.[a-z0-9_]{8}\.partial(\.[^.]*)?$")
+
+
+def remove_abandoned_partials(folder) -> None:
+    """Remove the temporary files :func:`replaced_atomically` left in ``folder`` when its process was killed."""
+    for path in Path(folder).glob(".*.partial*"):
+        match = _PARTIAL.match(path.name)
+        if match and int(match["pid"]) != os.getpid() and not process_running(int(match["pid"])) and path.is_file():
+            path.unlink(missing_ok=True)
+
+
 @contextmanager
 def replaced_atomically(path):
     """Yield a temporary path beside ``path`` (same suffix) to write the whole file to; on success it replaces
@@ -131,8 +155,8 @@ def replaced_atomically(path):
     if path.is_symlink():
         path = path.resolve()
     mode = stat.S_IMODE(path.stat().st_mode) if path.is_file() else None
-    handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=f".partial{path.suffix}",
-                                         dir=path.parent)
+    handle, temporary = tempfile.mkstemp(prefix=f"{temporary_prefix(path)}{os.getpid()}.",
+                                         suffix=f".partial{path.suffix}", dir=path.parent)
     os.close(handle)
     try:
         yield Path(temporary)

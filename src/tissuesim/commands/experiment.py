@@ -60,9 +60,9 @@ def run(args) -> int:
     check_model_specs(models)
     options = {"models": models}
     if args.forces:
-        options["forces"] = tuple(_number(value, "--forces", "newtons") for value in args.forces)
+        options["forces"] = _distinct("--forces", [_number(value, "--forces", "newtons") for value in args.forces])
     if args.loads:
-        options["loads"] = tuple(args.loads)
+        options["loads"] = _distinct("--loads", args.loads)
     if args.methods:
         options["methods"] = tuple(dict.fromkeys([*args.methods, REFERENCE]))
         unknown = [m for m in args.methods if m not in METHODS]
@@ -113,11 +113,11 @@ def _run_contact(args, output) -> int:
         options["models"] = tuple(MODELS) + tuple(livers)
         options["scales"] = livers
     if args.forces:
-        options["forces"] = tuple(_number(value, "--forces", "newtons") for value in args.forces)
+        options["forces"] = _distinct("--forces", [_number(value, "--forces", "newtons") for value in args.forces])
     if args.loads:
-        options["loads"] = tuple(args.loads)
+        options["loads"] = _distinct("--loads", args.loads)
     if args.radii:
-        options["radii_mm"] = tuple(_number(value, "--radii", "millimetres") for value in args.radii)
+        options["radii_mm"] = _distinct("--radii", [_number(value, "--radii", "millimetres") for value in args.radii])
     if args.methods:
         options["methods"] = tuple(dict.fromkeys(args.methods))
     if args.resolution is not None:
@@ -130,12 +130,27 @@ def _run_contact(args, output) -> int:
                                                                           else args.cache))
     start = time.perf_counter()
     data = contact.run_contact(contact.ContactConfig(**options), progress=not args.quiet)
+    _refuse_empty(data)
     earlier = earlier_outputs(output)
     paths = write_contact_outputs(data, output)
     _say_replaced(output, earlier, paths)
     print(f"wrote {len(paths)} files to {output}/ ({', '.join(p.name for p in paths)}) in "
           f"{time.perf_counter() - start:.1f} s", file=sys.stderr)
     return 0
+
+
+def _refuse_empty(data: dict) -> None:
+    """Refuse (SolverError) a contact run that measured nothing (every radius skipped on every model), naming the
+    first skip's reason, instead of writing empty tables."""
+    from ..errors import SolverError
+
+    if data["records"]:
+        return
+    skips = [(name, radius, reason) for name, info in data["metadata"]["models"].items()
+             for radius, reason in info.get("skipped", {}).items()]
+    why = f" ({skips[0][0]}, R = {skips[0][1]} mm: {skips[0][2]})" if skips else ""
+    raise SolverError(f"no contact radius fits the models, so the run measured nothing{why}; give smaller --radii "
+                      "(nothing was written)")
 
 
 def _say_replaced(output, earlier: set, written: list) -> None:
@@ -145,6 +160,18 @@ def _say_replaced(output, earlier: set, written: list) -> None:
     note = replacement_note(output, earlier, written)
     if note:
         print(note, file=sys.stderr)
+
+
+def _distinct(option: str, values: list) -> tuple:
+    """``values`` as a tuple, or a SolverError naming the first repeated one: a repeated case would be measured twice
+    and its records would collide."""
+    from ..errors import SolverError
+
+    repeated = [value for index, value in enumerate(values) if value in values[:index]]
+    if repeated:
+        shown = f"{repeated[0]:g}" if isinstance(repeated[0], float) else repeated[0]
+        raise SolverError(f"{option} names {shown} more than once; give each value once")
+    return tuple(values)
 
 
 def _number(text: str, option: str, unit: str, *, integer: bool = False) -> float:

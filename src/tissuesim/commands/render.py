@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repair", action="store_true",
                         help="repair safe defects of a surface file (orientation, self-intersections) instead of "
                              "refusing them")
-    parser.add_argument("--report", type=Path, default=None, metavar="FILE.md",
+    parser.add_argument("--report", default=None, metavar="FILE.md",
                         help="add a Figures section linking the images to this Markdown report")
     parser.add_argument("--if-available", action="store_true",
                         help="where no OpenGL is available, say so in one line and exit 0")
@@ -49,23 +49,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..cutting.solver_update import refusal
     from ..experiments.output import check_output_folder
-    from ..experiments.run import check_model_specs
-    from ..mesh.models import MODELS
+    from ..experiments.run import check_model_specs, check_resolution
+    from ..io import check_scale, remove_abandoned_partials
     from ..solvers.checks import positive_number
     from ..viewer.controller import scalpel_class
     from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
     from ..viewer.gl import NoOpenGLError, polyscope
     from ..solvers.registry import solver_class
-    from .view import load_hybrid
 
     # every argument is checked before any work; a value given is used as given, never replaced by a default
     solver_class(args.method)
     check_model_specs(args.models)
+    check_scale(args.scale)
+    if args.resolution is not None:
+        check_resolution(args.resolution)
     force = FIGURE_FORCE if args.force is None else positive_number("--force", args.force, "N")
     radius_mm = None if args.radius is None else positive_number("--radius", args.radius, "mm")
-    if args.report is not None:
-        check_report(args.report)
+    report = None if args.report is None else check_report(args.report)
     output = check_output_folder(args.output)
+    if output.is_dir():
+        remove_abandoned_partials(output)     # images of a killed run, never renamed into place
     try:
         polyscope(headless=True)  # fail early, before any mesh is built
     except NoOpenGLError as error:
@@ -73,21 +76,42 @@ def run(args: argparse.Namespace) -> int:
             raise
         print(f"tissuesim render: figures skipped: {error}", file=sys.stderr)
         return 0
-    output.mkdir(exist_ok=True)
+    models = _load_models(args)     # every model read and checked before the first is drawn
     cutting = _cutting(scalpel_class() is not None, refusal(args.method))
-    written = []
+    created = not output.exists()
+    output.mkdir(exist_ok=True)
+    try:
+        written = []
+        for hybrid, name in models:
+            written.append(deformation_figure(hybrid, name, output / f"deformation_{name}.png", method=args.method,
+                                              force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
+            if cutting:
+                written.append(incision_figure(hybrid, name, output / f"incision_{name}.png", method=args.method))
+            print(f"rendered {name}", file=sys.stderr)
+    except BaseException:
+        if created and not any(output.iterdir()):
+            output.rmdir()          # a failed or interrupted first run leaves no empty folder behind
+        raise
+    if report is not None:
+        link_figures(report, written)
+    print(f"wrote {len(written)} figures to {output}/", file=sys.stderr)
+    return 0
+
+
+def _load_models(args) -> list:
+    """``[(HybridMesh, name)]`` of the models to draw, each checked for the method (fem needs the fine volume)."""
+    from ..experiments.run import check_fine_volume
+    from ..mesh.models import MODELS
+    from .view import load_hybrid
+
+    models = []
     for spec in args.models or MODELS:
         hybrid, name = load_hybrid(spec, resolution=args.resolution, scale=args.scale, repair=args.repair,
                                    progress=False)
-        written.append(deformation_figure(hybrid, name, output / f"deformation_{name}.png", method=args.method,
-                                          force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
-        if cutting:
-            written.append(incision_figure(hybrid, name, output / f"incision_{name}.png", method=args.method))
-        print(f"rendered {name}", file=sys.stderr)
-    if args.report is not None:
-        link_figures(args.report, written)
-    print(f"wrote {len(written)} figures to {output}/", file=sys.stderr)
-    return 0
+        if args.method == "fem":
+            check_fine_volume(hybrid, spec)
+        models.append((hybrid, name))
+    return models
 
 
 def _cutting(installed: bool, refused: str | None) -> bool:
@@ -100,31 +124,42 @@ def _cutting(installed: bool, refused: str | None) -> bool:
     return installed and not refused
 
 
-def check_report(report: Path) -> None:
-    """Refuse, before any drawing, a ``--report`` the Figures section cannot be written to: a folder, a missing
-    folder, a place where no file can be created (tried for real), or a file that is not text."""
+def check_report(text: str) -> Path:
+    """``--report`` as a Path, refused before any drawing where the Figures section cannot be written to it: an empty
+    path, a folder, a device, a missing folder, a place where no file can be created (tried for real), or a file that
+    is not text."""
     from ..experiments.output import OutputError
+    from ..mesh.bundle_check import temporary_prefix
 
-    if report.exists() and not report.is_file():
-        raise OutputError(f"--report {report} is a folder (or device), not a Markdown file; give a file path, e.g. "
+    if not str(text).strip():
+        raise OutputError("--report is empty; give the path of a Markdown file, e.g. --report results/report.md")
+    report = Path(text)
+    if report.is_dir():
+        raise OutputError(f"--report {report} is a folder, not a Markdown file; give a file path, e.g. "
                           f"{report / 'report.md'}")
+    if report.exists() and not report.is_file():
+        raise OutputError(f"--report {report} is not a regular file (a device or pipe); give the path of a Markdown "
+                          "file, e.g. --report results/report.md")
+    if report.is_symlink():
+        report = report.resolve()       # written through the link: its target's folder must take the new file
     if not report.parent.is_dir():
         raise OutputError(f"--report {report}: the folder {report.parent} does not exist; create it or give "
                           "another path")
     try:
-        handle, probe = tempfile.mkstemp(prefix=f".{report.name}.", dir=report.parent)
+        handle, probe = tempfile.mkstemp(prefix=temporary_prefix(report), dir=report.parent)
     except OSError as error:
         raise OutputError(f"cannot write --report {report}: {error.strerror or error} in {report.parent}; choose "
                           "another path or make that folder writable") from None
     os.close(handle)
     os.unlink(probe)
     if not report.exists():
-        return
+        return report
     try:
         report.read_text()
     except (OSError, UnicodeDecodeError) as error:
         raise OutputError(f"cannot read --report {report} to add the Figures section to it: {error}; give a "
                           "Markdown file") from None
+    return report
 
 
 def link_figures(report: Path, figures: list[Path]) -> None:

@@ -29,6 +29,7 @@ import tempfile
 from pathlib import Path
 
 from ..errors import TissuesimError
+from ..io import process_running
 from .plots import write_radar_plots
 from .report import report_markdown
 from .schema import SCHEMA_VERSION, check_results
@@ -220,17 +221,6 @@ def _remove_abandoned_staging(target: Path) -> None:
             abandoned = pid.isdigit() and int(pid) not in (0, os.getpid()) and not process_running(int(pid))
             if abandoned and path.is_dir():
                 shutil.rmtree(path, ignore_errors=True)
-
-
-def process_running(pid: int) -> bool:
-    """Whether process ``pid`` runs (any user's): a partial file of a process that does not was abandoned."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True                         # another user's process
-    return True
 
 
 def earlier_outputs(folder, *, ours=results_files) -> set[str]:

@@ -484,7 +484,7 @@ def check_cache_dir(folder) -> Path:
 
 def _remove_abandoned_partials(folder: Path) -> None:
     """Remove ``.KEY.PID.npz`` partial entries whose writing process is gone (killed while writing)."""
-    from .output import process_running
+    from ..io import process_running
 
     for path in folder.glob(".*.*.npz"):
         pid = path.name[:-len(".npz")].rsplit(".", 1)[-1]

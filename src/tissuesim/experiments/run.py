@@ -185,10 +185,22 @@ def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
         surface = read_surface(path, scale=config.scale, repair=config.repair)
         return HybridMesh.build(surface, fine_volume=True, progress=progress)
     hybrid = HybridMesh.load(path)
-    if hybrid.fine_volume is None:
-        raise MeshError(f"bundle {spec!r} has no fine volume, which the FEM reference needs; rebuild it with "
-                        "the fine volume (HybridMesh.build(surface, fine_volume=True))")
+    check_fine_volume(hybrid, spec)
     return hybrid
+
+
+def check_fine_volume(hybrid, spec: str) -> None:
+    """Refuse (MeshError) a bundle without the fine volume the fem reference needs, naming the cause: a cut (the
+    volume of the uncut surface is dropped by the first cut) or a build without it."""
+    if hybrid.fine_volume is not None:
+        return
+    cuts = int(hybrid.info.get("cuts", 0) or 0)
+    if cuts:
+        raise MeshError(f"bundle {spec!r} was saved after {cuts} cutting moves, and the fem reference cannot run on a "
+                        "cut surface (its fine volume is a mesh of the uncut surface); give the uncut bundle or its "
+                        "surface file")
+    raise MeshError(f"bundle {spec!r} was built without the fine volume, which the fem reference needs; rebuild it "
+                    "with `tissuesim build SURFACE -o BUNDLE.npz` (without --no-fine-volume)")
 
 
 def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = True, meshes: dict | None = None):
