@@ -125,3 +125,21 @@ def test_a_cut_keeps_the_spring_thickness_of_the_body(cube):
     expected = (solver.youngs_modulus * solver.thickness_ratio * cube.built_edge_length * area
                 / solver.rest_lengths[new] ** 2)
     np.testing.assert_allclose(solver.stiffness[new], expected, rtol=1e-9)
+
+
+def test_the_xpbd_projection_carries_a_small_point_load_without_tearing(cube):
+    """The signed hinge projection lacked the bound of eq 11's (a quarter of the hinge edge per projection): 0.3 N on
+    one node of the uncut cube, pbd with the XPBD integrator, inverted 1,078 triangles and stretched edges 70-fold
+    within 3 steps (292 mm), and the layer never settled. Cuts make the slivers where this starts."""
+    solver = tissuesim.make_solver("pbd", cube, integrator="xpbd")
+    node = 89                                       # on the side face x = −40 mm, halfway up
+    solver.set_load(node, [0.0566, -0.0595, 0.2885])   # 0.30 N, up and a little across
+    for _ in range(3):
+        solver.step()
+    # 4.9 mm measured; linear validity ends at a tenth of the model's size (13.9 mm)
+    assert np.linalg.norm(solver.displacements, axis=1).max() < 0.1 * solver.size
+    solver.clear_load()
+    for _ in range(100):
+        solver.step()
+    # elastic: back at rest (0.002 mm measured, was 290 mm and moving at 30 m/s); 0.1 mm is 2 % of the excursion
+    assert np.linalg.norm(solver.displacements, axis=1).max() < 1e-4

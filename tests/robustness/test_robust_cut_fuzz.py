@@ -58,9 +58,7 @@ def _hybrid(model):
 
 @st.composite
 def strokes(draw):
-    """1–3 strokes of 1–5 moves, each with its own start, path, blade, depth, and loads [N]: small ones (at 0.3 N
-    on one node the pbd method's XPBD projection can fold a hinge that then never settles, cut or not: 4 of 12
-    random nodes of the uncut cube still moved at over 1 m/s 30 steps after release)."""
+    """1–3 strokes of 1–5 moves, each with its own start, path, blade, depth, and small loads [N]."""
     return [{
         "seed": draw(st.integers(0, 2**31 - 1)),
         "start": draw(st.sampled_from(["vertex", "edge", "facet", "previous"])),
