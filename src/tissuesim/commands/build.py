@@ -18,7 +18,8 @@ HELP = "build the hybrid mesh (M_S, M'_S, M_V, fine volume) from a surface file 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("mesh", metavar="MESH", help="surface file, or a built-in model: cube, sphere, liver, steak")
     parser.add_argument("--scale", type=float, default=1.0,
-                        help="factor from the file's unit to metres (0.01 for cm, 0.001 for mm); default 1")
+                        help="factor from the file's unit to metres (0.01 for cm, 0.001 for mm), applied to a built-in "
+                             "model too; default 1")
     parser.add_argument("--target-vertices", type=int, default=None, metavar="N",
                         help="vertex count of the coarse surface M'_S (default: 32%% of M_S's vertices)")
     parser.add_argument("--no-fine-volume", action="store_true",
@@ -32,19 +33,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution: int | None = None):
-    """The surface named on the command line: a built-in model name or a surface file path."""
-    from ..io import check_model_size, check_scale
+    """The surface named on the command line: a built-in model name (which wins over a file or folder of that name:
+    write ``./cube`` for the file) scaled by ``scale`` like a file, or a surface file path."""
+    from ..experiments.run import builtin_surface
     from ..mesh import models
 
-    scale = check_scale(scale)      # for every source: a built-in model is scaled too
-    if name in models.MODELS and not Path(name).exists():
-        from ..experiments.run import check_resolution
-
-        surface = models.model(name, None if resolution is None else check_resolution(resolution))
-        if scale != 1.0:
-            check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
-            surface = surface.with_vertices(surface.vertices * scale)
-        return surface
+    if name in models.MODELS:
+        return builtin_surface(name, resolution=resolution, scale=scale)
     if not Path(name).exists() and not Path(name).suffix:
         raise FileNotFoundError(
             f"{name!r} is neither a built-in model ({', '.join(models.MODELS)}) nor an existing surface file")

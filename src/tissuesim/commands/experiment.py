@@ -36,7 +36,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--resolution", metavar="VERTICES",
                         help="surface vertices of the built-in models (default: the paper's Table-1 sizes)")
     parser.add_argument("--scale", default="1", metavar="FACTOR",
-                        help="factor from a surface file's unit to metres, e.g. 0.01 for cm (default: 1)")
+                        help="factor from a surface file's unit to metres, e.g. 0.01 for cm, applied to a built-in "
+                             "model too (a bundle is in metres and not scaled; default: 1)")
     parser.add_argument("--repair", action="store_true",
                         help="fix what can be fixed safely in a surface file (e.g. inward faces) and say what changed")
     parser.add_argument("--steps", metavar="COUNT", help="timed steps per case and method (default: 30; quick: 5)")
@@ -107,7 +108,7 @@ def _run_contact(args, output) -> int:
     if args.models:
         scale = _number(args.scale, "--scale", "factor")
         options["models"] = tuple(args.models)
-        options["scales"] = {spec: scale for spec in args.models if spec not in MODELS}
+        options["scales"] = dict.fromkeys(args.models, scale)    # built-in models are scaled like files
     elif not args.quick:
         livers = contact.shared_livers()
         options["models"] = tuple(MODELS) + tuple(livers)

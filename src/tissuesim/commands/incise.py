@@ -42,7 +42,9 @@ def add_arguments(parser) -> None:
                         help="folder for the surfaces and tables, created if absent (default: incision)")
     parser.add_argument("--methods", nargs="+", metavar="METHOD", default=list(METHODS),
                         help=f"surface methods to cut (default: {' '.join(METHODS)})")
-    parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="factor from a surface file's unit to metres, applied to a built-in model too (a bundle "
+                             "is in metres and not scaled)")
     parser.add_argument("--resolution", type=int, default=None,
                         help="vertex count of a built-in model (default: its Table-1 size)")
     parser.add_argument("--repair", action="store_true",
@@ -58,6 +60,7 @@ def run(args) -> int:
     from ..experiments.output import (check_no_folder, check_output_folder, earlier_outputs, replacement_note,
                                       write_staged)
     from ..experiments.run import check_model_names
+    from ..io import check_scale
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from ..pbd.prestress import check_prestrain
@@ -69,6 +72,7 @@ def run(args) -> int:
     if unknown:
         raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
     prestrain = check_prestrain(args.prestrain)
+    check_scale(args.scale)         # for bundles too, which it does not scale: a bad value is never ignored
     check_model_names(args.models)
     sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair)
                for spec in args.models or list(MODELS)]
@@ -102,10 +106,11 @@ def _source(spec: str, *, scale: float, resolution, repair: bool):
     the incision."""
     from ..experiments.run import SURFACE_SUFFIXES, model_name
     from ..mesh.hybrid import HybridMesh
+    from ..mesh.models import MODELS
     from .build import load_mesh
 
     path = Path(spec)
-    if path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
+    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
         source = HybridMesh.load(path)      # a bundle is in metres: --scale is for surface files
         surface = source.surface
     else:

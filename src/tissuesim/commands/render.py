@@ -36,7 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="spread the load over a pin-head contact patch of this radius in mm (default: one node, "
                              "as the experiments)")
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of the built-in models")
-    parser.add_argument("--scale", type=float, default=1.0, help="factor from a surface file's unit to metres")
+    parser.add_argument("--scale", type=float, default=1.0,
+                        help="factor from a surface file's unit to metres, applied to a built-in model too (a bundle "
+                             "is in metres and not scaled)")
     parser.add_argument("--repair", action="store_true",
                         help="repair safe defects of a surface file (orientation, self-intersections) instead of "
                              "refusing them")

@@ -59,7 +59,8 @@ class ContactConfig:
 
     Attributes:
         models: built-in names, or surface files / bundles; a file's factor to metres is in ``scales``.
-        scales: ``{spec: factor to metres}`` for surface files (default 1).
+        scales: ``{spec: factor to metres}`` for surface files and built-in models (default 1; a bundle is not
+            scaled).
         forces: magnitudes [N]. loads: from :data:`protocol.LOADS`. radii_mm: patch radii R [mm].
         methods: solver names or :data:`VARIANTS` (default: every registered solver, then the variants).
         resolution: vertices of the built-in models (None: Table-1 size).

@@ -56,7 +56,8 @@ class ExperimentConfig:
         loads: load kinds, from :data:`protocol.LOADS`.
         methods: solver names; must include :data:`protocol.REFERENCE` (``fem``) for the RMSE.
         resolution: surface vertices of the built-in models (None: the Table-1 size).
-        scale: factor from a surface file's unit to metres (e.g. 0.01 for cm).
+        scale: factor from a surface file's unit to metres (e.g. 0.01 for cm); a built-in model is scaled alike,
+            a saved bundle (in metres) is not.
         repair: let :func:`tissuesim.read_surface` fix what it safely can in a surface file (e.g. inward faces).
         dt: time step of the timed steps [s]; None: each solver's own default (0.01 s, 100 Hz).
         warmup_steps: untimed steps before timing.
@@ -119,6 +120,19 @@ class ExperimentConfig:
         return replace(self, **changes)
 
 
+def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):
+    """The built-in model ``name`` at ``resolution`` vertices (None: its Table-1 size), its coordinates multiplied
+    by ``scale`` as a surface file's are (refused, naming the scale, outside 1 µm to 100 m across)."""
+    from ..io import check_model_size, check_scale
+
+    scale = check_scale(scale)
+    surface = builtin_models.model(name, None if resolution is None else check_resolution(resolution))
+    if scale == 1.0:
+        return surface
+    check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
+    return surface.with_vertices(surface.vertices * scale)
+
+
 def check_resolution(resolution) -> int:
     """``resolution`` (vertices of a built-in model) as an int, or a MeshError naming the accepted range."""
     low, high = builtin_models.MIN_RESOLUTION, MAX_RESOLUTION
@@ -173,7 +187,7 @@ def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     from ..mesh.hybrid import HybridMesh
 
     if spec in builtin_models.MODELS:
-        surface = builtin_models.model(spec, config.resolution)
+        surface = builtin_surface(spec, resolution=config.resolution, scale=config.scale)
         return HybridMesh.build(surface, fine_volume=True, progress=progress)
     path = Path(spec)
     if not path.exists():

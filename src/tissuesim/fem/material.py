@@ -38,6 +38,8 @@ class Material:
     def __post_init__(self):
         for name in ("youngs_modulus", "poisson_ratio"):
             value = getattr(self, name)
+            if isinstance(value, bool):     # float(True) is 1.0: a flag passed by mistake, not a modulus
+                raise MaterialError(f"{name} must be a real number, got the bool {value!r}")
             try:
                 value = float(value)
             except (TypeError, ValueError):
@@ -51,7 +53,12 @@ class Material:
                 f"youngs_modulus must be > 0 Pa, got {self.youngs_modulus!r}; soft tissue is ~1e3-1e5 Pa "
                 "(the paper uses 5500)"
             )
-        if not -1.0 < self.poisson_ratio < 0.5:
+        if self.poisson_ratio <= -1.0:
+            raise MaterialError(
+                f"poisson_ratio must lie in (-1, {MAX_POISSON_RATIO}], got {self.poisson_ratio!r} (-1 makes the bulk "
+                "modulus zero, and below it the material is unstable); soft tissue is about 0.3 to 0.49"
+            )
+        if self.poisson_ratio >= 0.5:
             raise MaterialError(
                 f"poisson_ratio must lie in (-1, {MAX_POISSON_RATIO}], got {self.poisson_ratio!r} (0.5 makes the "
                 "Lame parameter lambda infinite)"

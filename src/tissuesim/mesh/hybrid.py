@@ -26,6 +26,7 @@ the mesh as an ASCII file, in kB (1000 bytes), as the paper's sizes suggest: a s
 from __future__ import annotations
 
 import json
+import math
 import os
 import tempfile
 import time
@@ -119,9 +120,11 @@ class HybridMesh:
             progress: show the steps with a tqdm bar on stderr.
 
         Raises:
-            MeshError: ``surface`` is not a SurfaceMesh, the surface is invalid, or TetGen fails.
+            MeshError: ``surface`` is not a SurfaceMesh, ``target_vertices`` is not a whole number, the surface is
+                invalid, or TetGen fails.
         """
         _check_is_surface(surface)
+        _check_target_vertices(target_vertices)
         from .simplify import simplify
         from .tetrahedralize import COARSE_SWITCHES, FINE_SWITCHES, tetrahedralize
         from .validate import validate_surface
@@ -232,12 +235,15 @@ class HybridMesh:
 
         Raises:
             FileNotFoundError: no such file.
-            BundleError: ``path`` is not a path or is a folder; the file is not a bundle, is corrupt, or was written
+            BundleError: ``path`` is not a path or is a folder, device or pipe; the file is not a bundle, is corrupt, or was written
                 in another bundle format version.
         """
         path = bundle_path(path)
         if path.is_dir():
             raise BundleError(f"{path} is a folder, not a hybrid-mesh bundle; {WHAT_A_BUNDLE_IS}")
+        if path.exists() and not path.is_file():
+            raise BundleError(f"{path} is not a regular file (a device or pipe), so not a hybrid-mesh bundle; "
+                              f"{WHAT_A_BUNDLE_IS}")
         if not path.is_file():
             raise FileNotFoundError(f"no hybrid-mesh bundle at {path}")
         if not zipfile.is_zipfile(path):
@@ -355,6 +361,17 @@ def _read_header(path: Path, arrays: dict) -> dict:
             f"{header.get('tissuesim_version', '?')}); this tissuesim reads version {BUNDLE_VERSION}: rebuild it "
             "with `tissuesim build ... --output`")
     return header
+
+
+def _check_target_vertices(target_vertices) -> None:
+    """Refuse (MeshError) a ``target_vertices`` that is not None or a whole number (NaN, 2.5, a bool, text)."""
+    if target_vertices is None:
+        return
+    number = isinstance(target_vertices, (int, float, np.integer, np.floating)) and not isinstance(target_vertices,
+                                                                                                    bool)
+    if not (number and math.isfinite(target_vertices) and target_vertices == int(target_vertices)):
+        raise MeshError(f"target_vertices must be a whole number of vertices (or None for the default), got "
+                        f"{target_vertices!r}")
 
 
 def _check_is_surface(surface) -> None:
