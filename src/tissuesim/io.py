@@ -166,6 +166,11 @@ def replaced_atomically(path):
             mode = 0o666 & ~umask           # mkstemp makes it private; ours are ordinary files
         os.chmod(temporary, mode)
         os.replace(temporary, path)
+    except OSError as error:
+        Path(temporary).unlink(missing_ok=True)
+        if error.filename not in (None, temporary):
+            raise
+        raise OSError(error.errno, error.strerror, str(path)) from None    # the file meant, not the temporary one
     except BaseException:
         Path(temporary).unlink(missing_ok=True)
         raise

@@ -1,10 +1,14 @@
 """render --report: only the Figures section is replaced (what follows it is kept), and a report that is a symbolic
 link, or has its own permissions, is written through the link with its mode kept."""
 
+import errno
 import os
 import stat
 
+import pytest
+
 from tissuesim.commands.render import link_figures
+from tissuesim.io import replaced_atomically
 
 REPORT = """# Results
 
@@ -55,3 +59,14 @@ def test_a_symlinked_report_is_written_through_its_link_keeping_its_mode(tmp_pat
     assert link.is_symlink() and os.readlink(link) == str(real)
     assert "## Figures" in real.read_text()
     assert stat.S_IMODE(real.stat().st_mode) == 0o600
+
+
+@pytest.mark.parametrize("named", [True, False])
+def test_a_failed_whole_file_write_names_the_file_meant_not_its_temporary(named, tmp_path):
+    target = tmp_path / "deformation_cube.png"
+    with pytest.raises(OSError) as caught:
+        with replaced_atomically(target) as partial:
+            partial.write_bytes(b"\x89PNG")
+            raise OSError(errno.ENOSPC, "No space left on device", *([str(partial)] if named else []))
+    assert caught.value.filename == str(target) and ".partial" not in str(caught.value)
+    assert list(tmp_path.iterdir()) == []
