@@ -141,3 +141,14 @@ def test_a_folder_in_the_way_is_refused_before_anything_moves(tmp_path, capsys):
     assert "incision.json there is a folder" in err.splitlines()[-1] and ".partial" not in err
     assert sorted(p.name for p in out.iterdir()) == ["cube_pbd.obj", "incision.json"]
     assert (out / "cube_pbd.obj").read_text() == "old surface"
+
+
+def test_an_index_naming_a_file_outside_the_folder_removes_nothing_there(tmp_path):
+    out = tmp_path / "out"
+    out.mkdir()
+    (tmp_path / "x_pbd.obj").write_text("outside the folder")
+    (out / "incision.json").write_text(json.dumps([{"model": "../x", "method": "pbd"}]))
+    from tissuesim.commands.incise import incision_files
+
+    output.write_staged(out, lambda staging: (staging / "incision.json").write_text("[]"), ours=incision_files)
+    assert (tmp_path / "x_pbd.obj").read_text() == "outside the folder"

@@ -229,7 +229,9 @@ def earlier_outputs(folder, *, ours=results_files) -> set[str]:
     folder = Path(folder)
     if not folder.is_dir():
         return set()
-    return {name for name in ours(folder) if (folder / name).is_file()}
+    # a name is taken only as a plain file name in the folder: an index is data, and may be hostile ("../x")
+    return {name for name in ours(folder) if Path(name).name == name and name not in (".", "..")
+            and (folder / name).is_file()}
 
 
 def replacement_note(folder, earlier: set[str], written: list[Path]) -> str | None:
