@@ -94,7 +94,8 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
     Raises:
         FileNotFoundError: the file does not exist.
         MeshError: ``path`` is not a path (e.g. None), unknown extension, unreadable file, no triangles, a model
-            outside 1 µm to 100 m across once scaled (:func:`check_model_size`), or a defect that validation finds (and, with ``repair=True``, that repair could not fix).
+            outside 1 µm to 100 m across once scaled (:func:`check_model_size`), or a defect that validation finds
+            (and, with ``repair=True``, that repair could not fix).
     """
     check_scale(scale)
     vertices, polygons = read_polygons(_file_path(path, "read_surface"))

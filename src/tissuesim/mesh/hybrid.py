@@ -235,8 +235,8 @@ class HybridMesh:
 
         Raises:
             FileNotFoundError: no such file.
-            BundleError: ``path`` is not a path or is a folder, device or pipe; the file is not a bundle, is corrupt, or was written
-                in another bundle format version.
+            BundleError: ``path`` is not a path or is a folder, device or pipe; the file is not a bundle, is
+                corrupt, or was written in another bundle format version.
         """
         path = bundle_path(path)
         if path.is_dir():
