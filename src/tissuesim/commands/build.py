@@ -35,7 +35,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution: int | None = None):
     """The surface named on the command line: a built-in model name (which wins over a file or folder of that name:
     write ``./cube`` for the file) scaled by ``scale`` like a file, or a surface file path."""
-    from ..experiments.run import builtin_surface
+    from ..experiments.inputs import builtin_surface
     from ..mesh import models
 
     if name in models.MODELS:

@@ -49,7 +49,8 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
-    from ..experiments.run import ExperimentConfig, check_model_specs, check_resolution, run_experiment
+    from ..experiments.inputs import check_model_specs, check_resolution
+    from ..experiments.run import ExperimentConfig, run_experiment
     from ..mesh.models import MODELS
 
     output = check_output_folder(args.output)  # refuse a bad target before minutes of work
@@ -97,7 +98,7 @@ def _run_contact(args, output) -> int:
     from ..experiments import contact
     from ..experiments.output import earlier_outputs, write_contact_outputs
     from ..experiments.reference import check_cache_dir, default_cache_dir
-    from ..experiments.run import check_model_specs, check_resolution
+    from ..experiments.inputs import check_model_specs, check_resolution
     from ..mesh.models import MODELS
 
     check_model_specs(args.models)

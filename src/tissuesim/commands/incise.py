@@ -59,7 +59,7 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import (check_no_folder, check_output_folder, earlier_outputs, replacement_note,
                                       write_staged)
-    from ..experiments.run import check_model_names
+    from ..experiments.inputs import check_model_names
     from ..io import check_scale
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
@@ -104,7 +104,8 @@ def run(args) -> int:
 def _source(spec: str, *, scale: float, resolution, repair: bool):
     """``(name, SurfaceMesh or HybridMesh)`` of a built-in model, a surface file or a saved bundle, checked to fit
     the incision."""
-    from ..experiments.run import SURFACE_SUFFIXES, model_name
+    from ..experiments.inputs import model_name
+    from ..experiments.run import SURFACE_SUFFIXES
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from .build import load_mesh
@@ -152,7 +153,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     from ..cutting.invariants import check_cut_invariants
     from ..cutting.solver_update import refusal
     from ..cutting.wound import open_wound, pull_node, scripted_incision, unloaded_openings
-    from ..experiments.run import check_free_node
+    from ..experiments.inputs import check_free_node
     from ..solvers import make_solver
     from ..solvers.registry import solver_options
 

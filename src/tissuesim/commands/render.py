@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..cutting.solver_update import refusal
     from ..experiments.output import check_output_folder
-    from ..experiments.run import check_model_specs, check_resolution
+    from ..experiments.inputs import check_model_specs, check_resolution
     from ..io import check_scale, remove_abandoned_partials
     from ..solvers.checks import positive_number
     from ..viewer.controller import scalpel_class
@@ -102,7 +102,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _load_models(args) -> list:
     """``[(HybridMesh, name)]`` of the models to draw, each checked for the method (fem needs the fine volume)."""
-    from ..experiments.run import check_fine_volume
+    from ..experiments.inputs import check_fine_volume
     from ..mesh.models import MODELS
     from .view import load_hybrid
 

@@ -104,7 +104,8 @@ def shared_livers(folder=None) -> dict:
 def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
     """Run the contact protocol; return its results document (JSON-ready)."""
     from ..solvers import available_solvers
-    from .run import ExperimentConfig, check_free_node, load_model, model_name
+    from .inputs import check_free_node, model_name
+    from .run import ExperimentConfig, load_model
 
     config = config or ContactConfig()
     start = time.perf_counter()

@@ -30,9 +30,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InversionError, MeshError, SolverError, TissuesimError
+from ..errors import InversionError, SolverError, TissuesimError
 from ..mesh import models as builtin_models
 from . import protocol
+from .inputs import (builtin_surface, check_fine_volume, check_free_node, check_model_names, check_resolution,
+                     model_name)
 from .schema import SCHEMA_VERSION, check_results
 
 # Suffixes read as surface files; anything else given by path is read as a saved hybrid bundle.
@@ -41,9 +43,6 @@ SURFACE_SUFFIXES = (".obj", ".stl", ".ply", ".off", ".vtk", ".vtu")
 QUICK_RESOLUTION = 400
 QUICK_FORCES_N = (1.0, 10.0)
 QUICK_MAX_STEPS = 500
-#: Largest vertex count of a built-in model: 70 times the Table-1 sizes (about 1400), so a typo such as 1e12 is refused
-#: at once instead of exhausting the memory while the model is built.
-MAX_RESOLUTION = 100_000
 
 
 @dataclass(frozen=True)
@@ -120,68 +119,6 @@ class ExperimentConfig:
         return replace(self, **changes)
 
 
-def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):
-    """The built-in model ``name`` at ``resolution`` vertices (None: its Table-1 size), its coordinates multiplied
-    by ``scale`` as a surface file's are (refused, naming the scale, outside 1 µm to 100 m across)."""
-    from ..io import check_model_size, check_scale
-
-    scale = check_scale(scale)
-    surface = builtin_models.model(name, None if resolution is None else check_resolution(resolution))
-    if scale == 1.0:
-        return surface
-    check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
-    return surface.with_vertices(surface.vertices * scale)
-
-
-def check_resolution(resolution) -> int:
-    """``resolution`` (vertices of a built-in model) as an int, or a MeshError naming the accepted range."""
-    low, high = builtin_models.MIN_RESOLUTION, MAX_RESOLUTION
-    number = isinstance(resolution, (int, float)) and not isinstance(resolution, bool)
-    if not (number and low <= resolution <= high and resolution == int(resolution)):
-        given = f"{resolution:g}" if number else repr(resolution)
-        raise MeshError(f"--resolution (vertices of a built-in model) must be a whole number from {low} to {high}, "
-                        f"got {given}; the Table-1 sizes are about 1400")
-    return int(resolution)
-
-
-def check_free_node(solver, node: int, model: str, *, role: str) -> None:
-    """Refuse (SolverError), in command-line terms, a command's load on a node of ``model`` that ``solver``'s support
-    holds: the model is too small or coarse for the load (``role`` says which load)."""
-    fixed = np.asarray(solver.fixed)
-    if np.any(fixed == node):
-        raise SolverError(f"{model} is too small or too coarse for {role}: node {node}, where it is applied, lies in "
-                          f"the supported bottom region ({fixed.size} of its {len(solver.rest_positions)} surface "
-                          "nodes are held); give a larger model (a surface file in cm or mm needs --scale 0.01 or "
-                          "0.001) or a finer one (--resolution for a built-in)")
-
-
-def model_name(spec: str) -> str:
-    """The name a model is reported under: the built-in name, or a file's stem."""
-    return spec if spec in builtin_models.MODELS else Path(spec).stem
-
-
-def check_model_specs(specs) -> None:
-    """Refuse, before any work, a model that is neither a built-in name nor an existing file, or two models reported
-    under one name (SolverError)."""
-    for spec in specs:
-        if spec not in builtin_models.MODELS and not Path(spec).is_file():
-            raise SolverError(f"model {spec!r} is neither a built-in model ({', '.join(builtin_models.MODELS)}) nor "
-                              "an existing file; name one of those or give a mesh path")
-    check_model_names(specs)
-
-
-def check_model_names(specs) -> None:
-    """Refuse (SolverError) two models reported under one name (:func:`model_name`): their rows and files would
-    overwrite each other."""
-    seen = {}
-    for spec in specs:
-        name = model_name(spec)
-        if name in seen:
-            raise SolverError(f"models {seen[name]!r} and {spec!r} are both named {name!r}, so their results and files "
-                              "would overwrite each other; give each model once, or copy a file under another name")
-        seen[name] = spec
-
-
 def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     """The :class:`HybridMesh` (with fine volume) of a built-in name, a surface file, or a saved bundle."""
     from ..mesh.hybrid import HybridMesh
@@ -201,20 +138,6 @@ def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     hybrid = HybridMesh.load(path)
     check_fine_volume(hybrid, spec)
     return hybrid
-
-
-def check_fine_volume(hybrid, spec: str) -> None:
-    """Refuse (MeshError) a bundle without the fine volume the fem reference needs, naming the cause: a cut (the
-    volume of the uncut surface is dropped by the first cut) or a build without it."""
-    if hybrid.fine_volume is not None:
-        return
-    cuts = int(hybrid.info.get("cuts", 0) or 0)
-    if cuts:
-        raise MeshError(f"bundle {spec!r} was saved after {cuts} cutting moves, and the fem reference cannot run on a "
-                        "cut surface (its fine volume is a mesh of the uncut surface); give the uncut bundle or its "
-                        "surface file")
-    raise MeshError(f"bundle {spec!r} was built without the fine volume, which the fem reference needs; rebuild it "
-                    "with `tissuesim build SURFACE -o BUNDLE.npz` (without --no-fine-volume)")
 
 
 def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = True, meshes: dict | None = None):

@@ -116,7 +116,7 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
                        radius: float | None = None) -> Path:
     """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
     or spread over a contact patch of ``radius`` [m] around it)."""
-    from ..experiments.run import check_free_node
+    from ..experiments.inputs import check_free_node
     from ..solvers.registry import make_solver
 
     surface = hybrid.surface
