@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.experiments import contact, reference
+from tissuesim.experiments import contact, reference_cache
 from tissuesim.experiments.reference import ContactReference, RefinementSettings
 
 KEY = "0123456789abcdef0123456789abcdef"
@@ -22,16 +22,16 @@ def _entry(folder):
     """A small valid cache entry written the way a run writes it; returns the settings it was written with."""
     settings = RefinementSettings()
     ref = ContactReference(3, 0.004, np.ones((5, 3, 3)), np.arange(5), (), True, 5500.0, 0.3, settings, None)
-    reference._save(folder, KEY, ref)
+    reference_cache.save_entry(folder, KEY, ref)
     return settings
 
 
 def test_a_truncated_entry_is_recomputed_not_raised(tmp_path):
     settings = _entry(tmp_path)
     path = tmp_path / f"{KEY}.npz"
-    assert reference._load(tmp_path, KEY, settings) is not None        # the whole entry reads back
+    assert reference_cache.load_entry(tmp_path, KEY, settings) is not None        # the whole entry reads back
     path.write_bytes(path.read_bytes()[:300])                           # as `head -c 300` leaves it
-    assert reference._load(tmp_path, KEY, settings) is None
+    assert reference_cache.load_entry(tmp_path, KEY, settings) is None
 
 
 def _no_run(monkeypatch):
@@ -72,7 +72,7 @@ def test_a_partial_entry_of_a_killed_run_is_removed(tmp_path):
     dead.wait()
     abandoned = tmp_path / f".{KEY}.{dead.pid}.npz"
     abandoned.write_bytes(b"PK\x03\x04 half an entry")
-    reference.check_cache_dir(tmp_path)
+    reference_cache.check_cache_dir(tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 
@@ -82,7 +82,7 @@ def test_a_full_disk_names_the_cache_folder_and_leaves_no_partial_entry(tmp_path
         raise OSError(errno.ENOSPC, "No space left on device")
 
     monkeypatch.setattr(np, "savez", full)
-    with pytest.raises(reference.CacheError, match=f"cache entry in {tmp_path}: No space left on device"):
+    with pytest.raises(reference_cache.CacheError, match=f"cache entry in {tmp_path}: No space left on device"):
         _entry(tmp_path)
     assert list(tmp_path.iterdir()) == []
 

@@ -97,7 +97,8 @@ def _run_contact(args, output) -> int:
     from ..errors import SolverError
     from ..experiments import contact
     from ..experiments.output import earlier_outputs, write_contact_outputs
-    from ..experiments.reference import check_cache_dir, default_cache_dir
+    from ..experiments.reference import default_cache_dir
+    from ..experiments.reference_cache import check_cache_dir
     from ..experiments.inputs import check_model_specs, check_resolution
     from ..mesh.models import MODELS
 

@@ -40,20 +40,18 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-import tempfile
-import zipfile
-import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ..errors import SolverError, TissuesimError
+from ..errors import SolverError
 from ..loads import contact_radius, triangle_areas
 from ..mesh.refine import refine_surface
 from ..mesh.regions import bottom_height, nodes_below
 from ..mesh.tetrahedralize import FINE_SWITCHES, tetrahedralize
 from . import protocol
+from .reference_cache import load_entry, save_entry
 
 # Bump when the computation changes, so stale cache entries are never read.
 CACHE_FORMAT = 4
@@ -234,14 +232,14 @@ def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0
         raise SolverError(f"contact node {node} is outside the surface's vertices 0..{surface.vertex_count - 1}")
     radii = [None if r is None else contact_radius(r) for r in radii]
     keys = [_cache_key(surface, node, r, youngs_modulus, poisson_ratio, settings) for r in radii]
-    cached = [_load(cache_dir, key, settings) for key in keys]
+    cached = [load_entry(cache_dir, key, settings) for key in keys]
     missing = [i for i, ref in enumerate(cached) if ref is None]
     if missing:
         computed = _compute(surface, node, [radii[i] for i in missing], youngs_modulus, poisson_ratio, settings,
                             progress, stop=True)
         for i, ref in zip(missing, computed):
             cached[i] = ref
-            _save(cache_dir, keys[i], ref)
+            save_entry(cache_dir, keys[i], ref)
     return cached
 
 
@@ -458,74 +456,3 @@ def _cache_key(surface, node, radius, youngs_modulus, poisson_ratio, settings) -
                               "E": float(youngs_modulus), "nu": float(poisson_ratio), "switches": FINE_SWITCHES,
                               "settings": asdict(settings)}, sort_keys=True).encode())
     return digest.hexdigest()[:32]
-
-
-class CacheError(TissuesimError, OSError):
-    """The reference cache folder cannot be used where asked."""
-
-
-def check_cache_dir(folder) -> Path:
-    """``folder`` as a Path where cache entries can be written (created if missing; tried for real), or a
-    :class:`CacheError` naming it. Partial entries of killed runs are removed."""
-    folder = Path(folder)
-    if folder.exists() and not folder.is_dir():
-        raise CacheError(f"cache folder {folder} is a file, not a folder; give a folder (--cache DIR) or --no-cache")
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        handle, probe = tempfile.mkstemp(prefix=".probe.", dir=folder)
-    except OSError as error:
-        raise CacheError(f"cannot write the reference cache in {folder}: {error.strerror or error}; give another "
-                         "--cache DIR, make it writable, or pass --no-cache") from None
-    os.close(handle)
-    os.unlink(probe)
-    _remove_abandoned_partials(folder)
-    return folder
-
-
-def _remove_abandoned_partials(folder: Path) -> None:
-    """Remove ``.KEY.PID.npz`` partial entries whose writing process is gone (killed while writing)."""
-    from ..io import process_running
-
-    for path in folder.glob(".*.*.npz"):
-        pid = path.name[:-len(".npz")].rsplit(".", 1)[-1]
-        if pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid)):
-            path.unlink(missing_ok=True)
-
-
-def _load(cache_dir, key, settings) -> ContactReference | None:
-    if cache_dir is None:
-        return None
-    path = Path(cache_dir) / f"{key}.npz"
-    if not path.is_file():
-        return None
-    try:
-        with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
-                                    tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
-                                    meta["E"], meta["nu"], settings,
-                                    data["nodal_response"] if "nodal_response" in data else None)
-    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error):
-        return None  # a damaged entry (truncated, foreign) is recomputed, never trusted
-
-
-def _save(cache_dir, key, reference: ContactReference) -> None:
-    if cache_dir is None:
-        return
-    folder = Path(cache_dir)
-    meta = {"node": reference.node, "radius": reference.radius, "converged": reference.converged,
-            "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
-            "levels": [asdict(row) for row in reference.levels]}
-    partial = folder / f".{key}.{os.getpid()}.npz"
-    nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        np.savez(partial, response=reference.response, samples=reference.samples, meta=json.dumps(meta), **nodal)
-        os.replace(partial, folder / f"{key}.npz")  # atomic: a reader never sees half an entry
-    except OSError as error:
-        partial.unlink(missing_ok=True)
-        raise CacheError(f"cannot write a reference cache entry in {folder}: {error.strerror or error}; free space "
-                         "there, give another --cache DIR, or pass --no-cache") from None
-    except BaseException:
-        partial.unlink(missing_ok=True)
-        raise

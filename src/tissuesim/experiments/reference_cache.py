@@ -1,0 +1,94 @@
+"""The on-disk cache of converged contact references (:mod:`.reference`): one ``<key>.npz`` per reference, written
+whole (a partial ``.<key>.<pid>.npz`` renamed into place), a damaged entry recomputed, never trusted."""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+import zlib
+from dataclasses import asdict
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..errors import TissuesimError
+from ..io import process_running
+
+if TYPE_CHECKING:
+    from .reference import ContactReference
+
+
+class CacheError(TissuesimError, OSError):
+    """The reference cache folder cannot be used where asked."""
+
+
+def check_cache_dir(folder) -> Path:
+    """``folder`` as a Path where cache entries can be written (created if missing; tried for real), or a
+    :class:`CacheError` naming it. Partial entries of killed runs are removed."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise CacheError(f"cache folder {folder} is a file, not a folder; give a folder (--cache DIR) or --no-cache")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        handle, probe = tempfile.mkstemp(prefix=".probe.", dir=folder)
+    except OSError as error:
+        raise CacheError(f"cannot write the reference cache in {folder}: {error.strerror or error}; give another "
+                         "--cache DIR, make it writable, or pass --no-cache") from None
+    os.close(handle)
+    os.unlink(probe)
+    _remove_abandoned_partials(folder)
+    return folder
+
+
+def _remove_abandoned_partials(folder: Path) -> None:
+    """Remove ``.KEY.PID.npz`` partial entries whose writing process is gone (killed while writing)."""
+    for path in folder.glob(".*.*.npz"):
+        pid = path.name[:-len(".npz")].rsplit(".", 1)[-1]
+        if pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid)):
+            path.unlink(missing_ok=True)
+
+
+def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
+    """The reference cached under ``key`` in ``cache_dir``, or None where there is none or it is damaged."""
+    from .reference import ContactReference, LevelRow
+
+    if cache_dir is None:
+        return None
+    path = Path(cache_dir) / f"{key}.npz"
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            meta = json.loads(str(data["meta"]))
+            return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
+                                    tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
+                                    meta["E"], meta["nu"], settings,
+                                    data["nodal_response"] if "nodal_response" in data else None)
+    except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error):
+        return None  # a damaged entry (truncated, foreign) is recomputed, never trusted
+
+
+def save_entry(cache_dir, key: str, reference: ContactReference) -> None:
+    """Cache ``reference`` under ``key`` in ``cache_dir``, whole or not at all (CacheError naming the folder)."""
+    if cache_dir is None:
+        return
+    folder = Path(cache_dir)
+    meta = {"node": reference.node, "radius": reference.radius, "converged": reference.converged,
+            "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
+            "levels": [asdict(row) for row in reference.levels]}
+    partial = folder / f".{key}.{os.getpid()}.npz"
+    nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        np.savez(partial, response=reference.response, samples=reference.samples, meta=json.dumps(meta), **nodal)
+        os.replace(partial, folder / f"{key}.npz")  # atomic: a reader never sees half an entry
+    except OSError as error:
+        partial.unlink(missing_ok=True)
+        raise CacheError(f"cannot write a reference cache entry in {folder}: {error.strerror or error}; free space "
+                         "there, give another --cache DIR, or pass --no-cache") from None
+    except BaseException:
+        partial.unlink(missing_ok=True)
+        raise
