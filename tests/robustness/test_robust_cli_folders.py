@@ -152,3 +152,19 @@ def test_an_index_naming_a_file_outside_the_folder_removes_nothing_there(tmp_pat
 
     output.write_staged(out, lambda staging: (staging / "incision.json").write_text("[]"), ours=incision_files)
     assert (tmp_path / "x_pbd.obj").read_text() == "outside the folder"
+
+
+def test_incise_refuses_to_write_over_one_of_its_inputs(tmp_path, capsys):
+    from tissuesim import write_surface
+    from tissuesim.mesh import models
+
+    data = tmp_path / "data"
+    data.mkdir()
+    victim = data / "cube_pbd.obj"                       # the name the cube's pbd surface is written under
+    write_surface(victim, models.sphere(resolution=300))
+    before = victim.read_bytes()
+    assert main(["incise", "cube", str(victim), "--resolution", "300", "--methods", "pbd", "-o", str(data)]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == (f"tissuesim incise: error: the model file {victim} would be replaced by this run's "
+                       f"cube_pbd.obj in {data}; give another --output or move the model file")
+    assert victim.read_bytes() == before

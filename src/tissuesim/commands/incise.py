@@ -24,6 +24,7 @@ The fem reference cannot be cut (its volume would need re-tetrahedralizing); it 
 from __future__ import annotations
 
 import json
+import os
 import sys
 import time
 from pathlib import Path
@@ -76,8 +77,10 @@ def run(args) -> int:
     check_model_names(args.models)
     sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair)
                for spec in args.models or list(MODELS)]
-    check_no_folder(output, ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
-                                                               for method in args.methods for ext in ("obj", "vtu"))])
+    names = ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
+                                               for method in args.methods for ext in ("obj", "vtu"))]
+    check_no_folder(output, names)
+    _check_inputs_kept(args.models, output, names)
     rows, cuts = [], {}
     for name, source in sources:
         if not isinstance(source, HybridMesh):
@@ -119,6 +122,19 @@ def _source(spec: str, *, scale: float, resolution, repair: bool):
     name = model_name(spec)
     _check_fits(name, surface)
     return name, source
+
+
+def _check_inputs_kept(specs, output: Path, names: list[str]) -> None:
+    """Refuse (SolverError) a run that would write one of its own input files (``cube data/cube_pbd.obj -o data``
+    writes the cube's pbd surface to data/cube_pbd.obj)."""
+    from ..errors import SolverError
+
+    written = [output / name for name in names if (output / name).exists()]
+    for spec in specs:
+        clash = [path for path in written if Path(spec).is_file() and os.path.samefile(spec, path)]
+        if clash:
+            raise SolverError(f"the model file {spec} would be replaced by this run's {clash[0].name} in {output}; "
+                              "give another --output or move the model file")
 
 
 def _check_fits(name: str, surface) -> None:
