@@ -32,8 +32,8 @@ springs too), so a large load that inverts triangles leaves them inverted after 
 triangles). A step that inverts a triangle (its normal against its rest normal; one O(m) pass) therefore raises
 :class:`~tissuesim.errors.InversionError`, and ``reset()`` returns to rest. On a cut surface a flap may swing past a
 right angle as a whole, each hinge of it bent far less (measured: a two-triangle flap on a lip turned 90° under 0.3 N
-with folds of 34° and 52°); its springs bring it back, so a triangle that touches the cut's open edge is inside out
-only if it is also folded more than a right angle against a neighbour (:func:`swung_flaps`).
+with folds of 34° and 52°); its springs bring it back, so a triangle with a corner on the cut's open edge is inside
+out only if it is also folded more than a right angle against a neighbour (:func:`swung_flaps`).
 
 Integration: semi-implicit (symplectic) Euler, stable for a substep h_s ≤ 2/ω_max. ω_max² is bounded at set-up by
 Gershgorin's theorem on M^{-1/2} K M^{-1/2} (block norms: a spring of stiffness k between i, j adds k w_i to row i's
@@ -246,9 +246,9 @@ class MassSpringSolver(Solver):
 
 def swung_flaps(triangles: np.ndarray, turned: np.ndarray, now: np.ndarray, rest: np.ndarray) -> np.ndarray:
     """``(k,) bool``: which of the triangles ``turned`` (indices into ``triangles`` ``(m, 3)``) belong to a flap
-    that swung rather than turned inside out: they touch an open edge (one triangle; only a cut makes them), and the
-    fold against each neighbour across an edge has not grown by more than a right angle since rest. ``now``,
-    ``rest``: ``(m, 3)`` unit normals."""
+    that swung rather than turned inside out: a corner lies on an open edge (one triangle; only a cut makes them),
+    and the fold against each neighbour across an edge has not grown by more than a right angle since rest.
+    ``now``, ``rest``: ``(m, 3)`` unit normals."""
     edges = np.sort(triangles[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 3, 2), axis=2)       # (m, 3, 2)
     n = int(triangles.max()) + 1
     key = (edges[..., 0] * n + edges[..., 1]).ravel()
