@@ -136,11 +136,13 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
 def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
     """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open by
     ``force`` [N] beside its middle; the camera frames the wound."""
-    from ..cutting.wound import open_wound, scripted_incision, wound_gap
+    from ..cutting.wound import open_wound, pull_node, scripted_incision, wound_gap
+    from ..experiments.inputs import check_free_node
     from ..solvers.registry import make_solver
 
     solver = make_solver(method, hybrid)
     line = scripted_incision(solver)["line"]
+    check_free_node(solver, pull_node(solver.rest_positions, line), name, role="the pull beside the incision")
     cut_surface = solver.hybrid.surface
     closed = solver.positions.copy()
     opened = open_wound(solver, line, force=force)
