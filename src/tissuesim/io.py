@@ -111,7 +111,7 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
         repair_logger = logging.getLogger("tissuesim.repair")
         for change in changes:
             repair_logger.warning("%s: %s", path, change)
-    validate_surface(surface)
+    validate_surface(surface, source=str(path))
     return surface
 
 

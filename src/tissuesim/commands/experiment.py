@@ -49,7 +49,7 @@ def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
-    from ..experiments.inputs import check_model_specs, check_resolution
+    from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
     from ..experiments.run import ExperimentConfig, run_experiment
     from ..mesh.models import MODELS
 
@@ -74,6 +74,7 @@ def run(args) -> int:
         options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["scale"] = _number(args.scale, "--scale", "factor")
     options["repair"] = bool(args.repair)
+    check_model_files(models, scale=options["scale"], repair=options["repair"])
     if args.steps is not None:
         options["timing_steps"] = int(_number(args.steps, "--steps", "steps", integer=True))
     config = ExperimentConfig.quick(**options) if args.quick else ExperimentConfig(**options)
@@ -99,7 +100,7 @@ def _run_contact(args, output) -> int:
     from ..experiments.output import earlier_outputs, write_contact_outputs
     from ..experiments.reference import default_cache_dir
     from ..experiments.reference_cache import check_cache_dir
-    from ..experiments.inputs import check_model_specs, check_resolution
+    from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
     from ..mesh.models import MODELS
 
     check_model_specs(args.models)
@@ -109,6 +110,7 @@ def _run_contact(args, output) -> int:
     options = dict(contact.QUICK) if args.quick else {}
     if args.models:
         scale = _number(args.scale, "--scale", "factor")
+        check_model_files(args.models, scale=scale)
         options["models"] = tuple(args.models)
         options["scales"] = dict.fromkeys(args.models, scale)    # built-in models are scaled like files
     elif not args.quick:

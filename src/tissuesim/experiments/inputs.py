@@ -89,3 +89,19 @@ def check_fine_volume(hybrid, spec: str) -> None:
                         "surface file")
     raise MeshError(f"bundle {spec!r} was built without the fine volume, which the fem reference needs; rebuild it "
                     "with `tissuesim build SURFACE -o BUNDLE.npz` (without --no-fine-volume)")
+
+
+def check_model_files(specs, *, scale: float = 1.0, repair: bool = False) -> None:
+    """Read, without building, every model file of ``specs`` that an experiment will build later: a surface file is
+    read and validated (skipped with ``repair``, which may fix it), a bundle loaded and checked for its fine volume,
+    so a bad later model is refused before the first model's minutes of work."""
+    from ..io import SURFACE_EXTENSIONS, read_surface
+    from ..mesh.hybrid import HybridMesh
+
+    for spec in specs:
+        if spec in builtin_models.MODELS:
+            continue
+        if Path(spec).suffix.lower() not in SURFACE_EXTENSIONS:
+            check_fine_volume(HybridMesh.load(spec), spec)
+        elif not repair:
+            read_surface(spec, scale=scale)

@@ -247,8 +247,9 @@ def surface_defects(surface: SurfaceMesh) -> list[str]:
     return defects
 
 
-def validate_surface(surface: SurfaceMesh) -> None:
-    """Raise :class:`MeshError` naming every defect of ``surface`` (see :func:`surface_defects`); else return."""
+def validate_surface(surface: SurfaceMesh, *, source: str | None = None) -> None:
+    """Raise :class:`MeshError` naming every defect of ``surface`` (see :func:`surface_defects`), and the file it
+    was read from where ``source`` is given; else return."""
     defects = surface_defects(surface)
     if defects:
-        raise MeshError("invalid surface: " + "; ".join(defects))
+        raise MeshError(f"invalid surface{'' if source is None else f' {source}'}: " + "; ".join(defects))
