@@ -167,7 +167,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     """The table row of one model and method, and the cut surface to write: ``(positions (n, 3) [m], triangles
     (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
     from ..cutting.invariants import check_cut_invariants
-    from ..cutting.solver_update import refusal
+    from ..cutting.solver_update import anchored_nodes, refusal
     from ..cutting.wound import open_wound, pull_node, scripted_incision, unloaded_openings
     from ..experiments.inputs import check_free_node
     from ..solvers import make_solver
@@ -193,7 +193,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     beyond += [solver.last_solve.warning] if solver.last_solve.warning else []
     cut = solver.hybrid.surface
     problems = check_cut_invariants(cut.vertices, cut.triangles, masses=getattr(solver, "mass", None),
-                                    total_mass=total)
+                                    total_mass=total, anchored=anchored_nodes(solver))
     row = {"model": model, "method": method, "moves": len(moves), "move_ms_mean": float(move_ms.mean()),
            "move_ms_max": float(move_ms.max()), "triangles_split": sum(r.triangles_split for r in moves),
            "vertices_added": sum(r.vertices_added for r in moves),
