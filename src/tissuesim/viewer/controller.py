@@ -31,12 +31,10 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 
 from ..errors import SolverError, TissuesimError
-from ..interaction import PinHead
-from ..pbd.prestress import check_prestrain
-from ..solvers.checks import positive_number
-from ..solvers.registry import available_solvers, make_solver, solver_options
+from ..interaction import PinHead, checked_point
+from ..solvers.registry import make_solver, solver_options
+from .settings import DEFAULT_STIFFNESS, Settings, checked_settings
 
-DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
 BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picked point, toward the camera, so
@@ -45,34 +43,6 @@ SMOOTHING = 0.1  # weight of the newest sample in the running means of step time
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
 _REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field")
-
-
-@dataclass(frozen=True)
-class Settings:
-    """What the panel edits.
-
-    Attributes:
-        method: solver name (``tissuesim.available_solvers()``).
-        youngs_modulus: E [Pa]. poisson_ratio: ν [-].
-        stiffness: pin-head k of eq 24 [N/m].
-        radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
-        iterations: PBD iterations per step, or None where the method has none (or keeps its default).
-        dt: simulation time step [s].
-        prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.pbd.prestress`), on the methods that
-            take one (hybrid, pbd): a cut then gapes by itself.
-        near_field: W [m] of the hybrid's near field (:mod:`tissuesim.solvers.near_field`), or None (the paper's
-            hybrid); not on a cut mesh (its fine volume is not cut).
-    """
-
-    method: str = "hybrid"
-    youngs_modulus: float = 5500.0
-    poisson_ratio: float = 0.3
-    stiffness: float = DEFAULT_STIFFNESS
-    radius: float | None = None
-    iterations: int | None = None
-    dt: float = 0.01
-    prestrain: float = 0.0
-    near_field: float | None = None
 
 
 @dataclass(frozen=True)
@@ -95,27 +65,28 @@ def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
     """``(3,)`` point [m] where the ray ``origin + t direction`` meets the plane through ``anchor`` facing it.
 
     The plane's normal is the ray direction, so moving the cursor moves the point parallel to the screen. Returns
-    None when the anchor lies behind the camera.
+    None when the anchor lies behind the camera; SolverError for a ray that is not 3 finite numbers, not all zero.
     """
-    origin, direction, anchor = (np.asarray(v, dtype=np.float64) for v in (origin, direction, anchor))
-    direction = direction / np.linalg.norm(direction)
+    origin, anchor = checked_point(origin), checked_point(anchor)
+    direction = unit_ray(direction)
     t = float(np.dot(anchor - origin, direction))
     return None if t <= 0.0 else origin + t * direction
 
 
-def checked_settings(settings: Settings) -> Settings:
-    """``settings`` in canonical form, or SolverError naming the first bad one (cheap: checked before a mesh is
-    built)."""
-    if settings.method not in available_solvers():
-        raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
-    positive_number("pin-head stiffness", settings.stiffness, "N/m")
-    positive_number("time step dt", settings.dt, "s")
-    if settings.radius is not None:
-        positive_number("contact radius", settings.radius, "m")
-    if settings.iterations is not None and int(settings.iterations) < 1:
-        raise SolverError(f"iterations must be at least 1, got {settings.iterations}")
-    near_field = None if settings.near_field is None else positive_number("near field W", settings.near_field, "m")
-    return replace(settings, prestrain=check_prestrain(settings.prestrain), near_field=near_field)
+def unit_ray(direction) -> np.ndarray:
+    """``direction`` ``(3,)`` of a camera ray as a unit vector, or SolverError (a window that hands over a zero or
+    NaN ray would otherwise put NaN into a drag or a blade)."""
+    try:
+        vector = np.asarray(direction, dtype=np.float64)
+    except (TypeError, ValueError):
+        vector = np.full(3, np.nan)
+    with np.errstate(over="ignore"):  # a ray of 1e200 is a direction all the same: scaled by its largest part
+        largest = float(np.max(np.abs(vector))) if vector.shape == (3,) else np.nan
+        if np.isfinite(largest) and largest > 0.0:
+            vector = vector / largest
+            return vector / np.linalg.norm(vector)
+    raise SolverError(f"the camera ray's direction must be 3 finite numbers, not all zero, got {direction!r}; "
+                      "the pointer event is ignored")
 
 
 def scalpel_class():
@@ -173,44 +144,51 @@ class Controller:
 
     # ----------------------------------------------------------------------------------------------- pointer
     def pointer_down(self, hit, ray_origin, ray_direction) -> None:
-        """Button down: ``hit`` ``(3,)`` picked surface point [m] or None; the camera ray through the cursor."""
+        """Button down: ``hit`` ``(3,)`` picked surface point [m] or None; the camera ray through the cursor.
+
+        A bad event (a hit or ray that is not 3 finite numbers) changes nothing and says why in :attr:`notice`."""
         self.notice = ""
         if hit is None:
             return
-        hit = np.asarray(hit, dtype=np.float64)
-        if self.mode == "pin":
-            try:
+        try:
+            hit = checked_point(hit).copy()
+            if self.mode == "pin":
                 self.pin.grab(hit)
-            except SolverError as error:
-                self.notice = str(error)
-                return
-            self.notice = self.pin.notice   # the grab may have held a farther node than the one clicked: say so
-            self.cursor, self.force = hit, np.zeros(3)
-        else:
-            tip = self._lifted(hit, ray_direction)
-            try:
+                self.notice = self.pin.notice  # the grab may have held a farther node than the one clicked: say so
+                self.cursor, self.force = hit, np.zeros(3)
+            else:
+                tip = self._lifted(hit, ray_direction)
                 self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
-            except TissuesimError as error:
-                self.notice = str(error)
-                return
-            self._cutting, self._blade = True, tip
+                self._cutting, self._blade = True, tip
+        except TissuesimError as error:
+            self.notice = str(error)
 
     def pointer_move(self, hit, ray_origin, ray_direction) -> None:
-        """Cursor moved: drag the held pin-head in the camera plane, or move the blade."""
-        if self.mode == "pin":
-            if not self.pin.grabbed:
-                self.cursor = None if hit is None else np.asarray(hit, dtype=np.float64)
-                return
-            point = camera_plane_point(ray_origin, ray_direction, self.pin.anchor)
-            if point is not None:
-                self.cursor, self.force = point, self.pin.drag(point)
-        elif self._cutting:
-            if hit is not None:
-                point = self._lifted(np.asarray(hit, dtype=np.float64), ray_direction)
-            else:
-                point = camera_plane_point(ray_origin, ray_direction, self._blade)
-            if point is not None:
-                self._move_blade(np.asarray(point, dtype=np.float64))
+        """Cursor moved: drag the held pin-head in the camera plane, or move the blade.
+
+        A drag the pin-head refuses (a bad ray, a force too large to hold) keeps the hold and the last force and
+        says why in :attr:`notice`; a refused cut lifts the blade (:meth:`_move_blade`)."""
+        try:
+            if self.mode == "pin":
+                self._drag_pin(hit, ray_origin, ray_direction)
+            elif self._cutting:
+                if hit is not None:
+                    point = self._lifted(checked_point(hit), ray_direction)
+                else:
+                    point = camera_plane_point(ray_origin, ray_direction, self._blade)
+                if point is not None:
+                    self._move_blade(np.asarray(point, dtype=np.float64))
+        except TissuesimError as error:
+            self.notice = f"the drag was refused: {error}"
+
+    def _drag_pin(self, hit, ray_origin, ray_direction) -> None:
+        if not self.pin.grabbed:
+            self.cursor = None if hit is None else checked_point(hit).copy()
+            return
+        point = camera_plane_point(ray_origin, ray_direction, self.pin.anchor)
+        if point is not None:
+            self.force = self.pin.drag(point)  # raises before the load changes (solver.set_load checks first)
+            self.cursor = point
 
     def _move_blade(self, point: np.ndarray) -> None:
         """Cut on to ``point`` ``(3,)`` [m]; a refused move lifts the blade and says why in :attr:`notice` (the
@@ -236,8 +214,10 @@ class Controller:
     def key(self, name: str) -> None:
         """Keyboard: "s" switches pin-head / scalpel, "r" resets, "space" pauses and resumes."""
         actions = {"s": self.toggle_mode, "r": self.reset, "space": self.toggle_pause}
-        if name in actions:
+        if isinstance(name, str) and name in actions:
             actions[name]()
+        elif not isinstance(name, str):  # every key of a keyboard arrives here: other names are ignored quietly
+            self.notice = f"a key is named by a string (s, r, space), got {name!r}; ignored"
 
     # ---------------------------------------------------------------------------------------------- commands
     def toggle_mode(self) -> None:
@@ -322,6 +302,8 @@ class Controller:
     def _frame_time(elapsed) -> float:
         """``elapsed`` [s] as a float, or SolverError unless finite and at least 0."""
         try:
+            if isinstance(elapsed, (bool, np.bool_, str, bytes)):  # True would run a whole frame of steps
+                raise TypeError
             seconds = float(elapsed)
         except (TypeError, ValueError):
             raise SolverError(f"a frame's wall time must be a number of seconds, got {elapsed!r}") from None
@@ -331,10 +313,9 @@ class Controller:
         return seconds
 
     # ---------------------------------------------------------------------------------------------- internals
-    def _lifted(self, point: np.ndarray, ray_direction) -> np.ndarray:
+    def _lifted(self, point: np.ndarray, direction) -> np.ndarray:
         """``point`` moved back along the camera ray by BLADE_LIFT × the blade depth."""
-        direction = np.asarray(ray_direction, dtype=np.float64)
-        return point - BLADE_LIFT * self.scalpel.depth * direction / np.linalg.norm(direction)
+        return point - BLADE_LIFT * self.scalpel.depth * unit_ray(direction)
 
     def _solver_options(self, hybrid) -> dict:
         s = self.settings
@@ -355,29 +336,36 @@ class Controller:
                 and not mesh.info.get("cuts"))
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
-        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node."""
+        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is
+        built first and swapped in only then, so a refusal (a method that cannot run here, a contact radius that
+        reaches the fixed region from the held node) leaves the controller as it was."""
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
-        solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))  # raises before any change
-        if not held:
+        solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))
+        pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
+        force = np.zeros(3)
+        if held is not None:
+            pin.node, pin.anchor = held
+            if self.cursor is not None:
+                force = pin.drag(self.cursor)  # on the new solver, not yet the live one
+        else:
             solver.step(self.settings.dt)  # at rest: builds what the first step needs (a factorisation) while loading
+        scalpel, no_scalpel = self._new_scalpel(solver)
         if self._cutting:  # the new solver's scalpel is not pressed: the cut so far stays, the blade is lifted
             self.pointer_up()
-        self.solver = solver
-        self.pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
-        self.scalpel, self._no_scalpel = None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
-        if self._scalpel_factory is not None:
-            try:
-                self.scalpel = self._scalpel_factory(solver)
-            except TissuesimError as error:  # e.g. a method that cannot be cut
-                self._no_scalpel = f"no scalpel with the {solver.name} method: {error}"
+        self.solver, self.pin, self.force = solver, pin, force
+        self.scalpel, self._no_scalpel = scalpel, no_scalpel
         if self.scalpel is None and self.mode == "scalpel":
             self.mode = "pin"
         self._debt = 0.0
         self._step_seconds = 0.0
-        if held is not None:
-            self.pin.node, self.pin.anchor = held
-            self.force = self.pin.drag(self.cursor) if self.cursor is not None else np.zeros(3)
-        else:
-            self.force = np.zeros(3)
-            if self.mode == "pin":
-                self.cursor = None
+        if held is None and self.mode == "pin":
+            self.cursor = None
+
+    def _new_scalpel(self, solver):
+        """``(scalpel or None, why there is none)`` over ``solver``."""
+        if self._scalpel_factory is None:
+            return None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
+        try:
+            return self._scalpel_factory(solver), ""
+        except TissuesimError as error:  # e.g. a method that cannot be cut
+            return None, f"no scalpel with the {solver.name} method: {error}"

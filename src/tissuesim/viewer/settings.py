@@ -1,0 +1,90 @@
+"""What the simulator's panel edits (:class:`Settings`), and the checks that turn a value a user or a script gives
+into the number a solver takes (:func:`checked_settings`): before a mesh is built, so a bad one costs nothing."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import SolverError
+from ..pbd.prestress import check_prestrain
+from ..solvers.checks import is_integer, positive_number, time_step
+from ..solvers.registry import available_solvers
+
+DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What the panel edits.
+
+    Attributes:
+        method: solver name (``tissuesim.available_solvers()``).
+        youngs_modulus: E [Pa]. poisson_ratio: ν [-].
+        stiffness: pin-head k of eq 24 [N/m].
+        radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
+        iterations: PBD iterations per step, or None where the method has none (or keeps its default).
+        dt: simulation time step [s].
+        prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.pbd.prestress`), on the methods that
+            take one (hybrid, pbd): a cut then gapes by itself.
+        near_field: W [m] of the hybrid's near field (:mod:`tissuesim.solvers.near_field`), or None (the paper's
+            hybrid); not on a cut mesh (its fine volume is not cut).
+    """
+
+    method: str = "hybrid"
+    youngs_modulus: float = 5500.0
+    poisson_ratio: float = 0.3
+    stiffness: float = DEFAULT_STIFFNESS
+    radius: float | None = None
+    iterations: int | None = None
+    dt: float = 0.01
+    prestrain: float = 0.0
+    near_field: float | None = None
+
+
+def _setting_number(name: str, value, unit: str, check=positive_number) -> float:
+    """``value`` of the setting ``name`` as ``check`` returns it, or SolverError: a bool or a string is no number
+    here (True would mean 1, and "0.01" would reach the solver as text)."""
+    if isinstance(value, (bool, np.bool_, str, bytes)):
+        raise SolverError(f"setting {name} must be a number [{unit}], got {value!r}")
+    return check(f"setting {name}", value, unit)
+
+
+def _finite(name: str, value, unit: str) -> float:
+    """``value`` as a finite float, or SolverError naming ``name`` (the material checks its range)."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        number = float("nan")
+    if not np.isfinite(number):
+        raise SolverError(f"{name} must be a finite number [{unit}], got {value!r}")
+    return number
+
+
+def _iterations(value) -> int | None:
+    """PBD iterations as an int of at least 1 (or None), else SolverError: 2.5 or True is no count."""
+    if value is None:
+        return None
+    if not is_integer(value) or int(value) < 1:
+        raise SolverError(f"setting iterations must be a whole number of at least 1, got {value!r}")
+    return int(value)
+
+
+def checked_settings(settings: Settings) -> Settings:
+    """``settings`` in canonical form (floats, an int or None for iterations), or SolverError naming the first bad
+    one (cheap: checked before a mesh is built)."""
+    if not isinstance(settings.method, str) or settings.method not in available_solvers():
+        raise SolverError(f"unknown method {settings.method!r}; choose one of {', '.join(available_solvers())}")
+    radius, near_field = settings.radius, settings.near_field
+    return replace(
+        settings,
+        youngs_modulus=_setting_number("youngs_modulus (Young's modulus E)", settings.youngs_modulus, "Pa"),
+        poisson_ratio=_setting_number("poisson_ratio (Poisson's ratio)", settings.poisson_ratio, "1", _finite),
+        stiffness=_setting_number("stiffness (pin-head stiffness k)", settings.stiffness, "N/m"),
+        radius=None if radius is None else _setting_number("radius (contact radius)", radius, "m"),
+        iterations=_iterations(settings.iterations),
+        dt=_setting_number("dt (time step dt)", settings.dt, "s", lambda name, value, unit: time_step(value, name)),
+        prestrain=_setting_number("prestrain (in-plane strain)", settings.prestrain, "1", lambda name, value, unit:
+                                  check_prestrain(value)),
+        near_field=None if near_field is None else _setting_number("near_field (near field W)", near_field, "m"))
