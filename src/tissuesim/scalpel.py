@@ -14,6 +14,10 @@ Choices where the paper is silent:
 * the blade is a segment of ``depth`` [m] from the tool tip along ``direction``, fixed at the press (by default the
   inward normal of the surface there), so each move sweeps a flat parallelogram;
 * ``press`` refuses a point farther than ``depth`` from the surface, naming the distance;
+* the blade is at most the model's size long (the diagonal of the surface's bounding box when the scalpel is made):
+  a longer one reaches through the body to the far side (the fixed bottom of the cube at 1e8 m) and, far longer,
+  overflows the sweep's arithmetic; a move farther than :data:`MOVE_REACH` model sizes from the surface's bounding
+  box is refused too (a tip parked at 1e300 m would do the same on the next move);
 * a move shorter than ``snap`` × the mean edge length is kept for later: its sweep would make only slivers, so the
   tool's last cutting position stays until it has moved far enough;
 * ``snap`` is a fraction of the local edge length (see :mod:`tissuesim.cutting.sweep`).
@@ -34,6 +38,9 @@ from .solvers.checks import positive_number
 
 #: Default blade length in mean rest edge lengths of M_S.
 DEPTH_EDGES = 2.0
+#: Farthest a move may take the tool from the surface's bounding box, in model sizes (bounding-box diagonals): a
+#: hand off the tissue stays within a few, a point beyond is a units or input error.
+MOVE_REACH = 3.0
 
 
 class Scalpel:
@@ -41,7 +48,8 @@ class Scalpel:
 
     Args:
         solver: a hybrid, pbd, mass-spring or embedded solver (the fem reference refuses, saying why).
-        depth: blade length [m] from the tip into the tissue; default ``DEPTH_EDGES`` mean rest edge lengths.
+        depth: blade length [m] from the tip into the tissue, at most the model's size; default ``DEPTH_EDGES`` mean
+            rest edge lengths (or the model's size, on a mesh of a few long edges).
         snap: snap fraction of the local edge length in [0.15, 1/3) (default
             :data:`tissuesim.cutting.core.DEFAULT_SNAP`; below :data:`tissuesim.cutting.sweep.MIN_SNAP` = 0.15 cut
             points too close to merge make zero-area triangles or slivers, so it is refused).
@@ -49,6 +57,7 @@ class Scalpel:
     Attributes:
         tip: ``(3,) float64`` where the last cut stopped [m], or None when not pressed.
         direction: ``(3,) float64`` unit blade direction, or None.
+        size: the model's size [m]: the diagonal of the surface's bounding box when the scalpel was made.
     """
 
     def __init__(self, solver, *, depth: float | None = None, snap: float = DEFAULT_SNAP):
@@ -58,7 +67,12 @@ class Scalpel:
         edges = surface.edges
         self._edge = float(np.linalg.norm(surface.vertices[edges[:, 0]] - surface.vertices[edges[:, 1]],
                                           axis=1).mean())
-        self.depth = positive_number("blade depth", DEPTH_EDGES * self._edge if depth is None else depth, "m")
+        self.size = float(np.linalg.norm(np.ptp(solver.positions, axis=0)))
+        self.depth = positive_number("blade depth", min(DEPTH_EDGES * self._edge, self.size) if depth is None else depth, "m")
+        if self.depth > self.size:
+            raise SolverError(f"blade depth {self.depth:.4g} m is longer than the model's size {self.size:.4g} m (the "
+                              "diagonal of its bounding box): it would cut through to the far side; pass a depth of "
+                              f"at most {self.size:.4g} m")
         self.snap = check_snap(snap)
         self.tip: np.ndarray | None = None
         self.direction: np.ndarray | None = None
@@ -108,7 +122,7 @@ class Scalpel:
         if self.tip is None:
             raise SolverError("the scalpel is not pressed; call press(point) first")
         start = time.perf_counter()
-        point = checked_point(point)
+        point = self._within_reach(checked_point(point))
         if np.linalg.norm(point - self.tip) < self.snap * self._edge:
             return CutReport(seconds=time.perf_counter() - start)
         # the sweep's triangles are searched outward from where the cut is (see cutting.buffers.CutSurface)
@@ -119,6 +133,19 @@ class Scalpel:
         if end >= 0:
             self._anchor = end
         return report
+
+    def _within_reach(self, point: np.ndarray) -> np.ndarray:
+        """``point`` ``(3,)`` [m], or SolverError naming it when farther than MOVE_REACH model sizes from the
+        surface's bounding box now."""
+        positions = self.solver.positions
+        outside = np.maximum(positions.min(axis=0) - point, 0.0) + np.maximum(point - positions.max(axis=0), 0.0)
+        largest = float(np.max(outside))  # scaled before squaring: a point at 1e300 m must not overflow to inf
+        distance = 0.0 if largest == 0.0 else largest * float(np.linalg.norm(outside / largest))
+        if distance > MOVE_REACH * self.size:
+            raise SolverError(f"the scalpel cannot move to {point.tolist()}: it is {distance:.4g} m from the model, "
+                              f"farther than {MOVE_REACH:g} × its size {self.size:.4g} m; move the tool near the "
+                              "surface (coordinates in metres)")
+        return point
 
     def _start(self) -> np.ndarray:
         """Where this move's sweep starts: the tip, moved across the blade so the blade passes through the vertex
