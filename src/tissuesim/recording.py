@@ -14,15 +14,17 @@ series of separate VTU files allows.
 
 A frame is written only when something changed since the last one written: the surface was cut, the load
 changed, or a vertex moved more than :data:`MIN_MOTION` (a tissue at rest writes nothing). A recording is written
-under a temporary name beside its target (the folder ``NAME_frames.partial-*``, readable on its own through the
-index inside it) and takes the target's place only when it is closed, so an old recording of that name survives
-until the new one is complete.
+under a temporary name beside its target (the folder ``NAME_frames.partial-PID-N``, readable on its own through the
+index inside it, written at the first frame and every :data:`FLUSH_EVERY` frames) and takes the target's place only
+when it is closed, so an old recording of that name survives until the new one is complete. The partial folder of
+a killed session stays until a new recording of that name starts, which removes those whose process is gone.
 """
 
 from __future__ import annotations
 
 import itertools
 import os
+import re
 import shutil
 from dataclasses import dataclass
 from datetime import datetime
@@ -37,6 +39,11 @@ FLUSH_EVERY = 50  # frames between rewrites of the .pvd index, so an interrupted
 MIN_MOTION = 1e-6  # m: a frame in which no vertex moved farther than this since the last frame written (and
 # neither the load nor the surface changed) is not written: 1 um is far below what a tissue model of centimetres
 # shows, and far above the round-off of a solver at rest
+MAX_COORDINATE = 1e6  # m: a frame with a point farther from the origin is refused. A model is at most 100 m across
+# (the build's bound) and the runaway guard stops a simulation at 100 model sizes, so 1e6 m is never recorded; it is
+# far inside float32 (3.4e38), which the viewer draws in, and a camera can still frame it
+MIN_EXTENT = 1e-9  # m: a frame whose points span less (all in one place) is refused: a model is at least 1 um
+# across, and a viewer cannot frame a single point (polyscope blocks in a modal dialog)
 
 
 class RecordingError(TissuesimError, OSError):
@@ -77,9 +84,22 @@ def solver_frame(solver, time: float) -> Frame:
 def check_target(path) -> Path:
     """``path`` as a Path if a recording can be written there, else a :class:`RecordingError` saying why: checked
     before a session starts, so that nothing is simulated for a recording that could not be kept."""
+    if not str(path):
+        raise RecordingError("a recording needs a file name, got an empty one; name it e.g. session.pvd")
     path = Path(path)
     if path.suffix.lower() != ".pvd":
         raise RecordingError(f"a recording is a ParaView .pvd file, got {str(path)!r}; name it e.g. session.pvd")
+    try:
+        _check_place(path)
+    except OSError as error:  # e.g. a name too long for the file system
+        if isinstance(error, RecordingError):
+            raise
+        raise RecordingError(f"cannot record to {str(path)!r}: {error.strerror or error}; use a shorter name or "
+                             "another folder") from None
+    return path
+
+
+def _check_place(path: Path) -> None:
     folder, frames = path.parent, frames_folder(path)
     if not folder.is_dir():
         raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} does not exist")
@@ -90,7 +110,25 @@ def check_target(path) -> Path:
                              "move that file away or record under another name")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} is not writable")
-    return path
+    longest = f"{_partial_stem(path)}-0-old"  # the longest name a recording creates there (see Recorder.close)
+    limit = _name_max(folder)
+    if len(os.fsencode(longest)) > limit:
+        raise RecordingError(f"cannot record to {str(path)!r}: the name is too long; its frames folder is written "
+                             f"as {longest!r} ({len(os.fsencode(longest))} bytes), more than the {limit} bytes a "
+                             "file name may have there; use a shorter name")
+
+
+def _name_max(folder: Path) -> int:
+    """The longest file name [bytes] ``folder``'s file system takes (255 where it does not say)."""
+    try:
+        return int(os.pathconf(folder, "PC_NAME_MAX"))
+    except (OSError, ValueError, AttributeError):
+        return 255
+
+
+def _partial_stem(path: Path, pid: int | None = None) -> str:
+    """The name of a recording's partial frames folder, without its ``-<n>`` (see :func:`_fresh_folder`)."""
+    return f"{frames_folder(path).name}.partial-{os.getpid() if pid is None else pid}"
 
 
 def session_path(folder, *, stem: str = "tissuesim_session") -> Path:
@@ -124,10 +162,9 @@ class Recorder:
     def __init__(self, path, *, min_motion: float = MIN_MOTION):
         self.path = check_target(path)
         self.folder = frames_folder(self.path)
-        self.min_motion = float(min_motion)
-        if not self.min_motion >= 0.0 or self.min_motion == float("inf"):
-            raise RecordingError(f"min_motion must be a finite distance of at least 0 m, got {min_motion!r}")
-        self._partial = _fresh_folder(self.path.parent, f"{self.folder.name}.partial-{os.getpid()}")
+        self.min_motion = _distance(min_motion)
+        remove_stale_partials(self.path)
+        self._partial = _fresh_folder(self.path.parent, _partial_stem(self.path))
         self._entries: list[tuple[float, str]] = []
         self._last = None  # (positions, triangles, force) of the last frame written
 
@@ -151,7 +188,7 @@ class Recorder:
                                                                "force": frame.force}, cell_data={"cut": cut})
         try:
             mesh.write(self._partial / name, binary=True)
-            if (len(self._entries) + 1) % FLUSH_EVERY == 0:
+            if len(self._entries) == 0 or (len(self._entries) + 1) % FLUSH_EVERY == 0:
                 _write_index(self._partial / self.path.name, self._entries + [(frame.time, name)], "")
         except OSError as error:  # e.g. a full disk
             where = f"frame {len(self._entries)} into {str(self._partial)!r}"
@@ -185,7 +222,7 @@ class Recorder:
                                  f"are in {str(where)!r}") from None
         self._partial = None
         if old is not None:
-            shutil.rmtree(old, ignore_errors=True)
+            _remove(old)
         return self.path
 
     def _swap(self, index: str) -> Path | None:
@@ -206,7 +243,7 @@ class Recorder:
     def abort(self) -> None:
         """Discard this recording (its frames so far); an old recording of that name stays as it was."""
         if self._partial is not None:
-            shutil.rmtree(self._partial, ignore_errors=True)
+            _remove(self._partial)
             self._partial = None
 
     def __enter__(self):
@@ -217,6 +254,55 @@ class Recorder:
             self.close()
         else:
             self.abort()
+
+
+def _distance(min_motion) -> float:
+    """``min_motion`` as a finite float [m] of at least 0, or a :class:`RecordingError` (a bool or a string is no
+    distance)."""
+    try:
+        if isinstance(min_motion, (bool, np.bool_, str, bytes)):
+            raise TypeError
+        value = float(min_motion)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not (np.isfinite(value) and value >= 0.0):
+        raise RecordingError(f"min_motion must be a finite distance of at least 0 m, got {min_motion!r}")
+    return value
+
+
+def remove_stale_partials(path: Path) -> list[Path]:
+    """Remove the partial frames folders of recordings of ``path`` that a process now dead left (killed before it
+    closed them); returns them. A partial of a live process, or of one this user may not signal, is kept."""
+    pattern = re.compile(re.escape(frames_folder(path).name) + r"\.partial-(\d+)-\d+(-old)?")
+    stale = []
+    for entry in path.parent.iterdir():
+        found = pattern.fullmatch(entry.name)
+        if found and not _alive(int(found.group(1))):
+            _remove(entry)
+            stale.append(entry)
+    return stale
+
+
+def _alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (one of another user's counts: it may still be writing)."""
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OverflowError, OSError):  # PermissionError: another user's process
+        return True
+    return True
+
+
+def _remove(path: Path) -> None:
+    """Remove the folder ``path``, or the link itself where it is one (rmtree refuses links); errors ignored: what
+    is left is only a leftover."""
+    if path.is_symlink():
+        path.unlink(missing_ok=True)
+    else:
+        shutil.rmtree(path, ignore_errors=True)
 
 
 def _fresh_folder(parent: Path, stem: str) -> Path:
@@ -240,16 +326,22 @@ def _write_index(path: Path, entries, prefix: str) -> None:
                     f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
 
 
-def read_recording(path) -> list[Frame]:
-    """The frames of the recording ``path`` (a ``.pvd`` written by :class:`Recorder`), in time order.
+def read_recording(path, *, progress: bool = False) -> list[Frame]:
+    """The frames of the recording ``path`` (a ``.pvd`` written by :class:`Recorder`), in time order, all in memory
+    (checked before a viewer opens); ``progress`` shows a tqdm bar on stderr (a long recording takes seconds).
 
     A damaged or foreign recording raises a :class:`RecordingError` naming the file and the defect: an index that
     is not a collection or lists no frame, a missing or unreadable VTU, no triangles, indices out of range,
-    missing or wrongly shaped point data, non-finite values."""
+    missing or wrongly shaped point data, non-finite values, points beyond :data:`MAX_COORDINATE` or spanning
+    less than :data:`MIN_EXTENT`."""
+    from tqdm import tqdm
+
     path = Path(path)
     if not path.is_file():
         raise RecordingError(f"no recording at {str(path)!r}; record one with tissuesim view --record FILE.pvd")
-    return [_read_frame(path.parent / name, time) for time, name in _index(path)]
+    entries = _index(path)
+    return [_read_frame(path.parent / name, time)
+            for time, name in tqdm(entries, disable=not progress, unit="frame", leave=False, desc="reading")]
 
 
 def _index(path: Path) -> list[tuple[float, str]]:
@@ -299,6 +391,7 @@ def _read_frame(file: Path, time: float) -> Frame:
                              "the surface's triangles")
     data = {name: _point_data(file, mesh, name, len(points)) for name in ("displacement", "force")}
     _check_finite(file, "positions", points)
+    _check_extent(file, points)
     for kind, cells in (("triangle", triangles), ("line", lines)):
         bad = np.flatnonzero(np.any((cells < 0) | (cells >= len(points)), axis=1))
         if bad.size:
@@ -319,6 +412,20 @@ def _point_data(file: Path, mesh, name: str, count: int) -> np.ndarray:
                              f"({count}, 3) for its {count} points")
     _check_finite(file, name, values)
     return values
+
+
+def _check_extent(file: Path, points: np.ndarray) -> None:
+    """RecordingError unless the frame's points lie within MAX_COORDINATE of the origin and span at least
+    MIN_EXTENT (a viewer cannot frame a point, nor coordinates its float32 drawing turns into infinities)."""
+    far = np.flatnonzero(np.any(np.abs(points) > MAX_COORDINATE, axis=1))
+    if far.size:
+        raise RecordingError(f"frame file {str(file)!r}: {far.size} points lie farther than {MAX_COORDINATE:g} m "
+                             f"from the origin (first points {first_indices(far)}, e.g. {points[far[0]].tolist()}); "
+                             "no model is that large: the recording is damaged or in other units")
+    extent = float(np.linalg.norm(np.ptp(points, axis=0)))
+    if extent < MIN_EXTENT:
+        raise RecordingError(f"frame file {str(file)!r}: its {len(points)} points span {extent:.3g} m, less than "
+                             f"{MIN_EXTENT:g} m: there is no surface to show; the recording is damaged")
 
 
 def _check_finite(file: Path, name: str, values: np.ndarray) -> None:

@@ -78,6 +78,21 @@ def truncated(pvd):
     vtu.write_bytes(data[: len(data) // 2])
 
 
+def far_points(pvd):  # polyscope's view of such a frame blocked in a modal dialog that only SIGKILL ended
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS + 1e298, [("triangle", TRIANGLES)],
+              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+
+
+def all_in_one_place(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", np.zeros((4, 3)), [("triangle", TRIANGLES)],
+              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+
+
+def single_point(pvd):
+    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS[:1], [("triangle", [[0, 0, 0]])],
+              displacement=np.zeros((1, 3)), force=np.zeros((1, 3)))
+
+
 DAMAGES = {  # damage -> (what the message must say, the file it must name)
     missing_vtu: ("missing", "frame_000001.vtu"),
     tets_only: ("no triangles (cells: tetra)", "frame_000001.vtu"),
@@ -87,6 +102,9 @@ DAMAGES = {  # damage -> (what the message must say, the file it must name)
     wrong_shape: ("'displacement' has shape (4, 2), expected (4, 3)", "frame_000001.vtu"),
     nan_positions: ("1 points have non-finite positions (first points 2)", "frame_000001.vtu"),
     truncated: ("truncated or not a VTU file", "frame_000001.vtu"),
+    far_points: ("4 points lie farther than 1e+06 m from the origin", "frame_000001.vtu"),
+    all_in_one_place: ("its 4 points span 0 m, less than 1e-09 m", "frame_000001.vtu"),
+    single_point: ("its 1 points span 0 m", "frame_000001.vtu"),
 }
 
 
@@ -179,3 +197,75 @@ def test_a_tissue_at_rest_writes_no_frames_and_every_change_writes_one(tmp_path)
         assert recorder.add(frame(2.0, 2.4 * MIN_MOTION, force=0.5))  # the load changed, nothing moved yet
         assert recorder.add(frame(2.1, 2.4 * MIN_MOTION, force=0.5, triangles=TRIANGLES[1:]))  # a cut
     assert len(read_recording(tmp_path / "s.pvd")) == 5
+
+
+# ------------------------------------------------------------------------------------- partial folders, links
+def dead_pid():
+    """The id of a process that has ended (its own child, waited for)."""
+    import subprocess
+    import sys
+
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+def test_a_new_recording_removes_the_partials_of_killed_sessions_of_its_name_only(tmp_path):
+    import os
+
+    dead = dead_pid()
+    stale = tmp_path / f"s_frames.partial-{dead}-0"
+    stale.mkdir()
+    (stale / "frame_000000.vtu").write_text("half")
+    (tmp_path / f"s_frames.partial-{dead}-1-old").symlink_to(stale)    # a link is removed as a link
+    live = tmp_path / f"s_frames.partial-{os.getppid()}-0"                 # a session still running
+    live.mkdir()
+    other = tmp_path / f"t_frames.partial-{dead}-0"                        # another recording's
+    other.mkdir()
+    record(tmp_path / "s.pvd", [0.0])
+    assert tree(tmp_path) == sorted(["s.pvd", "s_frames", "s_frames/frame_000000.vtu", live.name, other.name])
+
+
+def test_a_partial_recording_is_readable_from_its_first_frame(tmp_path):
+    recorder = Recorder(tmp_path / "s.pvd")  # a session killed after one frame
+    recorder.add(frame(0.0))
+    partial = [p for p in tmp_path.iterdir() if ".partial-" in p.name]
+    assert len(partial) == 1 and len(read_recording(partial[0] / "s.pvd")) == 1
+    recorder.abort()
+
+
+def test_re_recording_over_a_linked_frames_folder_leaves_no_link_behind(tmp_path):
+    record(tmp_path / "real.pvd", [0.0, 0.001])
+    (tmp_path / "x_frames").symlink_to(tmp_path / "real_frames")
+    record(tmp_path / "x.pvd", [0.0])
+    assert tree(tmp_path) == ["real.pvd", "real_frames", "real_frames/frame_000000.vtu",
+                              "real_frames/frame_000001.vtu", "x.pvd", "x_frames", "x_frames/frame_000000.vtu"]
+    assert not (tmp_path / "x_frames").is_symlink() and len(read_recording(tmp_path / "real.pvd")) == 2
+
+
+# ------------------------------------------------------------------------------------------------ small checks
+@pytest.mark.parametrize("min_motion", [True, "1e-3", None])
+def test_min_motion_is_a_distance(tmp_path, min_motion):
+    with pytest.raises(RecordingError, match="min_motion must be a finite distance"):
+        Recorder(tmp_path / "s.pvd", min_motion=min_motion)
+    assert tree(tmp_path) == []
+
+
+@pytest.mark.parametrize("name, said", [
+    ("a" * 300 + ".pvd", "name too long"),        # the .pvd itself
+    ("b" * 240 + ".pvd", "the name is too long"),  # its frames folder's temporary name
+])
+def test_a_name_too_long_is_a_recording_error_before_anything_is_written(tmp_path, name, said):
+    with pytest.raises(RecordingError, match=said):
+        Recorder(tmp_path / name)
+    assert tree(tmp_path) == []
+
+
+def test_an_empty_name_is_said_to_be_empty():
+    with pytest.raises(RecordingError, match="got an empty one"):
+        Recorder("")
+
+
+def test_reading_a_recording_can_show_its_progress(tmp_path, capsys):
+    frames = read_recording(record(tmp_path / "s.pvd", [0.0, 0.001]), progress=True)
+    assert len(frames) == 2 and "reading" in capsys.readouterr().err

@@ -57,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
     from ..viewer.gl import polyscope
 
     if args.replay is not None:
-        frames = read_recording(args.replay)  # a damaged recording is named before a window opens
+        frames = read_recording(args.replay, progress=True)  # a damaged recording is named before a window opens
         polyscope(headless=False)
         ReplayApp(frames, title=args.replay.name).run()
         return 0
