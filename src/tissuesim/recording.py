@@ -157,6 +157,8 @@ class Recorder:
             load or the surface changed (default :data:`MIN_MOTION`; 0 writes every frame that changed at all).
 
     Leaving the ``with`` block by an exception discards the new recording and keeps the old one (:meth:`abort`).
+    The viewer does otherwise: Ctrl-C or SIGTERM ends a session as closing its window does, and what was recorded
+    is kept (:meth:`tissuesim.viewer.app.ViewerApp.close`).
     """
 
     def __init__(self, path, *, min_motion: float = MIN_MOTION):

@@ -67,3 +67,42 @@ def test_a_frame_that_cannot_be_written_ends_the_recording_and_the_session_goes_
     finally:
         app.close()
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing half-written is left
+
+
+@pytest.mark.parametrize("signal_name, code", [("interrupt", 130), ("terminate", 143)])
+def test_an_interrupted_view_keeps_its_recording_and_says_where(small_cube, tmp_path, monkeypatch, capsys,
+                                                                 signal_name, code):
+    """Ctrl-C or SIGTERM ends the window: the session is the user's, so its recording replaces the old one of that
+    name (unlike a ``with Recorder(...)`` block) and the command names it."""
+    from tissuesim import cli
+    from tissuesim.recording import Frame, Recorder, border_edges
+    from tissuesim.viewer import app as app_module
+    from tissuesim.viewer import gl
+
+    real = gl.polyscope  # one polyscope context per process: the tests' is headless
+
+    def headless_polyscope(*, headless):
+        return real(headless=True)
+
+    monkeypatch.setattr(gl, "polyscope", headless_polyscope)
+    monkeypatch.setattr(app_module, "polyscope", headless_polyscope)
+
+    def interrupted_window(ps, frame, close):  # two frames, then the signal arrives (as show_window does it)
+        ps.set_user_callback(frame)
+        try:
+            ps.frame_tick()
+            ps.frame_tick()
+            raise KeyboardInterrupt if signal_name == "interrupt" else cli.Terminated()
+        finally:
+            close()
+
+    monkeypatch.setattr(app_module, "show_window", interrupted_window)
+    monkeypatch.setattr("tissuesim.commands.view.load_hybrid", lambda *args, **kwargs: (small_cube, "cube"))
+    old = tmp_path / "old.pvd"
+    with Recorder(old) as recorder:  # an old recording of a tetrahedron
+        points = np.eye(4, 3) * 0.01
+        triangles = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]], dtype=np.int32)
+        recorder.add(Frame(0.0, points, triangles, np.zeros((4, 3)), np.zeros((4, 3)), border_edges(triangles)))
+    assert cli.main(["view", "cube", "--record", str(old)]) == code
+    assert f"recorded {old}" in capsys.readouterr().err
+    assert len(read_recording(old)[0].positions) == small_cube.surface.vertex_count  # the session's, not the old

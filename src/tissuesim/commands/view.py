@@ -72,7 +72,9 @@ def run(args: argparse.Namespace) -> int:
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
     controller = Controller(hybrid, settings=settings)
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
-    app.run()
-    if app.record_path is not None:  # the last recording (the panel may have started others)
-        print(f"recorded {app.record_path}", file=sys.stderr)
+    try:
+        app.run()
+    finally:  # also on Ctrl-C or SIGTERM, which keep what was recorded (see ViewerApp.close)
+        if app.recorded is not None:  # the last recording (the panel may have started others)
+            print(f"recorded {app.recorded}", file=sys.stderr)
     return 0

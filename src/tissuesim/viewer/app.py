@@ -45,6 +45,7 @@ class ViewerApp:
         self.title = title
         self.recorder = None if record is None else Recorder(record)
         self.record_path = None if record is None else self.recorder.path
+        self.recorded: Path | None = None  # the last recording finished and in place
         self.record_folder = Path(".") if record is None else self.record_path.parent
         self.show_wireframe, self.show_control, self.show_colours = False, False, True
         self.colour_top = 1.0  # mm at the top of the colour map
@@ -78,10 +79,14 @@ class ViewerApp:
     def stop_recording(self) -> Path | None:
         """Finish the recording, if one runs (the window goes on); returns its path, or None."""
         recorder, self.recorder = self.recorder, None
-        return None if recorder is None else recorder.close()
+        if recorder is not None:
+            self.recorded = recorder.close()
+        return None if recorder is None else self.recorded
 
     def close(self) -> None:
-        """Finish the recording and let go of polyscope: its callback and every structure of this window.
+        """Finish the recording and let go of polyscope: its callback and every structure of this window. Also on
+        Ctrl-C or SIGTERM (:func:`show_window`): the session is the user's, so what was recorded is kept, unlike a
+        ``with Recorder(...)`` block, which an exception discards.
 
         Python wrappers of removed polyscope structures must not outlive them: a new structure allocated at the
         same address would then come back as the stale wrapper's type."""
