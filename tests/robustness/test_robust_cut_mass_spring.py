@@ -5,8 +5,9 @@ inverted triangle back. On an uncut surface no piece can swing that far under a 
 on the lip can, as a whole, with each of its hinges bent far less (measured: 90° with folds of 34° and 52° under
 0.3 N), and its springs bring it back. Such steps were refused: 0.3 N on the 29 free new vertices of the cube's rim
 cut, in 6 directions each, was refused at 84 of the 174 pairs (now 2, folded over a neighbour), and in 2 of 102
-random cutting episodes with 0.3 N on a new vertex (now none); the uncut surface carries the same loads. Rest lengths (1e-9), masses (by lumped area, the total
-kept) and springs (the same set as a fresh build of the cut surface) were all right: the check was wrong.
+random cutting episodes with 0.3 N on a new vertex (now none); the uncut surface carries the same loads. Rest
+lengths (1e-9), masses (by lumped area, the total kept) and springs (the same set as a fresh build of the cut
+surface) were all right: the check was wrong.
 """
 
 import numpy as np
