@@ -22,18 +22,16 @@ a killed session stays until a new recording of that name starts, which removes 
 
 from __future__ import annotations
 
-import itertools
 import os
-import re
-import shutil
 from dataclasses import dataclass
-from datetime import datetime
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from .errors import TissuesimError, first_indices
+from .errors import first_indices
+from .recording_place import (RecordingError, check_target, fresh_folder, frames_folder, partial_stem,
+                              remove_path, remove_stale_partials)
 
 FLUSH_EVERY = 50  # frames between rewrites of the .pvd index, so an interrupted recording stays readable
 MIN_MOTION = 1e-6  # m: a frame in which no vertex moved farther than this since the last frame written (and
@@ -44,10 +42,6 @@ MAX_COORDINATE = 1e6  # m: a frame with a point farther from the origin is refus
 # far inside float32 (3.4e38), which the viewer draws in, and a camera can still frame it
 MIN_EXTENT = 1e-9  # m: a frame whose points span less (all in one place) is refused: a model is at least 1 um
 # across, and a viewer cannot frame a single point (polyscope blocks in a modal dialog)
-
-
-class RecordingError(TissuesimError, OSError):
-    """A recording cannot be written or read where asked."""
 
 
 @dataclass(frozen=True)
@@ -81,72 +75,6 @@ def solver_frame(solver, time: float) -> Frame:
                  border_edges(triangles))
 
 
-def check_target(path) -> Path:
-    """``path`` as a Path if a recording can be written there, else a :class:`RecordingError` saying why: checked
-    before a session starts, so that nothing is simulated for a recording that could not be kept."""
-    if not str(path):
-        raise RecordingError("a recording needs a file name, got an empty one; name it e.g. session.pvd")
-    path = Path(path)
-    if path.suffix.lower() != ".pvd":
-        raise RecordingError(f"a recording is a ParaView .pvd file, got {str(path)!r}; name it e.g. session.pvd")
-    try:
-        _check_place(path)
-    except OSError as error:  # e.g. a name too long for the file system
-        if isinstance(error, RecordingError):
-            raise
-        raise RecordingError(f"cannot record to {str(path)!r}: {error.strerror or error}; use a shorter name or "
-                             "another folder") from None
-    return path
-
-
-def _check_place(path: Path) -> None:
-    folder, frames = path.parent, frames_folder(path)
-    if not folder.is_dir():
-        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} does not exist")
-    if path.exists() and not path.is_file():
-        raise RecordingError(f"cannot record to {str(path)!r}: it is a folder; name a .pvd file beside it")
-    if frames.exists() and not frames.is_dir():
-        raise RecordingError(f"cannot record to {str(path)!r}: its frames go into {str(frames)!r}, which is a file; "
-                             "move that file away or record under another name")
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} is not writable")
-    longest = f"{_partial_stem(path)}-0-old"  # the longest name a recording creates there (see Recorder.close)
-    limit = _name_max(folder)
-    if len(os.fsencode(longest)) > limit:
-        raise RecordingError(f"cannot record to {str(path)!r}: the name is too long; its frames folder is written "
-                             f"as {longest!r} ({len(os.fsencode(longest))} bytes), more than the {limit} bytes a "
-                             "file name may have there; use a shorter name")
-
-
-def _name_max(folder: Path) -> int:
-    """The longest file name [bytes] ``folder``'s file system takes (255 where it does not say)."""
-    try:
-        return int(os.pathconf(folder, "PC_NAME_MAX"))
-    except (OSError, ValueError, AttributeError):
-        return 255
-
-
-def _partial_stem(path: Path, pid: int | None = None) -> str:
-    """The name of a recording's partial frames folder, without its ``-<n>`` (see :func:`_fresh_folder`)."""
-    return f"{frames_folder(path).name}.partial-{os.getpid() if pid is None else pid}"
-
-
-def session_path(folder, *, stem: str = "tissuesim_session") -> Path:
-    """A fresh recording name in ``folder``: ``<stem>_<YYYYmmdd-HHMMSS>.pvd`` of now, with ``-2``, ``-3`` ... where a
-    recording of that name (its .pvd or its frames) already exists."""
-    stamped = f"{stem}_{datetime.now():%Y%m%d-%H%M%S}"
-    path, n = Path(folder) / f"{stamped}.pvd", 1
-    while path.exists() or frames_folder(path).exists():
-        n += 1
-        path = Path(folder) / f"{stamped}-{n}.pvd"
-    return path
-
-
-def frames_folder(path: Path) -> Path:
-    """The folder of the VTU frames of the recording ``path`` (``NAME.pvd`` -> ``NAME_frames``)."""
-    return path.with_name(path.stem + "_frames")
-
-
 class Recorder:
     """Writes frames into ``path`` (a ``.pvd`` file) and ``<stem>_frames/`` beside it; use as a context manager.
 
@@ -166,7 +94,7 @@ class Recorder:
         self.folder = frames_folder(self.path)
         self.min_motion = _distance(min_motion)
         remove_stale_partials(self.path)
-        self._partial = _fresh_folder(self.path.parent, _partial_stem(self.path))
+        self._partial = fresh_folder(self.path.parent, partial_stem(self.path))
         self._entries: list[tuple[float, str]] = []
         self._last = None  # (positions, triangles, force) of the last frame written
 
@@ -224,7 +152,7 @@ class Recorder:
                                  f"are in {str(where)!r}") from None
         self._partial = None
         if old is not None:
-            _remove(old)
+            remove_path(old)
         return self.path
 
     def _swap(self, index: str) -> Path | None:
@@ -245,7 +173,7 @@ class Recorder:
     def abort(self) -> None:
         """Discard this recording (its frames so far); an old recording of that name stays as it was."""
         if self._partial is not None:
-            _remove(self._partial)
+            remove_path(self._partial)
             self._partial = None
 
     def __enter__(self):
@@ -270,54 +198,6 @@ def _distance(min_motion) -> float:
     if not (np.isfinite(value) and value >= 0.0):
         raise RecordingError(f"min_motion must be a finite distance of at least 0 m, got {min_motion!r}")
     return value
-
-
-def remove_stale_partials(path: Path) -> list[Path]:
-    """Remove the partial frames folders of recordings of ``path`` that a process now dead left (killed before it
-    closed them); returns them. A partial of a live process, or of one this user may not signal, is kept."""
-    pattern = re.compile(re.escape(frames_folder(path).name) + r"\.partial-(\d+)-\d+(-old)?")
-    stale = []
-    for entry in path.parent.iterdir():
-        found = pattern.fullmatch(entry.name)
-        if found and not _alive(int(found.group(1))):
-            _remove(entry)
-            stale.append(entry)
-    return stale
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` exists (one of another user's counts: it may still be writing)."""
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (OverflowError, OSError):  # PermissionError: another user's process
-        return True
-    return True
-
-
-def _remove(path: Path) -> None:
-    """Remove the folder ``path``, or the link itself where it is one (rmtree refuses links); errors ignored: what
-    is left is only a leftover."""
-    if path.is_symlink():
-        path.unlink(missing_ok=True)
-    else:
-        shutil.rmtree(path, ignore_errors=True)
-
-
-def _fresh_folder(parent: Path, stem: str) -> Path:
-    """A new folder ``parent/stem-<n>`` (not tempfile's, whose folders only their owner may read)."""
-    for n in itertools.count():
-        folder = parent / f"{stem}-{n}"
-        try:
-            folder.mkdir()
-            return folder
-        except FileExistsError:
-            continue
-        except OSError as error:
-            raise RecordingError(f"cannot create {str(folder)!r} for a recording: {error}") from None
 
 
 def _write_index(path: Path, entries, prefix: str) -> None:

@@ -174,7 +174,7 @@ def test_an_interrupted_or_failed_re_recording_leaves_the_old_one_intact(tmp_pat
 
 
 def test_every_panel_recording_gets_its_own_name(tmp_path):
-    from tissuesim.recording import session_path
+    from tissuesim.recording_place import session_path
 
     first = session_path(tmp_path)
     record(first, [0.0])

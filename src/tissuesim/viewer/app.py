@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import TissuesimError
-from ..recording import Recorder, border_edges, session_path, solver_frame
+from ..recording import Recorder, border_edges, solver_frame
+from ..recording_place import session_path
 from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_options
 from .controller import MODES, Controller
