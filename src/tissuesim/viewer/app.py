@@ -80,9 +80,10 @@ class ViewerApp:
     def stop_recording(self) -> Path | None:
         """Finish the recording, if one runs (the window goes on); returns its path, or None."""
         recorder, self.recorder = self.recorder, None
-        if recorder is not None:
-            self.recorded = recorder.close()
-        return None if recorder is None else self.recorded
+        if recorder is None:
+            return None
+        self.recorded = recorder.close()
+        return self.recorded
 
     def close(self) -> None:
         """Finish the recording and let go of polyscope: its callback and every structure of this window. Also on
