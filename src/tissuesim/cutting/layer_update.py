@@ -7,8 +7,10 @@ and a hinge where the edge has two triangles. A hinge's rest angle is measured o
 in the parent triangles' planes: sub-triangles of one hinge keep the original hinge's angle, and two pieces of one
 triangle are flat (§7). Edges that now border the cut have one triangle, so no hinge joins the two sides. The
 XPBD compliances come from :mod:`tissuesim.pbd.compliance` with the new lengths and areas, and the layer's thickness
-as built (β × M_S's mean edge length at build): a cut does not thin the tissue, and a thickness that followed the
-new, shorter edges would soften their hinges by the cube of the ratio (a flap beside a cut then swung metres away).
+as built (β × M_S's mean edge length at build) on every row with an end the cut made: a cut does not thin the
+tissue, and a thickness that followed the new, shorter edges would soften their hinges by the cube of the ratio (a
+flap beside a cut then swung metres away). A row between two of the body's own vertices keeps β × its own length,
+as built (:func:`~tissuesim.pbd.compliance.thickness_lengths`, the rule a solver built on the cut mesh reads too).
 """
 
 from __future__ import annotations
@@ -152,20 +154,22 @@ class SurfaceLayerCut(SolverCut):
 
     def _compliance(self, rows, hrows) -> None:
         """XPBD compliance of the new rows from the material, with their own rest lengths and areas and the
-        body's thickness (β × M_S's edge length as built), not one that shrinks with the cut's shorter edges."""
-        from ..pbd.compliance import relative_shell_compliance
+        body's thickness (:func:`~tissuesim.pbd.compliance.thickness_lengths`), not one that shrinks with the cut's
+        shorter edges."""
+        from ..pbd.compliance import relative_shell_compliance, thickness_lengths
 
         s, a, b = self.solver, self.stretch.arrays, self.bend.arrays
         hinge_length = np.linalg.norm(s.rest_positions[b["bending"][hrows, 0]]
                                       - s.rest_positions[b["bending"][hrows, 1]], axis=1)
         # the new stretch rows, then the hinges' edges as extra rows that the hinges point at
+        ends = np.concatenate([a["edges"][rows], b["bending"][hrows, :2]])
         new = SimpleNamespace(rest_length=np.concatenate([a["rest_length"][rows], hinge_length]),
                               edge_area=np.concatenate([a["edge_area"][rows], np.ones(len(hrows))]),
                               hinge_edge=np.arange(len(rows), len(rows) + len(hrows)),
                               hinge_area=b["hinge_area"][hrows])
         stretch, bend = relative_shell_compliance(new, youngs_modulus=s.youngs_modulus,
                                                   poisson_ratio=s.poisson_ratio, thickness_ratio=s.thickness_ratio,
-                                                  thickness_length=s.hybrid.built_edge_length)
+                                                  thickness_length=thickness_lengths(s.hybrid, ends, new.rest_length))
         a["compliance"][rows] = stretch[: len(rows)]
         b["compliance"][hrows] = bend
 

@@ -14,7 +14,7 @@ import dataclasses
 
 import numpy as np
 
-from ..mesh.hybrid import HybridMesh
+from ..mesh.hybrid import SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY, HybridMesh
 from ..mesh.maps import closest_among
 from ..mesh.surface import SurfaceMesh
 from .buffers import Spare
@@ -53,6 +53,10 @@ def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray, spar
         keep = ~np.isin(control, released)
         control, control_volume = control[keep], control_volume[keep]
     info = dict(hybrid.info)
+    # what a solver built later on the cut mesh needs to give every row the thickness the cutting solver gave it
+    # (a mesh built before these keys were stored is uncut here, so its own figures are the built ones)
+    info.setdefault(SURFACE_EDGE_KEY, hybrid.built_edge_length)
+    info.setdefault(SURFACE_VERTICES_KEY, hybrid.surface.vertex_count)
     info["cuts"] = int(info.get("cuts", 0)) + 1
     maps = {name: spare.extend(name, getattr(hybrid, name), new_rows(getattr(hybrid, name), result, fresh))
             for name, fresh in (("coarse_triangle", coarse_tri), ("coarse_barycentric", coarse_bary),

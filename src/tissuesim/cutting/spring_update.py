@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..pbd.compliance import thickness_lengths
 from ..solvers.mass_spring import gershgorin_rows
 from .fans import touched_edges
 from .layer_update import new_edge_constraints, new_hinges
@@ -61,9 +62,9 @@ class MassSpringCut(SolverCut):
         a = self.rows.arrays
         a["springs"][rows] = np.concatenate([keys, across])
         a["rest"][rows] = np.concatenate([rest, across_rest])
-        # k = E h Σ A_T / l² with the body's thickness h = β × M_S's edge length as built (the method's own h = β l
-        # of an uncut edge): the cut's shorter springs are no thinner tissue
-        thickness = s.thickness_ratio * s.hybrid.built_edge_length
+        # k = E h Σ A_T / l² with the body's thickness h = β × M_S's edge length as built on a spring with an end the
+        # cut made (the cut's shorter springs are no thinner tissue), β l between the body's own vertices, as built
+        thickness = s.thickness_ratio * thickness_lengths(s.hybrid, a["springs"][rows], a["rest"][rows])
         a["stiffness"][rows] = (s.youngs_modulus * thickness * np.concatenate([area, area[two]])
                                 / a["rest"][rows] ** 2)
         self.stretch_row.update(keys, rows[: len(keys)])

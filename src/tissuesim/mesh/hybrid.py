@@ -44,6 +44,8 @@ from .tetmesh import TetMesh
 
 #: ``info`` key of M_S's mean edge length [m] at build (:attr:`HybridMesh.built_edge_length`).
 SURFACE_EDGE_KEY = "surface_mean_edge_m"
+#: ``info`` key of M_S's vertex count at build: vertices below it are the body's own, the others a cut's.
+SURFACE_VERTICES_KEY = "surface_vertices_built"
 
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
@@ -174,7 +176,7 @@ class HybridMesh:
         timings["total_s"] = sum(timings.values())
         info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
                 "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings,
-                SURFACE_EDGE_KEY: surface.mean_edge_length}
+                SURFACE_EDGE_KEY: surface.mean_edge_length, SURFACE_VERTICES_KEY: surface.vertex_count}
         return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
                    control_volume=control_volume.astype(np.int32), coarse_triangle=coarse_triangle,
                    coarse_barycentric=coarse_barycentric, embedding_tet=embedding_tet,

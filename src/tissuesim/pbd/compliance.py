@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MaterialError
+from ..mesh.hybrid import SURFACE_VERTICES_KEY
 from ..mesh.surface import SurfaceMesh
 from .topology import SurfaceConstraints
 
@@ -72,25 +73,39 @@ def shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float =
 
 def relative_shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
                               poisson_ratio: float = DEFAULT_POISSON_RATIO, thickness_ratio: float,
-                              thickness_length: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+                              thickness_length=None) -> tuple[np.ndarray, np.ndarray]:
     """XPBD compliances of a layer whose thickness follows the mesh: h = β × the constraint's rest edge length.
 
     ``thickness_ratio`` β is dimensionless, so one calibrated value carries over between meshes of different
     resolution and between models of different size; the stiffness still scales with E (and the hinges with
-    1/(1 − ν²)). ``thickness_length`` [m], if given, replaces the edge length in h: a cut's constraints pass the
-    body's edge length as built, since the short edges a cut makes are no thinner tissue (the hinges' stiffness goes
-    with h³, so an edge a quarter as long would bend 64 times more easily). Returns ``(stretch (e,) [m/N],
-    bending (b,) [1/(N·m)])``.
+    1/(1 − ν²)). ``thickness_length`` [m], a number or ``(e,)`` one per row, if given, replaces the edge length in
+    h: a cut's constraints pass the body's edge length as built (:func:`thickness_lengths`), since the short edges a
+    cut makes are no thinner tissue (the hinges' stiffness goes with h³, so an edge a quarter as long would bend 64
+    times more easily). Returns ``(stretch (e,) [m/N], bending (b,) [1/(N·m)])``.
     """
     _check(youngs_modulus, poisson_ratio, thickness_ratio)
-    length = constraints.rest_length if thickness_length is None else np.full(len(constraints.rest_length),
-                                                                             float(thickness_length))
+    length = constraints.rest_length if thickness_length is None else np.broadcast_to(
+        np.asarray(thickness_length, dtype=np.float64), np.shape(constraints.rest_length))
     stretch_thickness = thickness_ratio * length
     hinge_thickness = thickness_ratio * length[constraints.hinge_edge]
     k_e = youngs_modulus * stretch_thickness * constraints.edge_area / constraints.rest_length ** 2
     k_b = hinge_stiffness(constraints, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                           thickness=hinge_thickness)
     return 1.0 / k_e, 1.0 / k_b
+
+
+def thickness_lengths(hybrid, edges: np.ndarray, rest_length: np.ndarray) -> np.ndarray:
+    """``(k,) float64`` the length [m] whose β-multiple is the layer's thickness at each row (a constraint or a
+    spring) joining ``edges`` ``(k, 2) int`` of rest length ``rest_length`` ``(k,)`` [m] on ``hybrid``'s surface.
+
+    A row between two of the body's own vertices (numbered below M_S's vertex count at build) takes its own length,
+    as an uncut build does; a row with an end a cut made takes M_S's mean edge length as built, since a cut does not
+    thin the tissue. The rule reads only the mesh, so a solver built on a cut mesh (or on its saved bundle) gives
+    every row the thickness the solver that made the cut gave it.
+    """
+    built = int(hybrid.info.get(SURFACE_VERTICES_KEY, hybrid.surface.vertex_count))
+    own = np.all(np.asarray(edges) < built, axis=1)
+    return np.where(own, rest_length, hybrid.built_edge_length)
 
 
 def shell_masses(surface: SurfaceMesh, *, thickness: float, density: float = DEFAULT_DENSITY) -> np.ndarray:

@@ -14,9 +14,9 @@ thickness h triangulated into springs is best matched by
 
 summing over the (one or two) triangles T adjacent to the spring. We give the bending spring across P3 P4 the same
 formula over the hinge's two triangles (the spring is the diagonal of the quad they form), so both kinds scale with
-E h. The thickness follows the mesh, h = β |ij| with the dimensionless ``thickness_ratio`` β the method's one free
-scalar, calibrated against the fine FEM (see :mod:`tissuesim.solvers.calibrated`). Spring forces are
-f = k (|d| − l0) d/|d| (Hooke along the spring).
+E h. The thickness follows the mesh, h = β |ij| (β × M_S's edge length as built on a spring a cut made), with the
+dimensionless ``thickness_ratio`` β the method's one free scalar, calibrated against the fine FEM (see
+:mod:`tissuesim.solvers.calibrated`). Spring forces are f = k (|d| − l0) d/|d| (Hooke along the spring).
 
 Quasi-static solves step until the remaining motion is negligible (:meth:`Solver.solve_static`): the state where
 symplectic Euler stops is where the spring forces balance the load exactly, whatever dt, the masses or the damping.
@@ -52,6 +52,7 @@ from numba import njit
 from ..errors import InversionError, SolverError
 from ..loads import lumped_areas
 from ..mesh.surface import SurfaceMesh
+from ..pbd.compliance import thickness_lengths
 from .base import Solver
 from .checks import positive_number
 from .registry import register
@@ -196,7 +197,10 @@ class MassSpringSolver(Solver):
         self.thickness_ratio = positive_number("thickness_ratio", thickness_ratio, "1")
         surface = hybrid_mesh.surface
         self.springs, self.rest_lengths, span = spring_network(surface)
-        self.stiffness = self.youngs_modulus * self.thickness_ratio * span / self.rest_lengths
+        # h = β l between the body's own vertices; a spring with an end a cut made (a mesh cut before this solver)
+        # takes h = β × M_S's edge length as built, as the cutting solver gave it; the ratio is 1 for the others
+        thicker = thickness_lengths(hybrid_mesh, self.springs, self.rest_lengths) / self.rest_lengths
+        self.stiffness = self.youngs_modulus * self.thickness_ratio * span / self.rest_lengths * thicker
         self.mass = surface_lumped_mass(surface, self.density)
         self.inv_mass = 1.0 / self.mass
         self.inv_mass[self.fixed] = 0.0

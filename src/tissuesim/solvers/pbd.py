@@ -135,12 +135,14 @@ class SurfaceLayerSolver(Solver):
         self._lambda_bend = np.zeros(self.constraints.bending_count)
 
     def _init_xpbd(self, thickness_ratio) -> None:
-        from ..pbd.compliance import relative_shell_compliance
+        from ..pbd.compliance import relative_shell_compliance, thickness_lengths
 
         self.thickness_ratio = positive_number("thickness_ratio", thickness_ratio, "1")
+        c = self.constraints
         self.stretch_compliance, self.bend_compliance = relative_shell_compliance(
-            self.constraints, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-            thickness_ratio=self.thickness_ratio)
+            c, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+            thickness_ratio=self.thickness_ratio,
+            thickness_length=thickness_lengths(self.hybrid, c.edges, c.rest_length))
 
     def _init_prestress(self, prestrain) -> None:
         from ..pbd.prestress import check_prestrain, prestress_tension
