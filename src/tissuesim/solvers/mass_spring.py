@@ -54,7 +54,7 @@ from ..loads import lumped_areas
 from ..mesh.surface import SurfaceMesh
 from ..pbd.compliance import thickness_lengths
 from .base import Solver
-from .checks import positive_number
+from .checks import positive_number, time_step
 from .registry import register
 
 #: Most substeps one step may take: beyond it the step is refused (a stiff material at a large dt would otherwise
@@ -207,18 +207,27 @@ class MassSpringSolver(Solver):
         self.omega_max = _omega_bound(self.springs, self.stiffness, self.inv_mass)
         self._accel = np.zeros_like(self.state.positions)
 
+    @Solver.dt.setter
+    def dt(self, value) -> None:
+        """The default step [s], refused (SolverError, nothing changed) where it needs more than MAX_SUBSTEPS."""
+        value = time_step(value)
+        if getattr(self, "omega_max", None) is not None:    # None while the common options are set up
+            self.substeps(value)
+        self._dt = value
+
     def substeps(self, dt: float) -> int:
         """Substeps per step of ``dt`` [s] that keep symplectic Euler stable; SolverError beyond MAX_SUBSTEPS."""
         if self.omega_max == 0.0:
             return 1
-        count = max(1, math.ceil(dt / (SAFETY * 2.0 / self.omega_max)))
-        if count > MAX_SUBSTEPS:
+        stable = SAFETY * 2.0 / self.omega_max
+        needed = dt / stable        # compared as a float: near the float's top it is inf, which ceil cannot take
+        if not needed <= MAX_SUBSTEPS:
             raise SolverError(
-                f"the explicit mass-spring step would need {count} substeps at dt = {dt:g} s with E = "
-                f"{self.youngs_modulus:g} Pa (stable substep {SAFETY * 2.0 / self.omega_max:.3g} s; at most "
-                f"{MAX_SUBSTEPS} allowed); lower dt or E, or use the hybrid method"
+                f"the explicit mass-spring step would need {needed:.3g} substeps at dt = {dt:g} s with E = "
+                f"{self.youngs_modulus:g} Pa (stable substep {stable:.3g} s; at most {MAX_SUBSTEPS} allowed, so dt "
+                f"at most {MAX_SUBSTEPS * stable:.3g} s); lower dt or E, or use the hybrid method"
             )
-        return count
+        return max(1, math.ceil(needed))
 
     def _step(self, dt: float) -> None:
         substeps = self.substeps(dt)
