@@ -4,13 +4,17 @@ that made the cut.
 The cutting solver gives a row with an end the cut made the body's thickness, β × M_S's edge length as built, and
 the body's own edges β × their own length. A fresh build used to give every row its own length, so a cut's short
 rows were thinner there (stiffnesses up to 24 % apart, wound openings 1.9x). The mesh now carries M_S's vertex count
-and edge length as built in its ``info``, through ``save`` and ``load``, and both paths read the same rule.
+and edge length as built in its ``info``, through ``save`` and ``load`` (a forged bundle's are refused at load), and
+both paths read the same rule.
 """
+
+import json
 
 import numpy as np
 import pytest
 
 import tissuesim
+from tissuesim.errors import BundleError
 from tissuesim.cutting.wound import scripted_incision
 from tissuesim.mesh import models
 from tissuesim.mesh.hybrid import SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY
@@ -76,3 +80,18 @@ def test_a_cut_mesh_keeps_the_body_as_built_through_save_and_load(cube, tmp_path
     assert loaded.info[SURFACE_VERTICES_KEY] == cube.surface.vertex_count
     assert loaded.info[SURFACE_EDGE_KEY] == cube.info[SURFACE_EDGE_KEY]
     assert loaded.built_edge_length == cube.built_edge_length
+
+
+@pytest.mark.parametrize("key", [SURFACE_VERTICES_KEY, SURFACE_EDGE_KEY])
+@pytest.mark.parametrize("value", ["x", True, -1, 0, None])
+def test_a_bundle_whose_built_figures_are_no_numbers_is_refused_at_load(cube, tmp_path, key, value):
+    path = tmp_path / "cube.npz"
+    cube.save(path)
+    with np.load(path) as stored:
+        arrays = dict(stored)
+    header = json.loads(arrays["header"].tobytes())
+    header["info"][key] = value
+    arrays["header"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
+    np.savez(path, **arrays)
+    with pytest.raises(BundleError, match=f"info {key} is .*not a positive number"):
+        tissuesim.HybridMesh.load(path)

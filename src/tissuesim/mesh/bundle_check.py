@@ -23,6 +23,10 @@ WEIGHT_SUM_TOLERANCE = 1e-9
 #: Largest distance, in model sizes, between a vertex and the point its embedding weights give back.
 EMBEDDING_TOLERANCE = 1e-9
 REBUILD = "the file is damaged or was edited; rebuild it with `tissuesim build MESH --output FILE`"
+#: ``info`` keys of M_S as built (re-exported by :mod:`.hybrid`): its mean edge length [m] and its vertex count, which
+#: a cut keeps and the solvers read (a cut row's thickness), so a bundle's are checked at load.
+SURFACE_EDGE_KEY = "surface_mean_edge_m"
+SURFACE_VERTICES_KEY = "surface_vertices_built"
 
 
 def check_header(where, header: dict) -> None:
@@ -34,8 +38,13 @@ def check_header(where, header: dict) -> None:
     if not isinstance(header.get("has_fine_volume"), bool):
         raise BundleError(f"{where}: the header's has_fine_volume is {header.get('has_fine_volume')!r}, not true "
                           f"or false, so whether the fine volume belongs to the bundle is unknown; {REBUILD}")
-    if not isinstance(header.get("info", {}), dict):
+    info = header.get("info", {})
+    if not isinstance(info, dict):
         raise BundleError(f"{where}: the header's info is not a JSON object; {REBUILD}")
+    for key, kind in ((SURFACE_EDGE_KEY, (int, float)), (SURFACE_VERTICES_KEY, int)):
+        value = info.get(key, 1)
+        if isinstance(value, bool) or not isinstance(value, kind) or not 0 < value < float("inf"):
+            raise BundleError(f"{where}: the header's info {key} is {value!r}, not a positive number; {REBUILD}")
 
 
 def check_arrays(where, a: dict, *, fine: bool) -> None:

@@ -37,15 +37,12 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BundleError, MeshError
-from .bundle_check import bundle_path, check_arrays, check_bundle_target, check_header, temporary_prefix, unsaveable
+from .bundle_check import (SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY, bundle_path, check_arrays, check_bundle_target,
+                           check_header, temporary_prefix, unsaveable)
 from .surface import SurfaceMesh
 from .maps import closest_on_surface, embed_in_volume, own_corner
 from .tetmesh import TetMesh
 
-#: ``info`` key of M_S's mean edge length [m] at build (:attr:`HybridMesh.built_edge_length`).
-SURFACE_EDGE_KEY = "surface_mean_edge_m"
-#: ``info`` key of M_S's vertex count at build: vertices below it are the body's own, the others a cut's.
-SURFACE_VERTICES_KEY = "surface_vertices_built"
 
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
