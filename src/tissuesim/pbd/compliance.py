@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MaterialError
-from ..mesh.hybrid import SURFACE_VERTICES_KEY
+from ..mesh.bundle_check import SURFACE_VERTICES_KEY
 from ..mesh.surface import SurfaceMesh
 from .topology import SurfaceConstraints
 
@@ -73,7 +73,8 @@ def shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float =
 
 def relative_shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
                               poisson_ratio: float = DEFAULT_POISSON_RATIO, thickness_ratio: float,
-                              thickness_length=None) -> tuple[np.ndarray, np.ndarray]:
+                              thickness_length: float | np.ndarray | None = None
+                              ) -> tuple[np.ndarray, np.ndarray]:
     """XPBD compliances of a layer whose thickness follows the mesh: h = β × the constraint's rest edge length.
 
     ``thickness_ratio`` β is dimensionless, so one calibrated value carries over between meshes of different
