@@ -66,6 +66,22 @@ def test_the_flap_solved_statically_says_it_left_linear_elasticity(cube):
     assert "linear elasticity is not valid" in solver.last_solve.warning
 
 
+def test_the_flap_dragged_step_by_step_says_it_left_linear_elasticity(cube):
+    solver = tissuesim.make_solver("hybrid", cube)
+    rim_cut(solver)
+    assert solver.warning is None                        # at rest after the cut
+    pin = tissuesim.PinHead(solver, stiffness=50.0, radius=0.004)
+    grab = cube.surface.vertices[RIM_NODE] + [0.012, 0.0, 0.0]
+    pin.grab(grab)
+    pin.drag(grab + [0.0, -PULL / 50.0, 0.0])
+    for _ in range(20):
+        solver.step()
+    assert solver.largest_displacement > 0.1 * solver.size       # measured 169 mm on a 139 mm model
+    assert "linear elasticity is not valid" in solver.warning
+    solver.reset()
+    assert solver.warning is None and solver.largest_displacement == 0.0     # assigned at reset
+
+
 @pytest.mark.parametrize("method", ["hybrid", "pbd"])
 def test_a_cut_keeps_the_layer_thickness_of_the_body(cube, method):
     solver = tissuesim.make_solver(method, cube)

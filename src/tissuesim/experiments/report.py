@@ -192,7 +192,7 @@ def _differences(data: dict) -> list[str]:
 
 def _validity(data: dict) -> list[str]:
     """Per model, the load cases where the fine FEM reference moves a node beyond the validity of linear elasticity."""
-    from ..solvers.base import LINEAR_VALIDITY_FRACTION
+    from ..solvers.report import LINEAR_VALIDITY_FRACTION
 
     lines = []
     for model in models_of(data):

@@ -26,7 +26,6 @@ Common options (keyword-only, the same for every method):
 
 from __future__ import annotations
 
-import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
@@ -38,6 +37,7 @@ from numba import njit
 from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
+from .report import SolveReport, linear_validity_warning
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
@@ -52,9 +52,7 @@ DEFAULT_MAX_STEPS = 20000
 #: a cube corner) moves the fine FEM 35 sizes and the embedded surface 31, so 100 sizes is no tissue's answer, only
 #: a blow-up (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
 RUNAWAY_SIZES = 100.0
-#: Linear elasticity (small strain, small rotation) is no longer a model of the body once a node moves more than
-#: about this fraction of the model's size; :class:`SolveReport` says so.
-LINEAR_VALIDITY_FRACTION = 0.1
+
 
 
 @dataclass
@@ -74,45 +72,6 @@ class State:
         """A state at ``rest_positions`` ``(n, 3)`` [m] with zero velocity (fresh, writable arrays)."""
         positions = np.array(rest_positions, dtype=np.float64, order="C", copy=True)
         return cls(positions, np.zeros_like(positions))
-
-
-@dataclass(frozen=True)
-class SolveReport:
-    """What the last :meth:`Solver.solve_static` did.
-
-    Attributes:
-        steps: time steps taken.
-        converged: whether the solve reached equilibrium (a static solve always; a stepped one when its
-            extrapolated remaining error fell below ``rtol`` × the largest displacement, or its motion below
-            ``tolerance``).
-        max_motion: largest node motion [m] in the last step.
-        tolerance: the absolute motion tolerance asked for [m] (0: none).
-        elapsed: wall time of the solve [s].
-        largest_displacement: largest node displacement from rest at the end [m].
-        model_size: the model's size, the diagonal of M_S's rest bounding box [m].
-    """
-
-    steps: int
-    converged: bool
-    max_motion: float
-    tolerance: float
-    elapsed: float
-    largest_displacement: float = math.nan
-    model_size: float = math.nan
-
-    @property
-    def linear_valid(self) -> bool:
-        """False when the largest displacement exceeds :data:`LINEAR_VALIDITY_FRACTION` of the model's size."""
-        return not self.largest_displacement > LINEAR_VALIDITY_FRACTION * self.model_size
-
-    @property
-    def warning(self) -> str | None:
-        """A sentence saying that linear elasticity is not valid for this answer, or None."""
-        if self.linear_valid:
-            return None
-        return (f"linear elasticity is not valid here: a node moved {self.largest_displacement:.3g} m, "
-                f"{self.largest_displacement / self.model_size:.2g} times the model's size {self.model_size:.3g} m "
-                f"(small-strain theory holds to about {LINEAR_VALIDITY_FRACTION:g}); lower the load")
 
 
 @njit(cache=True)
@@ -177,6 +136,8 @@ class Solver(ABC):
         runaway_distance: :data:`RUNAWAY_SIZES` × ``size`` [m]: a node farther than this from rest, or a non-finite
             position, makes :meth:`step` and :meth:`solve_static` raise :class:`SolverError` (a blow-up).
         last_solve: :class:`SolveReport` of the last :meth:`solve_static`, or None.
+        largest_displacement: largest node displacement from rest [m] after the last step or solve (0 at rest);
+            :attr:`warning` says when it lies beyond linear elasticity.
     """
 
     name: ClassVar[str] = "?"
@@ -231,11 +192,19 @@ class Solver(ABC):
         self.size = float(np.linalg.norm(extent))
         self.runaway_distance = RUNAWAY_SIZES * self.size
         self.last_solve: SolveReport | None = None
+        self.largest_displacement = 0.0
         #: Quasi-static solves whose static solver could not answer (a cut left a flap only inertia holds) and were
         #: finished by stepping.
         self.static_fallbacks = 0
 
     # ----------------------------------------------------------------------------------------------- state access
+    @property
+    def warning(self) -> str | None:
+        """A sentence when the state the last step or solve reached lies beyond linear elasticity (a node moved
+        more than :data:`~.report.LINEAR_VALIDITY_FRACTION` of the model's size), else None: what
+        ``last_solve.warning`` says of a static answer, for the interactive path too."""
+        return linear_validity_warning(self.largest_displacement, self.size)
+
     @property
     def node_count(self) -> int:
         """Number of M_S vertices n."""
@@ -389,6 +358,7 @@ class Solver(ABC):
         self._withdraw_load()
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
+        self.largest_displacement = 0.0
         self._on_load_changed()
         self._on_reset()
 
@@ -472,6 +442,7 @@ class Solver(ABC):
         ``linear`` (a static linear solve, or a method whose step is one): only non-finite positions count, since a
         linear answer cannot run away; a large one is reported by :attr:`SolveReport.warning` instead."""
         node, distance = farthest_node(self.state.positions, self.rest_positions)
+        self.largest_displacement = float(distance)
         if distance <= self.runaway_distance or ((linear or self.static) and np.isfinite(distance)):
             return
         if np.isfinite(distance):
