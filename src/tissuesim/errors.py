@@ -4,6 +4,12 @@ Every message names the defect, where it is (counts, first indices) and what to 
 it as one line and exit non-zero.
 """
 
+import sys
+import warnings
+from pathlib import Path
+
+_PACKAGE = str(Path(__file__).resolve().parent)
+
 
 class TissuesimError(Exception):
     """Base class of every error this package raises on purpose."""
@@ -35,6 +41,20 @@ class BundleError(TissuesimError, ValueError):
 
 class TissuesimWarning(UserWarning):
     """A result this package computed is outside the range where its model is trustworthy (e.g. locking)."""
+
+
+def warn(message: str) -> None:
+    """Issue a :class:`TissuesimWarning` that points at the caller's line outside this package (however deep in
+    the package it was raised), so a user sees which of their calls it concerns."""
+    level, frame = 2, sys._getframe(1)     # stacklevel 1 is this function, 2 its caller
+    while frame is not None and _inside(frame.f_code.co_filename):
+        level, frame = level + 1, frame.f_back
+    warnings.warn(message, TissuesimWarning, stacklevel=level)
+
+
+def _inside(filename: str) -> bool:
+    """Whether code of ``filename`` is this package's own (a dataclass's generated ``__init__`` counts as its)."""
+    return filename == "<string>" or str(Path(filename).resolve()).startswith(_PACKAGE)
 
 
 def first_indices(indices, limit: int = 5) -> str:

@@ -31,3 +31,10 @@ def test_the_integrators_that_rest_at_their_equilibrium_do_not_warn(cube, method
     with warnings.catch_warnings():
         warnings.simplefilter("error", TissuesimWarning)
         tissuesim.make_solver(method, cube, **options)
+
+
+def test_the_warnings_point_at_the_users_line_not_inside_the_package(cube):
+    with pytest.warns(TissuesimWarning) as caught:
+        tissuesim.make_solver("pbd", cube, integrator="xpbd")
+        tissuesim.make_solver("embedded", cube, poisson_ratio=0.47)      # linear tets lock: a warning too
+    assert len(caught) >= 2 and {w.filename for w in caught} == {__file__}, [(w.filename, w.lineno) for w in caught]

@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..errors import MaterialError, TissuesimWarning
+from ..errors import MaterialError, warn
 
 # The paper's tissue (§8.3): E = 5.5 kPa, ν = 0.3.
 DEFAULT_YOUNGS_MODULUS = 5500.0
@@ -70,10 +69,10 @@ class Material:
                 f"31.9 mm); use at most {MAX_POISSON_RATIO}"
             )
         if self.poisson_ratio > LOCKING_WARNING_POISSON_RATIO:
-            warnings.warn(
+            warn(
                 f"poisson_ratio {self.poisson_ratio!r} > {LOCKING_WARNING_POISSON_RATIO}: linear tetrahedra lock "
                 "near incompressibility, so displacements come out too small (measured on the cube at 0.49: 0.4 "
-                "of linear elasticity's)", TissuesimWarning, stacklevel=3)
+                "of linear elasticity's)")
 
     @property
     def lame_lambda(self) -> float:

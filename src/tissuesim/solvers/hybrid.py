@@ -31,12 +31,11 @@ and is switched off by a cut.
 
 from __future__ import annotations
 
-import warnings
 from functools import partial
 
 import numpy as np
 
-from ..errors import SolverError, TissuesimWarning
+from ..errors import SolverError, warn
 from .registry import register
 from .embedded import map_embedded
 from .pbd import SurfaceLayerSolver
@@ -143,8 +142,8 @@ class HybridSolver(SurfaceLayerSolver):
         """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
         if self.near_field is None:
             return
-        warnings.warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
-                      "volume is not cut; the paper's hybrid carries on", TissuesimWarning, stacklevel=3)
+        warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
+                      "volume is not cut; the paper's hybrid carries on")
         self.near_field, self._near = None, None
         self._window = self._window_slots = np.zeros(0, dtype=np.int64)
         self._set_prescribed(self._held)

@@ -29,11 +29,10 @@ the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.pr
 
 from __future__ import annotations
 
-import warnings
 
 import numpy as np
 
-from ..errors import SolverError, TissuesimWarning
+from ..errors import SolverError, warn
 from ..pbd.kernels import pbd_step, xpbd_step
 from .base import Solver
 from .checks import positive_number
@@ -144,7 +143,7 @@ class SurfaceLayerSolver(Solver):
         self._lambda_stretch = np.zeros(self.constraints.stretch_count)
         self._lambda_bend = np.zeros(self.constraints.bending_count)
         if form == "xpbd" and integrator == "xpbd":
-            warnings.warn(XPBD_OFF_EQUILIBRIUM, TissuesimWarning, stacklevel=2)
+            warn(XPBD_OFF_EQUILIBRIUM)
 
     def _init_xpbd(self, thickness_ratio) -> None:
         from ..pbd.compliance import relative_shell_compliance, thickness_lengths
