@@ -131,3 +131,12 @@ def test_a_click_on_the_support_holds_the_nearest_free_node_and_says_so(small_cu
     c.pointer_down(point, point + [0.0, 0.0, 1.0], DOWN)
     assert c.pin.grabbed and c.pin.node not in solver.fixed
     assert c.notice == c.pin.notice and f"node {lowest_fixed}" in c.notice
+
+
+def test_view_takes_a_built_in_name_over_a_file_of_that_name(tmp_path, monkeypatch):
+    from tissuesim.commands.view import load_hybrid
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "cube").write_text("not a bundle")           # a stray file named like the built-in model
+    hybrid, name = load_hybrid("cube", resolution=200, progress=False)
+    assert name == "cube" and hybrid.surface.vertex_count > 0
