@@ -99,6 +99,26 @@ def test_the_embedded_method_keeps_the_flap_and_reports_it_truthfully(cube):
                                                       anchored=solver.fixed)[0]
 
 
+def test_the_embedded_reports_add_up_to_the_loose_vertices_as_the_flap_grows_and_splits(cube):
+    """Cuts inside a flap already loose, then one across it: each vertex counts once, in the move it comes loose
+    (the sweep saw reports add up to 50 for 35 loose vertices, and 109 for 41)."""
+    solver = make_solver("embedded", cube)
+    scalpel, moves = _slit_then_flap(solver)
+    total = sum(scalpel.move(point).loose_vertices for point in moves)
+    scalpel.release()
+    y0, top = 0.0013, 0.08
+    strokes = [[[x, y0 + 0.003, top + 0.001] for x in np.linspace(-0.005, 0.005, 5)],        # inside the flap
+               [[0.002, y, top + 0.001] for y in np.linspace(y0 - 0.0005, y0 + 0.0065, 6)]]  # across it
+    for stroke in strokes:
+        scalpel.press(stroke[0], direction=[0, 0, -1])
+        for point in stroke[1:]:
+            total += scalpel.move(point).loose_vertices
+            h = solver.hybrid
+            assert total == _unheld_vertices(h.surface.triangles, len(h.surface.vertices), solver.fixed)
+        scalpel.release()
+    assert total > 0
+
+
 def test_the_sweeps_reproduction_leaves_no_loose_piece(cube):
     """The sweep's own script: whether its last move cuts a piece loose depends on how the load deformed the lip,
     so the test asks what must hold either way: the move is refused, or every piece holds a prescribed node."""

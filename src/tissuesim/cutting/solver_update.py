@@ -48,7 +48,8 @@ class CutReport:
         vertices_added: new M_S vertices (edge and facet points, duplicates).
         control_released: control nodes released (both copies of each).
         loose_vertices: vertices this move cut loose from every prescribed node, kept by their embedding
-            (embedded method only: the others refuse such a move).
+            (embedded method only: the others refuse such a move); a vertex a move adds to a piece already loose
+            comes loose with it, so the reports of a session add up to the loose vertices of its surface.
         seconds: wall time of the call [s].
     """
 
@@ -104,6 +105,8 @@ class SolverCut:
         self.lumped_total = float(self.lumped.sum())        # conserved by every cut (area only moves)
         #: ``(n,) int64`` the original vertex of each vertex (a duplicate's is its original's)
         self.identity = np.arange(len(solver.rest_positions))
+        #: vertices in pieces that no prescribed node holds (only a method that :attr:`keeps_loose` has any)
+        self.loose_total = 0
 
     def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
@@ -130,7 +133,7 @@ class SolverCut:
                                        >= 1.0 - 1e-12)
         undo = _Undo(self, plan)
         try:
-            result, loose = self._write(plan, sweep, released, new_fixed)
+            result, loose_total = self._write(plan, sweep, released, new_fixed)
             undo.commit()
         except BaseException as error:           # an interrupt too: never leave a move half written
             undo.restore()
@@ -139,13 +142,15 @@ class SolverCut:
             raise SolverError(f"the cut failed while it was applied ({type(error).__name__}: {error}); it was "
                               "taken back and the solver is as before the move: move on, or report this as a bug "
                               "with the move that caused it") from error
+        loose, self.loose_total = loose_total - self.loose_total, loose_total
         return CutReport(triangles_split=result.split_count, vertices_added=len(result.rest) - n,
                          control_released=int(released.size), loose_vertices=loose,
                          seconds=time.perf_counter() - start), result.end_vertex
 
     def _write(self, plan, sweep, released, new_fixed) -> tuple[CutResult, int]:
         """Apply ``plan``: the surface, the loose-piece test on it (a refusal raises, and the caller takes the
-        surface back), the hybrid mesh, the state and the method's arrays; the result and the loose vertices."""
+        surface back), the hybrid mesh, the state and the method's arrays; the result and the vertices now in
+        pieces no prescribed node holds (:attr:`loose_total` after the move)."""
         s, n = self.solver, plan.old_count
         if not s.hybrid.info.get("cuts"):
             before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
@@ -232,8 +237,8 @@ class SolverCut:
         self.lumped = lumped
 
     def _loose(self, result: CutResult, touched: np.ndarray, new_fixed: np.ndarray, released: np.ndarray) -> int:
-        """Vertices this cut left in pieces without a prescribed node (0 if none); refuses unless
-        :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends inside an edge an
+        """Vertices of the cut surface in pieces without a prescribed node (0 if none); refuses a piece this cut
+        separates unless :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends inside an edge an
         earlier move had cut closes a loop that no cut edge of its own closes.
 
         Every vertex of the cut surface is joined to a vertex of the changed triangles (``touched``) as before, so
@@ -242,6 +247,9 @@ class SolverCut:
         reaches them all around the cut's tip (and, after a release, a held node); only when it does not are the
         pieces holding them counted over the whole surface (one compiled union-find, O(n + m))."""
         held = self._held(len(result.rest), new_fixed, released)
+        if self.keeps_loose and self.loose_total:
+            # a loose piece may grow or split under this cut: count every loose vertex, each once
+            return unanchored_pieces(self.surface.triangles, len(result.rest), np.flatnonzero(held))[0]
         if self.surface.fans.joined(self.surface.triangles, len(result.rest), touched,
                                     budget=LOCAL_SEARCH + 16 * len(touched), held=held if released.size else None):
             return 0
