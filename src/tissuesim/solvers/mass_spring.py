@@ -242,8 +242,9 @@ class MassSpringSolver(Solver):
             raise InversionError(
                 f"the mass-spring surface turned {count} triangles inside out (first: {first}) under "
                 f"{0.0 if load is None else float(np.linalg.norm(load[1])):g} N: springs have no force that turns an "
-                "inverted triangle back, so it would stay inverted after release; lower the force, or use the "
-                "hybrid method (reset() returns to rest)"
+                "inverted triangle back, so it may stay inverted after release (a cut's lip, held only by springs in "
+                "its own plane, folds under smaller loads); lower the force, or use the hybrid method (reset() "
+                "returns to rest)"
             )
 
     def _inside_out_beyond_flaps(self) -> tuple[int, int]:
