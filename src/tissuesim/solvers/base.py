@@ -1,4 +1,4 @@
-"""The solver protocol shared by every method and its mutable state (the registry: :mod:`.registry`).
+"""The solver protocol shared by every method (its state: :mod:`.state`; the registry: :mod:`.registry`).
 
 A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
 owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load: a pin-head's force on
@@ -28,16 +28,15 @@ from __future__ import annotations
 
 import time
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-from numba import njit
 
 from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
 from .report import SolveReport, linear_validity_warning
+from .state import State, farthest_node, motion_and_displacement, remaining_error
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
@@ -53,70 +52,6 @@ DEFAULT_MAX_STEPS = 20000
 #: a blow-up (an unstable step: too large a dt, load or pin-head stiffness) or an absurd load.
 RUNAWAY_SIZES = 100.0
 
-
-
-@dataclass
-class State:
-    """The mutable part of a solver.
-
-    Attributes:
-        positions: ``(n, 3) float64`` current M_S vertex positions [m].
-        velocities: ``(n, 3) float64`` current M_S vertex velocities [m/s].
-    """
-
-    positions: np.ndarray
-    velocities: np.ndarray
-
-    @classmethod
-    def at_rest(cls, rest_positions: np.ndarray) -> "State":
-        """A state at ``rest_positions`` ``(n, 3)`` [m] with zero velocity (fresh, writable arrays)."""
-        positions = np.array(rest_positions, dtype=np.float64, order="C", copy=True)
-        return cls(positions, np.zeros_like(positions))
-
-
-@njit(cache=True)
-def motion_and_displacement(previous: np.ndarray, current: np.ndarray, rest: np.ndarray) -> tuple[float, float]:
-    """``(largest |current − previous|, largest |current − rest|)`` components [m] over ``(n, 3)`` arrays; then
-    copy current into previous."""
-    motion = 0.0
-    displacement = 0.0
-    for i in range(previous.shape[0]):
-        for k in range(3):
-            c = current[i, k]
-            motion = max(motion, abs(c - previous[i, k]))
-            displacement = max(displacement, abs(c - rest[i, k]))
-            previous[i, k] = c
-    return motion, displacement
-
-
-def _remaining_error(motions: list[float], window: int = 5) -> float:
-    """Distance [m] still to go, extrapolated from the last per-step motions ``motions`` as a geometric series
-    (ratio ρ over ``window`` steps: error ≈ motion ρ/(1 − ρ)); inf while they do not shrink."""
-    if len(motions) <= window or motions[-1] == 0.0:
-        return 0.0 if motions and motions[-1] == 0.0 else np.inf
-    ratio = (motions[-1] / motions[-1 - window]) ** (1.0 / window) if motions[-1 - window] > 0 else 1.0
-    if not ratio < 1.0:
-        return np.inf
-    return motions[-1] * ratio / (1.0 - ratio)
-
-
-@njit(cache=True)
-def farthest_node(positions: np.ndarray, rest: np.ndarray) -> tuple[int, float]:
-    """``(node, distance [m])`` of the node of ``positions`` ``(n, 3)`` farthest from ``rest`` ``(n, 3)``.
-
-    A non-finite coordinate wins with distance inf (its node is returned), so one pass checks finiteness too.
-    """
-    worst, node = 0.0, -1
-    for i in range(positions.shape[0]):
-        d2 = 0.0
-        for k in range(3):
-            d = positions[i, k] - rest[i, k]
-            d2 += d * d
-        if not d2 <= worst:           # true for NaN and inf too
-            if not np.isfinite(d2):
-                return i, np.inf
-            worst, node = d2, i
-    return node, np.sqrt(worst)
 
 
 class Solver(ABC):
@@ -422,7 +357,7 @@ class Solver(ABC):
             self._check_blow_up(dt, f" after {steps} step" + "s" * (steps > 1))
             motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)
             history.append(motion)
-            settled = motion <= tolerance or _remaining_error(history) <= rtol * largest or self.static
+            settled = motion <= tolerance or remaining_error(history) <= rtol * largest or self.static
         self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start,
                                       *self._largest_displacement())
         if not settled:
