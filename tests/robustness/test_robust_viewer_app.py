@@ -4,6 +4,7 @@ Skipped where there is no OpenGL at all (as tests/unit/test_viewer_render.py).
 """
 
 import time
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
@@ -16,6 +17,22 @@ pytestmark = pytest.mark.skipif(not opengl_available(), reason="no OpenGL (insta
 DOWN = np.array([0.0, 0.0, -1.0])
 
 
+@contextmanager
+def grabbing_app(cube, record):
+    """A headless window over ``cube`` recording to ``record``, its pin-head holding the top node: yields
+    ``(app, top)`` and closes the window on the way out."""
+    from tissuesim.viewer.app import ViewerApp
+    from tissuesim.viewer.controller import Controller
+
+    app = ViewerApp(Controller(cube), headless=True, record=record)
+    try:
+        top = app.controller.solver.positions[np.argmax(app.controller.solver.positions[:, 2])].copy()
+        app.controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
+        yield app, top
+    finally:
+        app.close()
+
+
 def drag(app, top, frames):
     """Hold the pin-head on ``top`` and pull it up 1 mm per frame, one window frame each."""
     for i in range(frames):
@@ -24,25 +41,18 @@ def drag(app, top, frames):
 
 
 def test_stop_recording_keeps_the_window_and_the_next_recording_gets_its_own_name(small_cube, tmp_path):
-    from tissuesim.viewer.app import SURFACE, ViewerApp
-    from tissuesim.viewer.controller import Controller
+    from tissuesim.viewer.app import SURFACE
 
-    controller = Controller(small_cube)
-    app = ViewerApp(controller, headless=True, record=tmp_path / "first.pvd")
-    try:
-        top = controller.solver.positions[np.argmax(controller.solver.positions[:, 2])].copy()
-        controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
+    with grabbing_app(small_cube, tmp_path / "first.pvd") as (app, top):
         drag(app, top, 3)
         app._toggle_recording()  # the panel's "stop recording"
-        assert controller.notice == f"recorded to {tmp_path / 'first.pvd'}" and app.recorder is None
+        assert app.controller.notice == f"recorded to {tmp_path / 'first.pvd'}" and app.recorder is None
         assert app.ps.has_surface_mesh(SURFACE) and app.mesh is not None  # the window still shows the model
         drag(app, top, 2)  # the frame callback runs on
         app._toggle_recording()  # the panel's "record" again
         second, started = app.record_path, app.sim_time
         assert second != tmp_path / "first.pvd" and second.parent == tmp_path
         drag(app, top, 3)
-    finally:
-        app.close()
     first = read_recording(tmp_path / "first.pvd")
     assert len(first) >= 1 and first[-1].time <= started  # how many frames stepped depends on the wall clock
     assert read_recording(second)[0].time == started  # the new one begins with the frame it was started on
@@ -51,21 +61,15 @@ def test_stop_recording_keeps_the_window_and_the_next_recording_gets_its_own_nam
 def test_a_frame_that_cannot_be_written_ends_the_recording_and_the_session_goes_on(small_cube, tmp_path):
     import shutil
 
-    from tissuesim.viewer.app import SURFACE, ViewerApp
-    from tissuesim.viewer.controller import Controller
+    from tissuesim.viewer.app import SURFACE
 
-    controller = Controller(small_cube)
-    app = ViewerApp(controller, headless=True, record=tmp_path / "s.pvd")
-    try:
-        top = controller.solver.positions[np.argmax(controller.solver.positions[:, 2])].copy()
-        controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
+    with grabbing_app(small_cube, tmp_path / "s.pvd") as (app, _):
         shutil.rmtree(app.recorder._partial)  # where its frames go vanishes, as a full disk fails a write
         app._last = time.perf_counter() - 0.05  # 50 ms since the last frame: this frame steps, whatever the clock
         app.tick()
-        assert app.recorder is None and controller.notice.startswith("recording stopped and discarded: cannot write")
+        assert app.recorder is None
+        assert app.controller.notice.startswith("recording stopped and discarded: cannot write")
         assert app.ps.has_surface_mesh(SURFACE)
-    finally:
-        app.close()
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # nothing half-written is left
 
 
