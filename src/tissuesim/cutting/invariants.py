@@ -95,36 +95,26 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
     return problems
 
 
-def unanchored_pieces(triangles: np.ndarray, n: int, anchored: np.ndarray, *, skip: np.ndarray | None = None,
-                      extra: np.ndarray | None = None, near: np.ndarray | None = None) -> tuple[int, int, int]:
+def unanchored_pieces(triangles: np.ndarray, n: int, anchored: np.ndarray, *,
+                      near: np.ndarray | None = None) -> tuple[int, int, int]:
     """``(vertices, pieces, first vertex)`` of the pieces of a surface that hold none of the ``anchored`` vertices
     (``(0, 0, -1)`` if none). One compiled union-find pass over the triangles, O(n + m).
 
     Args:
         triangles: ``(m, 3) int`` rows; n: the vertex count. anchored: ``(a,) int`` vertices that hold a piece.
-        skip: ``(s,) int`` rows of ``triangles`` left out and ``extra``: ``(e, 3) int`` rows added, to test a
-            surface that differs from ``triangles`` in a few rows without building it.
         near: ``(k,) int`` only the pieces holding one of these vertices count (a cut's own: the pieces it may
             have cut loose), default every piece.
     """
-    none = np.zeros(0, dtype=np.int64)
-    return _unanchored(np.asarray(triangles), none if skip is None else np.asarray(skip, dtype=np.int64),
-                       np.zeros((0, 3), dtype=np.int64) if extra is None else np.asarray(extra, dtype=np.int64),
-                       n, np.asarray(anchored, dtype=np.int64),
+    return _unanchored(np.asarray(triangles), n, np.asarray(anchored, dtype=np.int64),
                        np.arange(n, dtype=np.int64) if near is None else np.asarray(near, dtype=np.int64))
 
 
 @njit(cache=True)
-def _unanchored(triangles, skip, extra, n, anchored, near):
+def _unanchored(triangles, n, anchored, near):
     parent = np.arange(n)
     used = np.zeros(n, dtype=np.bool_)
-    left_out = np.zeros(triangles.shape[0], dtype=np.bool_)
-    left_out[skip] = True
     for r in range(triangles.shape[0]):
-        if not left_out[r]:
-            _join(parent, used, triangles[r, 0], triangles[r, 1], triangles[r, 2])
-    for r in range(extra.shape[0]):
-        _join(parent, used, extra[r, 0], extra[r, 1], extra[r, 2])
+        _join(parent, used, triangles[r, 0], triangles[r, 1], triangles[r, 2])
     flag = np.zeros(n, dtype=np.int8)      # per root: 1 a vertex of ``near``, 2 an anchored vertex
     for v in near:
         if used[v]:
