@@ -108,13 +108,13 @@ def _source(spec: str, *, scale: float, resolution, repair: bool):
     """``(name, SurfaceMesh or HybridMesh)`` of a built-in model, a surface file or a saved bundle, checked to fit
     the incision."""
     from ..experiments.inputs import model_name
-    from ..experiments.run import SURFACE_SUFFIXES
+    from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from .build import load_mesh
 
     path = Path(spec)
-    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
+    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_EXTENSIONS:
         source = HybridMesh.load(path)      # a bundle is in metres: --scale is for surface files
         surface = source.surface
     else:
