@@ -20,7 +20,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..loads import triangle_areas
-from ..pbd.kernels import dihedral_angles, signed_bend_angles
+from ..pbd.rest_measures import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, _members, register_cut

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..errors import MeshError, first_indices
 from ..mesh.surface import SurfaceMesh
-from .kernels import dihedral_angles, edge_lengths, signed_bend_angles
+from .rest_measures import dihedral_angles, edge_lengths, signed_bend_angles
 
 
 @dataclass(frozen=True, eq=False)
