@@ -131,7 +131,7 @@ class Recorder:
         if self._last is None:
             return True
         positions, triangles, force = self._last
-        if triangles.shape != frame.triangles.shape or not np.array_equal(triangles, frame.triangles):
+        if not np.array_equal(triangles, frame.triangles):
             return True  # a cut
         if not np.array_equal(force, frame.force):  # the load: assigned values, any change counts
             return True
