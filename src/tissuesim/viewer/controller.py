@@ -214,10 +214,10 @@ class Controller:
     def key(self, name: str) -> None:
         """Keyboard: "s" switches pin-head / scalpel, "r" resets, "space" pauses and resumes."""
         actions = {"s": self.toggle_mode, "r": self.reset, "space": self.toggle_pause}
-        if isinstance(name, str) and name in actions:
-            actions[name]()
-        elif not isinstance(name, str):  # every key of a keyboard arrives here: other names are ignored quietly
+        if not isinstance(name, str):
             self.notice = f"a key is named by a string (s, r, space), got {name!r}; ignored"
+        elif name in actions:  # every key of a keyboard arrives here: other names are ignored quietly
+            actions[name]()
 
     # ---------------------------------------------------------------------------------------------- commands
     def toggle_mode(self) -> None:
