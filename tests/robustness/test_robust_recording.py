@@ -27,10 +27,19 @@ def record(path, shifts):
     return path
 
 
-def write_vtu(path, points, cells, **point_data):
+def second_frame(pvd):
+    """The VTU file of the second frame of the recording ``pvd`` (as :func:`record` names it)."""
+    return pvd.parent / "s_frames" / "frame_000001.vtu"
+
+
+def rewrite_second_frame(pvd, points, cells, **point_data):
+    """Replace the second frame of ``pvd`` by a VTU of ``points`` and ``cells`` with ``point_data`` (by default a
+    zero displacement and force at every point)."""
     import meshio
 
-    meshio.Mesh(points, cells, point_data=point_data).write(path, binary=True)
+    zeros = np.zeros((len(points), 3))
+    point_data = point_data or {"displacement": zeros, "force": zeros}
+    meshio.Mesh(points, cells, point_data=point_data).write(second_frame(pvd), binary=True)
 
 
 def tree(folder):
@@ -39,21 +48,19 @@ def tree(folder):
 
 # ------------------------------------------------------------------------------------- damaged or foreign recordings
 def missing_vtu(pvd):
-    (pvd.parent / "s_frames" / "frame_000001.vtu").unlink()
+    second_frame(pvd).unlink()
 
 
 def tets_only(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("tetra", [[0, 1, 2, 3]])],
-              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, POINTS, [("tetra", [[0, 1, 2, 3]])])
 
 
 def no_displacement(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES)], force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, POINTS, [("triangle", TRIANGLES)], force=np.zeros((4, 3)))
 
 
 def index_out_of_range(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES + 2)],
-              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, POINTS, [("triangle", TRIANGLES + 2)])
 
 
 def dataset_without_file(pvd):
@@ -61,36 +68,32 @@ def dataset_without_file(pvd):
 
 
 def wrong_shape(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS, [("triangle", TRIANGLES)],
-              displacement=np.zeros((4, 2)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, POINTS, [("triangle", TRIANGLES)], displacement=np.zeros((4, 2)),
+                         force=np.zeros((4, 3)))
 
 
 def nan_positions(pvd):
     points = POINTS.copy()
     points[2, 1] = np.nan
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", points, [("triangle", TRIANGLES)],
-              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, points, [("triangle", TRIANGLES)])
 
 
 def truncated(pvd):
-    vtu = pvd.parent / "s_frames" / "frame_000001.vtu"
+    vtu = second_frame(pvd)
     data = vtu.read_bytes()
     vtu.write_bytes(data[: len(data) // 2])
 
 
 def far_points(pvd):  # polyscope's view of such a frame blocked in a modal dialog that only SIGKILL ended
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS + 1e298, [("triangle", TRIANGLES)],
-              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, POINTS + 1e298, [("triangle", TRIANGLES)])
 
 
 def all_in_one_place(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", np.zeros((4, 3)), [("triangle", TRIANGLES)],
-              displacement=np.zeros((4, 3)), force=np.zeros((4, 3)))
+    rewrite_second_frame(pvd, np.zeros((4, 3)), [("triangle", TRIANGLES)])
 
 
 def single_point(pvd):
-    write_vtu(pvd.parent / "s_frames" / "frame_000001.vtu", POINTS[:1], [("triangle", [[0, 0, 0]])],
-              displacement=np.zeros((1, 3)), force=np.zeros((1, 3)))
+    rewrite_second_frame(pvd, POINTS[:1], [("triangle", [[0, 0, 0]])])
 
 
 DAMAGES = {  # damage -> (what the message must say, the file it must name)
