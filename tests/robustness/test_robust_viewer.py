@@ -33,11 +33,16 @@ def drag(controller, points):
         controller.pointer_move(p, p + [0.0, 0.0, 1.0], DOWN)
 
 
-def cut_across_top(controller):
-    """A 1 cm straight cut through the top's centre (the cube is 8 cm)."""
-    controller.set_mode("scalpel")
+def line_across_top(controller):
+    """6 points [m] of a 1 cm straight line through the top's centre (the cube is 8 cm)."""
     top = top_centre(controller)
-    drag(controller, [top + [dx, 0.0011, 0.0] for dx in np.linspace(-0.005, 0.005, 6)])
+    return [top + [dx, 0.0011, 0.0] for dx in np.linspace(-0.005, 0.005, 6)]
+
+
+def cut_across_top(controller):
+    """A cut along :func:`line_across_top`."""
+    controller.set_mode("scalpel")
+    drag(controller, line_across_top(controller))
     controller.pointer_up()
 
 
@@ -59,8 +64,7 @@ def test_a_refused_cutting_move_is_shown_and_the_session_goes_on(small_cube):
 def test_switching_the_method_in_the_middle_of_a_cut_lifts_the_blade_and_keeps_the_cut(small_cube):
     c = Controller(small_cube, clock=Clock())
     c.set_mode("scalpel")
-    top = top_centre(c)
-    line = [top + [dx, 0.0011, 0.0] for dx in np.linspace(-0.005, 0.005, 6)]
+    line = line_across_top(c)
     drag(c, line[:3])
     cut_count = c.solver.hybrid.surface.vertex_count
     assert cut_count > small_cube.surface.vertex_count  # the first moves cut
