@@ -9,9 +9,14 @@ from tissuesim.viewer.controller import Controller, Settings
 DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down on the cube's top
 
 
+def top_centre(controller):
+    """The centre of the cube's top [m]."""
+    return np.array([0.0, 0.0, controller.solver.positions[:, 2].max()])
+
+
 def held_drag(controller):
     """Grab the top centre and drag 1 cm along x in the camera plane; returns the top point [m]."""
-    top = np.array([0.0, 0.0, controller.solver.positions[:, 2].max()])
+    top = top_centre(controller)
     controller.pointer_down(top, top + [0.0, 0.0, 0.3], DOWN)
     controller.pointer_move(None, top + [0.01, 0.0, 0.3], DOWN)
     assert controller.pin.grabbed and controller.solver.load is not None
@@ -81,6 +86,6 @@ def test_bad_pointer_and_key_events_are_shown_not_raised(small_cube):
     c.key(["s"])
     assert "got ['s']" in c.notice and c.mode == "pin"
     c.set_mode("scalpel")
-    top = np.array([0.0, 0.0, c.solver.positions[:, 2].max()])
+    top = top_centre(c)
     c.pointer_down(top, top + [0.0, 0.0, 0.3], [0.0, 0.0, 0.0])  # the blade is lifted along the ray: none here
     assert "camera ray" in c.notice and not c.scalpel.pressed
