@@ -63,7 +63,7 @@ def _name_max(folder: Path) -> int:
 
 
 def partial_stem(path: Path, pid: int | None = None) -> str:
-    """The name of a recording's partial frames folder, without its ``-<n>`` (see :func:`_fresh_folder`)."""
+    """The name of a recording's partial frames folder, without its ``-<n>`` (see :func:`fresh_folder`)."""
     return f"{frames_folder(path).name}.partial-{os.getpid() if pid is None else pid}"
 
 
