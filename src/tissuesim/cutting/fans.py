@@ -13,6 +13,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+#: ``held`` of :meth:`VertexFans.joined` when no held vertex is asked for (an empty mask: any vertex will do).
+_NO_HOLD = np.zeros(0, dtype=np.bool_)
+
 
 class VertexFans:
     """Rows of a triangle array holding each vertex.
@@ -142,9 +145,8 @@ class VertexFans:
         cut split no piece (and left it held); False says only that the search gave up or did not reach them."""
         vertices = np.asarray(vertices, dtype=np.int64)
         self._new_walk(vertex_count, len(triangles))
-        return _joined(read_only(triangles), vertices, int(budget), np.ones(vertex_count, dtype=np.bool_)
-                       if held is None else held, self._rows, self._start, self._built, self._head, self._next,
-                       self._gained, self._vertex_mark, self._walks)
+        return _joined(read_only(triangles), vertices, int(budget), _NO_HOLD if held is None else held, self._rows,
+                       self._start, self._built, self._head, self._next, self._gained, self._vertex_mark, self._walks)
 
     def _new_walk(self, vertex_count: int, row_count: int) -> None:
         """Room in the marks and the queue, and a new walk number (which unmarks everything at once)."""
@@ -242,14 +244,14 @@ def _holding(triangles, vertices, rows, start, built, head, next_slot, gained, r
 @njit(cache=True)
 def _joined(triangles, targets, budget, held, rows, start, built, head, next_slot, gained, vertex_mark, walk):
     """Breadth-first from ``targets[0]`` over the rows holding each vertex; True once every vertex of the ascending
-    ``targets`` and a ``held`` one are reached, False when ``budget`` vertices were visited first or the piece
-    ends."""
+    ``targets`` and a ``held`` one (any vertex, where ``held`` is empty) are reached, False when ``budget``
+    vertices were visited first or the piece ends."""
     if targets.size == 0:
         return True
     queue = np.empty(budget + 3, dtype=np.int64)
     queue[0] = targets[0]
     vertex_mark[targets[0]] = walk
-    found, size, head_of_queue, anchored = 1, 1, 0, held[targets[0]]
+    found, size, head_of_queue, anchored = 1, 1, 0, held.size == 0 or held[targets[0]]
     if found == targets.size and anchored:
         return True
     while head_of_queue < size:
