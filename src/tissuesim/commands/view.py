@@ -39,13 +39,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
     """The hybrid mesh of a built-in model name or a surface file (built with the fine volume, so every method
     runs), or a saved bundle as it is (without a fine volume the fem method is refused, saying why); and its name."""
-    from ..experiments.run import SURFACE_SUFFIXES, ExperimentConfig, load_model, model_name
+    from ..experiments.run import ExperimentConfig, load_model, model_name
+    from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
 
     path = Path(spec)
     # a built-in name wins over a file of that name, as in every command (``./cube`` names the file)
-    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_SUFFIXES:
+    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_EXTENSIONS:
         return HybridMesh.load(path), path.stem
     config = ExperimentConfig(models=(spec,), resolution=resolution, scale=scale, repair=repair)
     return load_model(spec, config, progress=progress), model_name(spec)

@@ -38,8 +38,6 @@ from .inputs import (builtin_surface, check_fine_volume, check_free_node, check_
                      model_name)
 from .schema import SCHEMA_VERSION, check_results
 
-# Suffixes read as surface files (io's own list); anything else given by path is read as a saved hybrid bundle.
-SURFACE_SUFFIXES = SURFACE_EXTENSIONS
 # The reduced sweep of ``--quick``: coarser models, two forces (one small, one large deformation), fewer steps.
 QUICK_RESOLUTION = 400
 QUICK_FORCES_N = (1.0, 10.0)
@@ -131,7 +129,7 @@ def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
     if not path.exists():
         raise FileNotFoundError(f"{spec!r} is neither a built-in model ({', '.join(builtin_models.MODELS)}) "
                                 "nor an existing file")
-    if path.suffix.lower() in SURFACE_EXTENSIONS:
+    if path.suffix.lower() in SURFACE_EXTENSIONS:     # anything else given by path is a saved bundle
         from ..io import read_surface
 
         surface = read_surface(path, scale=config.scale, repair=config.repair)
