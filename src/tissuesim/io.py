@@ -124,13 +124,17 @@ def _file_path(path, caller: str) -> Path:
 
 
 def process_running(pid: int) -> bool:
-    """Whether process ``pid`` runs (any user's): a partial file of a process that does not was abandoned."""
+    """Whether process ``pid`` runs (this one, or any user's): a partial file of a process that does not was
+    abandoned. Where it cannot be told (a pid too large for the system, another error), it counts as running, so
+    nothing that may still be written is removed."""
+    if pid == os.getpid():
+        return True
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:
-        return True                         # another user's process
+    except (OverflowError, OSError):        # PermissionError: another user's process
+        return True
     return True
 
 

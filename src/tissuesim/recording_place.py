@@ -11,6 +11,7 @@ from datetime import datetime
 from pathlib import Path
 
 from .errors import TissuesimError
+from .io import process_running
 
 
 class RecordingError(TissuesimError, OSError):
@@ -90,23 +91,10 @@ def remove_stale_partials(path: Path) -> list[Path]:
     stale = []
     for entry in path.parent.iterdir():
         found = pattern.fullmatch(entry.name)
-        if found and not _alive(int(found.group(1))):
+        if found and not process_running(int(found.group(1))):
             remove_path(entry)
             stale.append(entry)
     return stale
-
-
-def _alive(pid: int) -> bool:
-    """Whether process ``pid`` exists (one of another user's counts: it may still be writing)."""
-    if pid == os.getpid():
-        return True
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (OverflowError, OSError):  # PermissionError: another user's process
-        return True
-    return True
 
 
 def remove_path(path: Path) -> None:
