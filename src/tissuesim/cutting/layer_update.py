@@ -204,9 +204,10 @@ class SurfaceLayerCut(SolverCut):
 class HybridCut(SurfaceLayerCut):
     """The hybrid's extra arrays: control nodes (released ones dropped), load map, embedding for warm start."""
 
-    def held_nodes(self, fixed, released):
-        control = np.setdiff1d(self.solver.hybrid.control, released)
-        return np.concatenate([np.asarray(fixed, dtype=np.int64), control.astype(np.int64)])
+    def held_nodes(self) -> np.ndarray:
+        """The fixed nodes, then the control nodes (ascending)."""
+        control = np.unique(self.solver.hybrid.control)
+        return np.concatenate([np.asarray(self.solver.fixed, dtype=np.int64), control.astype(np.int64)])
 
     def prescribe(self, result, n, released) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare

@@ -271,16 +271,16 @@ class SolverCut:
         if mask is None:
             s = self.solver
             mask = np.zeros(len(s.rest_positions), dtype=bool)
-            mask[self.held_nodes(np.asarray(s.fixed, dtype=np.int64), np.zeros(0, dtype=np.int64))] = True
+            mask[self.held_nodes()] = True
         mask = self.spare.extend("held", mask, np.zeros(count - len(mask), dtype=bool))
         mask[new_fixed] = True
         mask[released] = False
         self._held_mask = mask
         return mask
 
-    def held_nodes(self, fixed: np.ndarray, released: np.ndarray) -> np.ndarray:
-        """Vertices (new numbering) that hold a piece in place after a cut: the ``fixed`` ones here."""
-        return np.asarray(fixed, dtype=np.int64)
+    def held_nodes(self) -> np.ndarray:
+        """``(a,) int64`` the vertices that hold a piece in place now: the solver's fixed ones here."""
+        return np.asarray(self.solver.fixed, dtype=np.int64)
 
     def update(self, result, n, released, touched) -> None:
         """Method-specific arrays (subclasses); ``touched`` are the vertices whose triangles changed."""
@@ -352,7 +352,7 @@ def anchored_nodes(solver) -> np.ndarray | None:
     updater = cut_updater(solver)
     if updater.keeps_loose:
         return None
-    return updater.held_nodes(np.asarray(solver.fixed, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    return updater.held_nodes()
 
 
 def _members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
