@@ -1,8 +1,9 @@
 """The ``tissuesim`` command: one sub-command per job, each in its own module under :mod:`tissuesim.commands`.
 
 User mistakes (any :class:`~tissuesim.errors.TissuesimError`, a missing file) and what the machine refuses (any
-``OSError``: a full disk, a read-only place) print one line and exit 1; only genuine bugs show a traceback. SIGTERM, like Ctrl-C, unwinds the command (so half-written outputs are cleaned up)
-and exits with 128 + the signal number.
+``OSError``: a full disk, a read-only place) print one line and exit 1; only genuine bugs show a traceback.
+SIGTERM, like Ctrl-C, unwinds the command (so half-written outputs are cleaned up) and exits with 128 + the signal
+number.
 """
 
 from __future__ import annotations

@@ -238,8 +238,8 @@ class SolverCut:
 
     def _loose(self, result: CutResult, touched: np.ndarray, new_fixed: np.ndarray, released: np.ndarray) -> int:
         """Vertices of the cut surface in pieces without a prescribed node (0 if none); refuses a piece this cut
-        separates unless :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends inside an edge an
-        earlier move had cut closes a loop that no cut edge of its own closes.
+        separates unless :attr:`keeps_loose`. Runs on every move, whatever the cut graph: a cut that begins or ends
+        inside an edge an earlier move had cut closes a loop that no cut edge of its own closes.
 
         Every vertex of the cut surface is joined to a vertex of the changed triangles (``touched``) as before, so
         a piece came loose only if the touched vertices are no longer all joined, or if the move ``released`` the

@@ -143,7 +143,7 @@ class HybridSolver(SurfaceLayerSolver):
         if self.near_field is None:
             return
         warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
-                      "volume is not cut; the paper's hybrid carries on")
+             "volume is not cut; the paper's hybrid carries on")
         self.near_field, self._near = None, None
         self._window = self._window_slots = np.zeros(0, dtype=np.int64)
         self._set_prescribed(self._held)

@@ -29,7 +29,6 @@ the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.pr
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ..errors import SolverError, warn
