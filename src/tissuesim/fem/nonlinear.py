@@ -1,0 +1,261 @@
+"""Finite-strain statics on a tet mesh: the converged equilibrium of a hyperelastic body (:mod:`.hyperelastic`),
+with fixed nodes that may move (a base that is carried or turned, as by a grasper or a retractor).
+
+Two ways to the same equilibrium ∂W/∂u = f (W the stored energy, f the nodal loads), both descending the total
+potential Π(u) = W(u) − fᵀu with a backtracking line search, so every iteration lowers Π and the answer is a stable
+equilibrium (a minimum of Π):
+
+* :meth:`NonlinearFEM.solve`: Newton with the consistent tangent (element tangents projected to positive
+  semi-definite only where they are not, which no element near rest is), load stepping when a full load does not
+  converge; converged to a residual below :data:`RTOL` of the load. One factorisation per iteration.
+* :meth:`NonlinearFEM.relax`: a fixed number of iterations that all use the constant, prefactorised rest stiffness
+  K₀ of :class:`~.linear.LinearFEM` (modified Newton: K₀ is positive definite, so K₀⁻¹ r descends too). The
+  interactive path: warm-started from the last answer it costs back-substitutions only, and repeated under a
+  constant load it converges to :meth:`solve`'s answer.
+
+A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch): then no
+load step converges, or the converged state's exact tangent is not positive definite. :meth:`solve` raises
+:class:`UnstableLoadError` with the fraction of the load it reached; callers say what the load means.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import SolverError
+from ..mesh.tetmesh import TetMesh
+from .assembly import scatter_elements, shape_gradients
+from .hyperelastic import (check_material, element_energy, element_tangents, internal_forces,
+                           material_parameters)
+from .linear import LinearFEM, factorise_spd
+from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS
+
+#: A Newton solve has converged when the free residual is below this fraction of the load's size (the larger of the
+#: applied forces and the support reactions, so a pure motion of the supports converges too).
+RTOL = 1e-9
+MAX_NEWTON = 40
+#: Load stepping halves a failed increment down to this fraction of the load before giving up.
+MIN_LOAD_STEP = 1.0 / 256.0
+_ARMIJO = 1e-4
+_MAX_HALVINGS = 40
+
+
+class UnstableLoadError(SolverError):
+    """A dead load beyond what the body can carry in a stable equilibrium; ``reached`` is the load fraction in
+    [0, 1) at which the last stable equilibrium was found."""
+
+    def __init__(self, message: str, *, reached: float):
+        super().__init__(message)
+        self.reached = float(reached)
+
+
+class NonlinearFEM:
+    """Hyperelastic statics of ``mesh`` (see the module docstring).
+
+    Args:
+        mesh: the tet mesh (rest shape).
+        youngs_modulus, poisson_ratio: E [Pa], ν [-] (Hooke's law at small strain).
+        fixed: the supports, as :class:`~.linear.LinearFEM` takes them.
+        material: ``"corotated"`` or ``"neo-hookean"`` (:mod:`.hyperelastic`).
+        linear: an existing :class:`~.linear.LinearFEM` of the same mesh, material and supports whose factor
+            :meth:`relax` reuses (default: one is built).
+
+    Attributes:
+        linear: the small-strain model (K₀ and its factor).
+        fixed_displacement: ``(n, 3) float64`` [m] the supports' displacement (zero until
+            :meth:`set_fixed_displacement`); entries of free dofs are unused.
+        gradients: ``(m, 4, 3) float64`` rest shape-function gradients [1/m]; ``volumes`` ``(m,)`` [m³].
+    """
+
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
+                 linear: LinearFEM | None = None):
+        self.material_name = check_material(material)
+        self.linear = linear if linear is not None else LinearFEM(
+            mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
+        self.mesh = mesh
+        material_ = self.linear.material
+        self.params = material_parameters(material, shear_modulus=material_.shear_modulus,
+                                          lame_lambda=material_.lame_lambda)
+        self.tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
+        self.gradients = shape_gradients(mesh)
+        self.volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)
+        self.rest = np.ascontiguousarray(mesh.points, dtype=np.float64)
+        self.free_dofs = self.linear.free_dofs
+        self.fixed_displacement = np.zeros((mesh.node_count, 3))
+        self._fixed_mask = self.linear.fixed_dofs
+        self._fixed_dofs = np.flatnonzero(self._fixed_mask.ravel())
+        # Residual scale when neither loads nor reactions give one (a rigid motion of the supports): a force that
+        # strains the body by 1e-3 over its size.
+        size = float(np.linalg.norm(np.ptp(self.rest, axis=0)))
+        self._force_floor = 1e-3 * material_.youngs_modulus * size * size
+        self._x = np.empty_like(self.rest)
+        self._forces = np.empty_like(self.rest)
+        self._tangents = np.empty((len(self.tets), 12, 12))
+        self.last_iterations = 0
+
+    @property
+    def node_count(self) -> int:
+        return self.mesh.node_count
+
+    # ------------------------------------------------------------------------------------------ energy and forces
+    def energy(self, u: np.ndarray) -> float:
+        """Stored energy W [J] at displacement ``u`` ``(n, 3)`` [m]."""
+        np.add(self.rest, u, out=self._x)
+        return float(element_energy(self._x, self.tets, self.gradients, self.volumes, self.params))
+
+    def internal_forces(self, u: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` ∂W/∂u [N] at displacement ``u`` [m] (at fixed dofs: minus the support reactions); the array
+        is reused by the next call."""
+        np.add(self.rest, u, out=self._x)
+        internal_forces(self._x, self.tets, self.gradients, self.volumes, self.params, self._forces)
+        return self._forces
+
+    def tangent(self, u: np.ndarray, *, project: bool = True):
+        """``(3n, 3n)`` CSR tangent stiffness ∂²W/∂u² [N/m] at ``u``; element tangents projected to positive
+        semi-definite when ``project``."""
+        np.add(self.rest, u, out=self._x)
+        element_tangents(self._x, self.tets, self.gradients, self.volumes, self.params, bool(project),
+                         self._tangents)
+        return scatter_elements(self.node_count, self.tets, self._tangents)
+
+    # --------------------------------------------------------------------------------------------- supports
+    def set_fixed_displacement(self, displacement) -> None:
+        """Move the supports: ``displacement`` ``(n, 3)`` [m], read at the fixed dofs only."""
+        displacement = np.asarray(displacement, dtype=np.float64)
+        if displacement.shape != (self.node_count, 3) or not np.all(np.isfinite(displacement)):
+            raise SolverError(f"fixed displacement must be a finite ({self.node_count}, 3) array [m], got shape "
+                              f"{displacement.shape}")
+        self.fixed_displacement[:] = np.where(self._fixed_mask, displacement, 0.0)
+
+    # -------------------------------------------------------------------------------------------------- solves
+    def solve(self, forces, *, initial=None, rtol: float = RTOL, max_iterations: int = MAX_NEWTON) -> np.ndarray:
+        """``(n, 3)`` displacement [m] at the stable equilibrium under nodal ``forces`` ``(n, 3)`` [N] with the
+        supports at :attr:`fixed_displacement` (Newton, line search, load stepping), from ``initial`` ``(n, 3)``
+        (default: the small-strain answer). A step that does not converge is halved: the loads and the supports'
+        motion from where ``initial`` has them are applied in fractions. Raises :class:`UnstableLoadError` when no
+        stable equilibrium is found."""
+        forces = self._check_forces(forces)
+        fixed = self._fixed_mask
+        if initial is None:
+            u = self._linear_guess(forces)
+            start = np.zeros_like(u)
+        else:
+            u = np.array(initial, dtype=np.float64)
+            start = np.where(fixed, u, 0.0)
+        motion = np.where(fixed, self.fixed_displacement, 0.0) - start
+        done, step, iterations = 0.0, 1.0, 0
+        while done < 1.0:
+            target = min(1.0, done + step)
+            trial = u.copy()
+            trial[fixed] = (start + target * motion)[fixed]
+            converged, trial, taken = self._newton(target * forces, trial, rtol, max_iterations)
+            iterations += taken
+            if converged:
+                done, u = target, trial
+                step = min(2.0 * step, 1.0 - done) if done < 1.0 else step
+                continue
+            step *= 0.5
+            if step < MIN_LOAD_STEP:
+                raise UnstableLoadError(self._unstable_message(forces, done), reached=done)
+        if not self._stable(u):
+            raise UnstableLoadError(self._unstable_message(forces, done, saddle=True), reached=0.0)
+        self.last_iterations = iterations
+        return u
+
+    def _linear_guess(self, forces) -> np.ndarray:
+        """Small-strain displacement under ``forces`` with the supports at :attr:`fixed_displacement`."""
+        free, flat = self.free_dofs, np.where(self._fixed_mask, self.fixed_displacement, 0.0).ravel()
+        rhs = forces.ravel()[free] - (self.linear.stiffness @ flat)[free]
+        flat[free] = self.linear._lu.solve(rhs)
+        return flat.reshape(-1, 3)
+
+    def relax(self, forces, u: np.ndarray, *, iterations: int, rtol: float = RTOL) -> bool:
+        """Up to ``iterations`` modified-Newton iterations on ``u`` ``(n, 3)`` [m] in place under ``forces``
+        ``(n, 3)`` [N], each one back-substitution with the constant K₀ and a line search: the interactive path.
+        Returns True when ``u`` is already at equilibrium (residual below ``rtol`` of the load's size, :meth:`solve`'s
+        criterion): further calls then change nothing."""
+        free = self.free_dofs
+        u[self._fixed_mask] = self.fixed_displacement[self._fixed_mask]
+        flat_f = forces.ravel()
+        for _ in range(int(iterations)):
+            g = self.internal_forces(u).ravel()
+            residual = flat_f[free] - g[free]
+            if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
+                return True
+            if not self._line_search(u, np.asarray(self.linear._lu.solve(residual)), residual, forces):
+                return False
+        return False
+
+    def _residual_scale(self, flat_forces, internal) -> float:
+        """The load's size [N]: the larger of the applied forces and the support reactions, or a floor."""
+        return max(float(np.linalg.norm(flat_forces)), float(np.linalg.norm(internal[self._fixed_dofs])),
+                   self._force_floor)
+
+    # -------------------------------------------------------------------------------------------------- internals
+    def _newton(self, forces, u, rtol, max_iterations):
+        """(converged, u, iterations) of Newton from ``u`` (copied) under ``forces``."""
+        u = u.copy()
+        free = self.free_dofs
+        flat_f = forces.ravel()
+        for iteration in range(1, max_iterations + 1):
+            g = self.internal_forces(u).ravel()
+            residual = flat_f[free] - g[free]
+            if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
+                return True, u, iteration - 1
+            tangent = self.tangent(u)[free][:, free].tocsc()
+            try:
+                factor = factorise_spd(tangent, free // 3)
+            except SolverError:
+                return False, u, iteration
+            direction = np.asarray(factor.solve(residual))
+            if not self._line_search(u, direction, residual, forces):
+                return False, u, iteration
+        return False, u, max_iterations
+
+    def _line_search(self, u, direction, residual, forces) -> bool:
+        """Backtrack along ``direction`` (free dofs) until Π = W − fᵀu decreases enough (Armijo); moves ``u`` in
+        place and returns True, or leaves it and returns False when no step helps."""
+        free = self.free_dofs
+        flat_u = u.reshape(-1)
+        slope = -float(residual @ direction)  # dΠ/dα at α = 0: negative for a descent direction
+        if not slope < 0.0:
+            return False
+        base = flat_u[free].copy()
+        energy = self.energy(u)
+        work = float(forces.ravel() @ flat_u)
+        potential = energy - work
+        # Near convergence Π changes by less than its round-off: accept a step within that noise.
+        noise = 1e-12 * (abs(energy) + abs(work))
+        alpha = 1.0
+        for _ in range(_MAX_HALVINGS):
+            flat_u[free] = base + alpha * direction
+            trial = self.energy(u) - float(forces.ravel() @ flat_u)
+            if np.isfinite(trial) and trial <= potential + _ARMIJO * alpha * slope + noise:
+                return True
+            alpha *= 0.5
+        flat_u[free] = base
+        return False
+
+    def _stable(self, u) -> bool:
+        """Whether the exact (unprojected) tangent at ``u`` is positive definite on the free dofs."""
+        free = self.free_dofs
+        try:
+            factorise_spd(self.tangent(u, project=False)[free][:, free].tocsc(), free // 3)
+        except SolverError:
+            return False
+        return True
+
+    def _unstable_message(self, forces, reached: float, *, saddle: bool = False) -> str:
+        total = float(np.linalg.norm(forces.sum(axis=0)))
+        what = ("the equilibrium it reaches is unstable (its tangent stiffness is not positive definite)" if saddle
+                else f"no stable equilibrium beyond {100 * reached:.3g} % of it")
+        return (f"a dead load of {total:.3g} N on this {self.material_name} body has {what}: the body would buckle "
+                "or collapse under it; apply the load through a displacement (the pin-head's spring or a rigid "
+                "tip), or lower it")
+
+    def _check_forces(self, forces) -> np.ndarray:
+        forces = np.asarray(forces, dtype=np.float64)
+        if forces.shape != (self.node_count, 3) or not np.all(np.isfinite(forces)):
+            raise SolverError(f"forces must be a finite ({self.node_count}, 3) array [N], got shape {forces.shape}")
+        return forces
