@@ -45,7 +45,7 @@ STATIC_ITERATIONS = 50
 # Backtracking: Armijo's sufficient decrease; a step shorter than this fraction of Newton's means no descent.
 ARMIJO = 1e-4
 SHORTEST_STEP = 1e-10
-# Π's change below this many round-offs of U cannot be measured: a Newton step that small is taken whole.
+# A change of Π (or of the step's incremental potential) below this many round-offs of U cannot be measured.
 ROUNDOFF = 1e3 * np.finfo(np.float64).eps
 # Complex step, relative to the hinge edge's length: any size far below 1 is exact to round-off.
 COMPLEX_STEP = 1e-20
@@ -54,9 +54,11 @@ COMPLEX_STEP = 1e-20
 # ---------------------------------------------------------------- energy, forces, tangent
 
 @njit(cache=True)
-def layer_energy(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance):
-    """U = Σ_c C_c²/(2 α_c) [J] at positions ``x`` ``(n, 3)`` [m] (degenerate constraints count zero, as in the
-    kernels)."""
+def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, out):
+    """The energy U = Σ_c C_c²/(2 α_c) [J] at positions ``x`` ``(n, 3)`` [m], returned, and its gradient
+    ∇U = Σ_c (C_c/α_c) ∇C_c [N] into ``out`` ``(n, 3)`` (the layer's internal forces are −∇U). Degenerate hinges
+    count zero, as in the kernels; a zero-length edge has energy but no direction, so no force."""
+    out[:] = 0.0
     total = 0.0
     for c in range(edges.shape[0]):
         i = edges[c, 0]
@@ -64,31 +66,12 @@ def layer_energy(x, edges, rest_length, stretch_compliance, hinges, rest_angle, 
         d0 = x[i, 0] - x[j, 0]
         d1 = x[i, 1] - x[j, 1]
         d2 = x[i, 2] - x[j, 2]
-        value = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2) - rest_length[c]
-        total += value * value / (2.0 * stretch_compliance[c])
-    for c in range(hinges.shape[0]):
-        result = _bend_gradient_signed(x, hinges[c, 0], hinges[c, 1], hinges[c, 2], hinges[c, 3])
-        if result[0]:
-            value = result[1] - rest_angle[c]
-            total += value * value / (2.0 * bend_compliance[c])
-    return total
-
-
-@njit(cache=True)
-def layer_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, out):
-    """``out`` ``(n, 3)`` = ∇U = Σ_c (C_c/α_c) ∇C_c [N] at positions ``x`` ``(n, 3)`` [m], in place (the layer's
-    internal forces are −∇U)."""
-    out[:] = 0.0
-    for c in range(edges.shape[0]):
-        i = edges[c, 0]
-        j = edges[c, 1]
-        d0 = x[i, 0] - x[j, 0]
-        d1 = x[i, 1] - x[j, 1]
-        d2 = x[i, 2] - x[j, 2]
         length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        value = length - rest_length[c]
+        total += value * value / (2.0 * stretch_compliance[c])
         if length <= TINY_LENGTH:
             continue
-        s = (length - rest_length[c]) / (stretch_compliance[c] * length)
+        s = value / (stretch_compliance[c] * length)
         out[i, 0] += s * d0
         out[i, 1] += s * d1
         out[i, 2] += s * d2
@@ -104,7 +87,9 @@ def layer_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle
             x, i1, i2, i3, i4)
         if not valid:
             continue
-        s = (beta - rest_angle[c]) / bend_compliance[c]
+        value = beta - rest_angle[c]
+        total += value * value / (2.0 * bend_compliance[c])
+        s = value / bend_compliance[c]
         out[i1, 0] += s * g1x
         out[i1, 1] += s * g1y
         out[i1, 2] += s * g1z
@@ -117,6 +102,7 @@ def layer_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle
         out[i4, 0] += s * g4x
         out[i4, 1] += s * g4y
         out[i4, 2] += s * g4z
+    return total
 
 
 @njit(cache=True, inline="always")
@@ -261,12 +247,32 @@ def _inertial_residual(positions, predicted, free, inertia, forces, gradient, ou
 
 
 @njit(cache=True)
-def _advance(positions, free, correction):
-    """x_f += ``correction`` ``(3f,)``."""
+def _descent(positions, predicted, free, inertia, forces, gradient, correction):
+    """Along Δx = ``correction`` ``(3f,)``, the incremental potential E(x) = ½ |x − x_pred|²_M/dt² + U(x) − f_fᵀx_f
+    changes by U(x + sΔx) − U(x) + s a + ½ s² q. Returns ``(a, q, dE/ds at 0)`` [J]."""
+    linear = 0.0
+    quadratic = 0.0
+    slope = 0.0
     for r in range(free.shape[0]):
         i = free[r]
         for k in range(3):
-            positions[i, k] += correction[3 * r + k]
+            row = 3 * r + k
+            d = correction[row]
+            pull = inertia[row] * (positions[i, k] - predicted[r, k]) - forces[i, k]
+            linear += d * pull
+            quadratic += inertia[row] * d * d
+            slope += d * (pull + gradient[i, k])
+    return linear, quadratic, slope
+
+
+@njit(cache=True)
+def _advance(positions, free, correction, step, out):
+    """``out`` = ``positions`` with x_f + ``step`` × ``correction`` ``(3f,)`` on the free nodes."""
+    out[:] = positions
+    for r in range(free.shape[0]):
+        i = free[r]
+        for k in range(3):
+            out[i, k] += step * correction[3 * r + k]
 
 
 @njit(cache=True)
@@ -290,7 +296,8 @@ def _block_pattern(node_count, free_nodes, edges, hinges):
     f = max(free_nodes.size, 1)
     pairs = []
     for nodes, count in ((edges, 2), (hinges, 4)):
-        rows, cols = index[nodes[:, np.repeat(np.arange(count), count)]], index[nodes[:, np.tile(np.arange(count), count)]]
+        rows = index[nodes[:, np.repeat(np.arange(count), count)]]
+        cols = index[nodes[:, np.tile(np.arange(count), count)]]
         pairs.append((rows, cols, (rows >= 0) & (cols >= 0)))
     keys = np.unique(np.concatenate([(rows * f + cols)[valid] for rows, cols, valid in pairs]))
     slots = [np.where(valid, np.searchsorted(keys, rows * f + cols), -1) for rows, cols, valid in pairs]
@@ -341,19 +348,16 @@ class FiniteLayer(LayerStatics):
         self._indptr, self._indices, self._stretch_slots, self._hinge_slots = _block_pattern(
             len(rest), self.free_nodes, edges, hinges)
         self._blocks = np.zeros((self._indices.size, 3, 3))
-        self._gradient = np.zeros_like(rest)
-        self._old = np.zeros_like(rest)
+        # buffers: ∇U at the current and the trial positions, trial positions, the step's start and prediction
+        self._gradient, self._trial_gradient = np.zeros_like(rest), np.zeros_like(rest)
+        self._trial, self._old = np.zeros_like(rest), np.zeros_like(rest)
         self._predicted = np.zeros((self.free_nodes.size, 3))
+        self._no_inertia = np.zeros(3 * self.free_nodes.size)  # the static solve's line search is on Π
         self.gauss_newton_steps = 0
 
     def energy(self, positions: np.ndarray) -> float:
         """The layer's elastic energy U [J] at ``positions`` ``(n, 3)`` [m]."""
-        return layer_energy(positions, *self._constraints)
-
-    def energy_gradient(self, positions: np.ndarray) -> np.ndarray:
-        """``(n, 3) float64`` ∇U [N] at ``positions`` ``(n, 3)`` [m] (a view of a buffer the next call overwrites)."""
-        layer_gradient(positions, *self._constraints, self._gradient)
-        return self._gradient
+        return layer_energy_gradient(positions, *self._constraints, self._trial_gradient)
 
     def static(self, positions: np.ndarray, forces: np.ndarray, targets: np.ndarray, *,
                tolerance: float = STATIC_TOLERANCE, max_iterations: int = STATIC_ITERATIONS) -> int:
@@ -370,7 +374,8 @@ class FiniteLayer(LayerStatics):
         x[self.prescribed] = targets
         load = np.ascontiguousarray(forces[self.free_nodes], dtype=np.float64)
         for iteration in range(max_iterations + 1):
-            gradient = self.energy_gradient(x)
+            energy = layer_energy_gradient(x, *self._constraints, self._gradient)
+            gradient = self._gradient
             residual = load - gradient[self.free_nodes]
             norm = float(np.linalg.norm(residual))
             limit = (tolerance * (np.linalg.norm(load) + np.linalg.norm(gradient[self.prescribed]))
@@ -379,7 +384,7 @@ class FiniteLayer(LayerStatics):
                 positions[:] = x
                 return iteration
             if iteration < max_iterations:
-                x = self._line_search(x, self._newton_direction(x, residual), residual, load)
+                self._line_search(x, self._newton_direction(x, residual), energy, forces)
         raise SolverError(
             f"the surface layer's finite-strain equilibrium did not converge in {max_iterations} Newton iterations "
             f"(free residual {norm:.3g} N, tolerance {limit:.3g} N, load {np.linalg.norm(load):.3g} N); the load "
@@ -387,7 +392,7 @@ class FiniteLayer(LayerStatics):
             "or raise max_iterations")
 
     def _newton_direction(self, x: np.ndarray, residual: np.ndarray) -> np.ndarray:
-        """``(f, 3)`` Newton step H⁻¹ r, with the Gauss–Newton matrix where H is not positive definite."""
+        """``(3f,)`` Newton step H⁻¹ r, with the Gauss–Newton matrix where H is not positive definite."""
         for gauss_newton in (False, True):
             layer_tangent(x, *self._constraints, gauss_newton, self._stretch_slots, self._hinge_slots, self._blocks)
             size = 3 * self.free_nodes.size
@@ -401,36 +406,54 @@ class FiniteLayer(LayerStatics):
                                   "singular); a cut may have left a flap that only its inertia holds: use the "
                                   "implicit step") from None
             self.gauss_newton_steps += gauss_newton
-            return np.asarray(factor.solve(residual.ravel())).reshape(-1, 3)
+            return np.asarray(factor.solve(residual.ravel()))
 
-    def _line_search(self, x: np.ndarray, direction: np.ndarray, residual: np.ndarray, load: np.ndarray
-                     ) -> np.ndarray:
-        """x + s·``direction`` on the free nodes for the longest s = 2⁻ᵏ that lowers Π = U − fᵀx enough (Armijo)."""
-        slope = -float(np.vdot(residual, direction))  # dΠ/ds at s = 0, negative for a descent direction
-        energy = self.energy(x)
-        trial = x.copy()
+    def _line_search(self, x: np.ndarray, direction: np.ndarray, energy: float, forces: np.ndarray) -> None:
+        """Move ``x`` (U = ``energy``, ∇U in the buffer) in place along ``direction`` ``(3f,)`` on the free nodes,
+        as far as lowers Π = U − f_fᵀx_f (:meth:`_backtrack`); raises SolverError if no step does."""
+        if self._backtrack(x, direction, energy, self._no_inertia, forces) is None:
+            raise SolverError(
+                "the surface layer's finite-strain solve found no step that lowers its potential; the layer may be "
+                "tangled (a hinge folded through itself): start from a less deformed state or apply the load in "
+                "steps")
+        x[:] = self._trial
+
+    def _backtrack(self, x, direction, energy, inertia, forces) -> float | None:
+        """Backtracking along ``direction`` ``(3f,)`` from ``x`` (U = ``energy``, ∇U in the buffer) on the
+        incremental potential E = ½ |x − x_pred|²_M/dt² + U − f_fᵀx_f (``inertia`` M/dt² ``(3f,)``; zero: Π).
+
+        Returns U at the longest s = 2⁻ᵏ ≥ SHORTEST_STEP that meets Armijo's condition, its positions and ∇U left
+        in the trial buffers, or None. Near a minimum, E's change falls below U's round-off and cannot be
+        measured; there the step must instead not raise E's slope above its magnitude at s = 0 (Hager & Zhang
+        2005's approximate Armijo condition, the same test for a quadratic)."""
+        free, predicted = self.free_nodes, self._predicted
+        linear, quadratic, slope = _descent(x, predicted, free, inertia, forces, self._gradient, direction)
         step = 1.0
         while step >= SHORTEST_STEP:
-            trial[self.free_nodes] = x[self.free_nodes] + step * direction
-            if -slope <= ROUNDOFF * energy:  # Π's change is below its round-off: Newton's own step, unchecked
-                return trial
-            change = self.energy(trial) - energy - step * float(np.vdot(load, direction))
+            _advance(x, free, direction, step, self._trial)
+            trial_energy = layer_energy_gradient(self._trial, *self._constraints, self._trial_gradient)
+            change = trial_energy - energy + step * linear + 0.5 * step * step * quadratic
             if change <= ARMIJO * step * slope:
-                return trial
+                return trial_energy
+            if abs(change) <= ROUNDOFF * energy:
+                trial_slope = _descent(self._trial, predicted, free, inertia, forces, self._trial_gradient,
+                                       direction)[2]
+                if trial_slope <= (2.0 * ARMIJO - 1.0) * slope:
+                    return trial_energy
             step *= 0.5
-        raise SolverError(
-            f"the surface layer's finite-strain solve found no step that lowers its potential (Newton slope "
-            f"{slope:.3g} J, residual {np.linalg.norm(residual):.3g} N); the layer may be tangled (a hinge folded "
-            "through itself): start from a less deformed state or apply the load in steps")
+        return None
 
     def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
                       targets: np.ndarray, mass: np.ndarray, dt: float, damping: float, *,
                       iterations: int = 2) -> None:
         """One implicit-Euler step of the nonlinear layer, in place on ``positions``, ``velocities`` ``(n, 3)``.
 
-        Solves M/dt² (x − x_pred) + ∇U_f(x) = f_f, x_pred = x + dt (1 − damping) v, by ``iterations`` corrections
-        (M/dt² + K_ff(rest)) Δx = M/dt² (x_pred − x) + f_f − ∇U_f(x) from x = x_pred; ``forces`` ``(n, 3)`` [N],
-        lumped ``mass`` ``(n,)`` [kg], prescribed nodes at ``targets`` ``(k, 3)`` [m]; v = Δx/dt. The matrix is
+        Minimises the incremental potential E(x) = ½ |x − x_pred|²_M/dt² + U(x) − f_fᵀx_f, x_pred = x + dt
+        (1 − damping) v, whose stationary point is implicit Euler's M/dt² (x − x_pred) + ∇U_f(x) = f_f, by
+        ``iterations`` corrections (M/dt² + K_ff(rest)) Δx = −∇E from x = x_pred, each with a backtracking line
+        search on E: the constant matrix is positive definite, so Δx always descends, and the search keeps a large
+        rotation (where K(rest) is the wrong stiffness) from overshooting. ``forces`` ``(n, 3)`` [N], lumped
+        ``mass`` ``(n,)`` [kg], prescribed nodes at ``targets`` ``(k, 3)`` [m]; v = Δx/dt. The matrix is
         factorised once per dt (as :meth:`LayerStatics.implicit_step`'s, whose arguments these are; ``rest`` is
         not needed: the layer's rest state is in its rest lengths and angles). With CHOLMOD a step allocates
         nothing."""
@@ -440,13 +463,23 @@ class FiniteLayer(LayerStatics):
         if free.size:
             if self._dynamic is None or self._dynamic[0] != dt:
                 self._dynamic = (dt, *self._dynamic_factor(mass, dt))
-            _, factor, inertia, buffer, rhs = self._dynamic
-            for _ in range(iterations):
-                _inertial_residual(positions, self._predicted, free, inertia, forces, self.energy_gradient(positions), rhs)
-                if buffer is None:
-                    correction = np.asarray(factor.solve(rhs))
-                else:
-                    factor.solve_in_place(buffer)
-                    correction = rhs
-                _advance(positions, free, correction)
+            self._relax(positions, forces, iterations)
         _velocities(positions, velocities, self._old, dt)
+
+    def _relax(self, positions: np.ndarray, forces: np.ndarray, iterations: int) -> None:
+        """The implicit step's ``iterations`` line-searched corrections of ``positions``, in place."""
+        _, factor, inertia, buffer, rhs = self._dynamic
+        energy = layer_energy_gradient(positions, *self._constraints, self._gradient)
+        for _ in range(iterations):
+            _inertial_residual(positions, self._predicted, self.free_nodes, inertia, forces, self._gradient, rhs)
+            if buffer is None:
+                correction = np.asarray(factor.solve(rhs))
+            else:
+                factor.solve_in_place(buffer)
+                correction = rhs
+            trial_energy = self._backtrack(positions, correction, energy, inertia, forces)
+            if trial_energy is None:  # no measurable descent left: converged as far as round-off allows
+                return
+            positions[:] = self._trial
+            self._gradient, self._trial_gradient = self._trial_gradient, self._gradient
+            energy = trial_energy
