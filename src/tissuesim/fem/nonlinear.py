@@ -5,8 +5,8 @@ Two ways to the same equilibrium ∂W/∂u = f (W the stored energy, f the nodal
 potential Π(u) = W(u) − fᵀu with a backtracking line search, so every iteration lowers Π and the answer is a stable
 equilibrium (a minimum of Π):
 
-* :meth:`NonlinearFEM.solve`: Newton with the consistent tangent (element tangents projected to positive
-  semi-definite only where they are not, which no element near rest is), load stepping when a full load does not
+* :meth:`NonlinearFEM.solve`: Newton with the consistent tangent (where it is not positive definite, each element's
+  projected to positive semi-definite: a descent direction still), load stepping when a full load does not
   converge; converged to a residual below :data:`RTOL` of the load. One factorisation per iteration.
 * :meth:`NonlinearFEM.relax`: a fixed number of iterations that all use the constant, prefactorised rest stiffness
   K₀ of :class:`~.linear.LinearFEM` (modified Newton: K₀ is positive definite, so K₀⁻¹ r descends too). The
@@ -132,18 +132,20 @@ class NonlinearFEM:
     def solve(self, forces, *, initial=None, rtol: float = RTOL, max_iterations: int = MAX_NEWTON) -> np.ndarray:
         """``(n, 3)`` displacement [m] at the stable equilibrium under nodal ``forces`` ``(n, 3)`` [N] with the
         supports at :attr:`fixed_displacement` (Newton, line search, load stepping), from ``initial`` ``(n, 3)``
-        (default: the small-strain answer). A step that does not converge is halved: the loads and the supports'
+        (default: rest). A step that does not converge is halved: the loads and the supports'
         motion from where ``initial`` has them are applied in fractions. Raises :class:`UnstableLoadError` when no
         stable equilibrium is found."""
         forces = self._check_forces(forces)
         fixed = self._fixed_mask
-        if initial is None:
-            u = self._linear_guess(forces)
-            start = np.zeros_like(u)
+        if initial is None:  # from rest: the first Newton step is the small-strain answer, shortened as needed
+            u = start = np.zeros_like(forces)
         else:
             u = np.array(initial, dtype=np.float64)
             start = np.where(fixed, u, 0.0)
         motion = np.where(fixed, self.fixed_displacement, 0.0) - start
+        if initial is not None and not motion.any() and self._converged(forces, u, rtol):
+            self.last_iterations = 0  # already there (an interactive step under an unchanged load)
+            return u
         done, step, iterations = 0.0, 1.0, 0
         while done < 1.0:
             target = min(1.0, done + step)
@@ -163,13 +165,6 @@ class NonlinearFEM:
         self.last_iterations = iterations
         return u
 
-    def _linear_guess(self, forces) -> np.ndarray:
-        """Small-strain displacement under ``forces`` with the supports at :attr:`fixed_displacement`."""
-        free, flat = self.free_dofs, np.where(self._fixed_mask, self.fixed_displacement, 0.0).ravel()
-        rhs = forces.ravel()[free] - (self.linear.stiffness @ flat)[free]
-        flat[free] = self.linear._lu.solve(rhs)
-        return flat.reshape(-1, 3)
-
     def relax(self, forces, u: np.ndarray, *, iterations: int, rtol: float = RTOL) -> bool:
         """Up to ``iterations`` modified-Newton iterations on ``u`` ``(n, 3)`` [m] in place under ``forces``
         ``(n, 3)`` [N], each one back-substitution with the constant K₀ and a line search: the interactive path.
@@ -187,6 +182,12 @@ class NonlinearFEM:
                 return False
         return False
 
+    def _converged(self, forces, u, rtol) -> bool:
+        g = self.internal_forces(u).ravel()
+        flat_f = forces.ravel()
+        residual = flat_f[self.free_dofs] - g[self.free_dofs]
+        return bool(np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g))
+
     def _residual_scale(self, flat_forces, internal) -> float:
         """The load's size [N]: the larger of the applied forces and the support reactions, or a floor."""
         return max(float(np.linalg.norm(flat_forces)), float(np.linalg.norm(internal[self._fixed_dofs])),
@@ -203,15 +204,25 @@ class NonlinearFEM:
             residual = flat_f[free] - g[free]
             if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
                 return True, u, iteration - 1
-            tangent = self.tangent(u)[free][:, free].tocsc()
-            try:
-                factor = factorise_spd(tangent, free // 3)
-            except SolverError:
+            factor = self._tangent_factor(u)
+            if factor is None:
                 return False, u, iteration
             direction = np.asarray(factor.solve(residual))
             if not self._line_search(u, direction, residual, forces):
                 return False, u, iteration
         return False, u, max_iterations
+
+    def _tangent_factor(self, u):
+        """The factor of the exact tangent on the free dofs where it is positive definite (quadratic convergence),
+        else of the tangent with each element's projected to positive semi-definite (still a descent direction);
+        None when neither factorises."""
+        free = self.free_dofs
+        for project in (False, True):
+            try:
+                return factorise_spd(self.tangent(u, project=project)[free][:, free].tocsc(), free // 3)
+            except SolverError:
+                continue
+        return None
 
     def _line_search(self, u, direction, residual, forces) -> bool:
         """Backtrack along ``direction`` (free dofs) until Π = W − fᵀu decreases enough (Armijo); moves ``u`` in

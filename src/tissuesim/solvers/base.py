@@ -21,7 +21,11 @@ Common options (keyword-only, the same for every method):
 * ``density`` [kg/m³] = 1000 (soft tissue is close to water); it sets node masses where a method has any;
 * ``dt`` [s] = 0.01: the step that :meth:`Solver.step` and :meth:`Solver.solve_static` use when none is given
   (100 Hz, a haptics-free interactive rate); every time step lies in [:data:`~.checks.MIN_DT`, ∞);
-* ``damping``: fraction of the velocity removed per step, in [0, 1).
+* ``damping``: fraction of the velocity removed per step, in [0, 1);
+* ``material``: ``"linear"`` (default: the paper's small-strain elasticity), ``"corotated"`` or ``"neo-hookean"``
+  (finite strain, :mod:`tissuesim.fem.hyperelastic`), for the methods that list it in :attr:`Solver.materials`.
+
+``set_fixed_positions(x)`` moves the fixed set (finite-strain materials): a base that a grasper carries or turns.
 """
 
 from __future__ import annotations
@@ -34,7 +38,9 @@ import numpy as np
 
 from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
+from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
+from .finite_strain import check_method_material, unstable_load_error
 from .report import SolveReport, linear_validity_warning
 from .state import State, farthest_node, motion_and_displacement, remaining_error
 
@@ -76,6 +82,8 @@ class Solver(ABC):
     """
 
     name: ClassVar[str] = "?"
+    #: The ``material`` options this method accepts.
+    materials: ClassVar[tuple[str, ...]] = ("linear",)
     #: True for methods whose step is an exact static solve (one step reaches equilibrium).
     static: ClassVar[bool] = False
 
@@ -89,6 +97,7 @@ class Solver(ABC):
         density: float = DEFAULT_DENSITY,
         dt: float = DEFAULT_DT,
         damping: float = 0.0,
+        material: str = "linear",
     ):
         from ..fem.material import Material  # validates E and ν with MaterialError
 
@@ -101,6 +110,7 @@ class Solver(ABC):
         self.material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)  # checks both
         self.youngs_modulus = self.material.youngs_modulus
         self.poisson_ratio = self.material.poisson_ratio
+        self.material_model = check_method_material(type(self), material)
         self.density = positive_number("density", density, "kg/m³")
         self.dt = dt
         self.damping = fraction("damping", damping)
@@ -131,6 +141,8 @@ class Solver(ABC):
         #: Quasi-static solves whose static solver could not answer (a cut left a flap only inertia holds) and were
         #: finished by stepping.
         self.static_fallbacks = 0
+        #: ``(k, 3) float64`` where :meth:`set_fixed_positions` put the fixed vertices [m] (at rest until then).
+        self.fixed_positions = np.array(self.rest_positions[self.fixed])
 
     # ----------------------------------------------------------------------------------------------- state access
     @property
@@ -245,13 +257,19 @@ class Solver(ABC):
 
         return int(node), None if radius is None else contact_radius(radius)
 
-    def _new_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
-        from ..loads import contact_patch, lumped_areas
+    def lumped_areas(self) -> np.ndarray:
+        """``(n,) float64`` M_S rest area [m²] each vertex stands for (a third of its triangles')."""
+        from ..loads import lumped_areas
 
         if self._lumped_areas is None:
             self._lumped_areas = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
+        return self._lumped_areas
+
+    def _new_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
+        from ..loads import contact_patch
+
         return contact_patch(self.rest_positions, self.hybrid.surface.triangles, node, radius,
-                             areas=self._lumped_areas)
+                             areas=self.lumped_areas())
 
     def _refuse_held(self, node: int, radius: float | None, patch: np.ndarray) -> None:
         """Refuse a load at ``node`` whose ``patch`` ``(k,)`` holds fixed nodes: part of it would vanish into the
@@ -285,7 +303,10 @@ class Solver(ABC):
         :meth:`reset` then returns the solver to rest.
         """
         dt = self._check_dt(dt)
-        self._step(dt)
+        try:
+            self._step(dt)
+        except UnstableLoadError as error:  # raised before anything moved
+            raise unstable_load_error(self, error) from None
         self._check_blow_up(dt)
 
     def reset(self) -> None:
@@ -331,13 +352,23 @@ class Solver(ABC):
         node = self._check_node(node)
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
+        before = (self.state.positions.copy(), self.state.velocities.copy(), self.load, self.load_radius)
         if reset:
             self.reset()
         self.set_load(node, force, radius=radius)
+        try:
+            return self._settle(dt, tolerance, rtol, max_steps)
+        except UnstableLoadError as error:
+            refusal = unstable_load_error(self, error)
+            self._restore(*before)
+            raise refusal from None
+
+    def _settle(self, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
+        """:meth:`solve_static`'s work once the load is set: the method's static solve, else stepping."""
         start = time.perf_counter()
         iterations = self._static_solve()
         if iterations is not None:
-            self._check_blow_up(dt, " in its static solve", linear=True)
+            self._check_blow_up(dt, " in its static solve", linear=self.material_model == "linear")
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
                                           *self._largest_displacement())
             return self.state.positions.copy()
@@ -366,6 +397,34 @@ class Solver(ABC):
                 f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"
             )
         return self.state.positions.copy()
+
+    def _restore(self, positions, velocities, load, radius) -> None:
+        """Back to a state and load taken before a refused solve."""
+        self.reset()
+        if load is not None:
+            self.set_load(load[0], load[1], radius=radius)
+        self.state.positions[:] = positions
+        self.state.velocities[:] = velocities
+
+    def set_fixed_positions(self, positions) -> None:
+        """Move the fixed set: ``positions`` ``(k, 3)`` [m] of the vertices in :attr:`fixed`, in that order (a base
+        carried or turned by a grasper or retractor; the next step or static solve follows). A finite-strain
+        ``material`` moves an unloaded body rigidly with a rigid motion of its base; linear elasticity would inflate
+        it, so the linear material refuses (BoundaryConditionError)."""
+        from .finite_strain import check_fixed_positions
+
+        if self.material_model == "linear":
+            raise BoundaryConditionError(
+                f"moving the fixed set needs a finite-strain material: linear elasticity inflates a turned body (by "
+                f"about 1 + θ² at θ radians); build the {self.name} solver with material='corotated' or "
+                "'neo-hookean'")
+        positions = check_fixed_positions(positions, self.fixed)
+        self._move_fixed(positions)
+        self.fixed_positions = positions
+
+    def _move_fixed(self, positions: np.ndarray) -> None:
+        """Subclasses with a finite-strain material carry the fixed set to ``positions`` ``(k, 3)`` [m]."""
+        raise BoundaryConditionError(f"the {self.name} method cannot move its fixed set")
 
     def _largest_displacement(self) -> tuple[float, float]:
         """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""

@@ -7,6 +7,8 @@ the work done on M_V: the mapping's virtual-work-consistent force transfer).
 
 The method is static: each ``step`` is one FEM fast-path solve (cached K⁻¹ columns of the ≤ 4 loaded nodes) for the
 M_V nodes that carry the surface, then the mapping. ``fixed`` defaults to the M_V nodes below the bottom height.
+With a finite-strain ``material`` each step is a Newton solve of M_V (:class:`~tissuesim.fem.nonlinear.NonlinearFEM`),
+warm-started from the last answer, and the mapping carries its displacement.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from .base import Solver
+from .finite_strain import finite_volume, support_displacement
 from .registry import register
 
 
@@ -45,6 +48,7 @@ class EmbeddedSolver(Solver):
     """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring)."""
 
     static = True
+    materials = ("linear", "corotated", "neo-hookean")
 
     def __init__(self, hybrid_mesh, **common):
         super().__init__(hybrid_mesh, **common)
@@ -66,6 +70,10 @@ class EmbeddedSolver(Solver):
         self._u = np.zeros((self.carrier_nodes.size, 3))
         self._tets = tets.astype(np.int64)
         self._dirty = False
+        self._surface_to_volume = surface_to_volume
+        self.finite = finite_volume(self, volume, self.fem)
+        self._volume_u = np.zeros((volume.node_count, 3))
+        self._volume_forces = np.zeros((volume.node_count, 3))
 
     def _on_load_changed(self) -> None:
         self._dirty = True
@@ -74,12 +82,25 @@ class EmbeddedSolver(Solver):
         node = self._load_node
         if node < 0:
             self._u[:] = 0.0
+            self._volume_forces[:] = 0.0
         else:
             # Each loaded M_S node's force goes to its tet's nodes by its barycentric weights.
             patch = self.load_nodes
             volume_nodes = self._tets[self.tet_of[patch]].ravel()
             forces = (self.weights[patch][:, :, None] * self.forces[patch][:, None, :]).reshape(-1, 3)
-            self.fem.point_load_response(volume_nodes, forces, output_nodes=self.carrier_nodes, out=self._u)
+            if self.finite is None:
+                self.fem.point_load_response(volume_nodes, forces, output_nodes=self.carrier_nodes, out=self._u)
+                return
+            self._volume_forces[:] = 0.0
+            np.add.at(self._volume_forces, volume_nodes, forces)
+        if self.finite is not None:
+            self._volume_u = self.finite.solve(self._volume_forces, initial=self._volume_u)
+            self._u[:] = self._volume_u[self.carrier_nodes]
+
+    def _move_fixed(self, positions: np.ndarray) -> None:
+        self.finite.set_fixed_displacement(support_displacement(
+            self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
+            positions))
 
     def _step(self, dt: float) -> None:
         state = self.state
@@ -88,6 +109,9 @@ class EmbeddedSolver(Solver):
         state.velocities[:] = state.positions
         map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self._u,
                      state.positions)
-        hold_at_rest(self.rest_positions, self.fixed, state.positions)
+        if self.finite is None:
+            hold_at_rest(self.rest_positions, self.fixed, state.positions)
+        else:  # the fixed vertices where set_fixed_positions put them (at rest until then)
+            state.positions[self.fixed] = self.fixed_positions
         np.subtract(state.positions, state.velocities, out=state.velocities)
         state.velocities /= dt

@@ -3,7 +3,8 @@
 The load on M_S node i goes to fine-volume node ``fine_surface_nodes[i]`` (the same point); positions are
 rest + u[fine_surface_nodes]. Each ``step`` is one full sparse back-substitution over the fine volume (that is this
 method's per-step time, as the paper's FEM column). ``fixed`` defaults to the fine-volume nodes below the bottom
-height.
+height. With a finite-strain ``material`` each step is a Newton solve of the fine volume
+(:class:`~tissuesim.fem.nonlinear.NonlinearFEM`), warm-started from the last answer.
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .base import Solver
+from .finite_strain import finite_volume, support_displacement
 from .registry import register
 
 
@@ -20,6 +22,7 @@ class FineFEMSolver(Solver):
     """Static linear FEM on ``hybrid.fine_volume`` (see the module docstring)."""
 
     static = True
+    materials = ("linear", "corotated", "neo-hookean")
 
     def __init__(self, hybrid_mesh, **common):
         super().__init__(hybrid_mesh, **common)
@@ -44,6 +47,8 @@ class FineFEMSolver(Solver):
         self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
                              fixed=self.fixed_volume)
         self._volume_forces = np.zeros((volume.node_count, 3))
+        self.finite = finite_volume(self, volume, self.fem)
+        self._volume_u = np.zeros((volume.node_count, 3))
 
     def _step(self, dt: float) -> None:
         state = self.state
@@ -57,4 +62,11 @@ class FineFEMSolver(Solver):
         """``(N, 3) float64`` fine-volume displacement [m] under the current load (one full solve)."""
         self._volume_forces[:] = 0.0
         self._volume_forces[self.surface_nodes[self.load_nodes]] = self.forces[self.load_nodes]
-        return self.fem.solve(self._volume_forces)
+        if self.finite is None:
+            return self.fem.solve(self._volume_forces)
+        self._volume_u = self.finite.solve(self._volume_forces, initial=self._volume_u)
+        return self._volume_u
+
+    def _move_fixed(self, positions: np.ndarray) -> None:
+        self.finite.set_fixed_displacement(support_displacement(
+            self.fem.mesh.points, self.fixed_volume, self.surface_nodes, self.fixed, self.rest_positions, positions))

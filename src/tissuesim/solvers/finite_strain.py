@@ -1,0 +1,92 @@
+"""What the solvers share for finite strain: the ``material`` option, a moving fixed set, and the refusal of a dead
+load that has no stable equilibrium.
+
+A moving fixed set (:meth:`Solver.set_fixed_positions <tissuesim.solvers.base.Solver.set_fixed_positions>`) gives
+the positions of the fixed M_S vertices; a volume's fixed nodes follow them: exactly where a volume node is one of
+those vertices, and through the affine map that best fits the given motion (least squares) elsewhere, so a rigid
+motion of the fixed set moves every fixed node rigidly.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import BoundaryConditionError, SolverError
+from ..fem.hyperelastic import MATERIALS, check_material
+
+
+def check_method_material(cls, material) -> str:
+    """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
+    material = check_material(material)
+    if material not in cls.materials:
+        raise SolverError(f"the {cls.name} method takes material {' or '.join(map(repr, cls.materials))}, not "
+                          f"{material!r}; finite strain ({', '.join(map(repr, MATERIALS[1:]))}) is available in "
+                          "the hybrid, fem and embedded methods")
+    return material
+
+
+def check_fixed_positions(positions, fixed: np.ndarray) -> np.ndarray:
+    """``(k, 3) float64`` copy of ``positions`` [m] for the ``fixed`` ``(k,)`` M_S vertices, checked: finite and
+    one row per vertex."""
+    positions = np.array(positions, dtype=np.float64)
+    if positions.shape != (fixed.size, 3):
+        raise BoundaryConditionError(f"fixed positions must be a ({fixed.size}, 3) array [m], one row per vertex of "
+                                     f"solver.fixed, got shape {positions.shape}")
+    if not np.all(np.isfinite(positions)):
+        raise BoundaryConditionError("fixed positions must be finite numbers [m]")
+    return positions
+
+
+def affine_fit(rest: np.ndarray, moved: np.ndarray):
+    """``(A (3, 3), b (3,))`` minimising Σ |A x + b − y|² over rest points ``rest`` ``(k, 3)`` → ``moved`` ``(k, 3)``
+    [m]: exact for a rigid or affine motion; the fixed set's points must not all lie on one line."""
+    rest_h = np.hstack([rest, np.ones((len(rest), 1))])
+    solution, _, rank, _ = np.linalg.lstsq(rest_h, moved, rcond=None)
+    if rank < 4:  # planar fixed sets (the bottom face) leave the normal free: complete the map with a rotation
+        centre = rest.mean(axis=0)
+        target_centre = moved.mean(axis=0)
+        u, _, vt = np.linalg.svd((moved - target_centre).T @ (rest - centre))
+        rotation = u @ np.diag([1.0, 1.0, np.sign(np.linalg.det(u @ vt))]) @ vt
+        return rotation, target_centre - rotation @ centre
+    return solution[:3].T, solution[3]
+
+
+def support_displacement(volume_points: np.ndarray, fixed_volume: np.ndarray, surface_to_volume: np.ndarray,
+                         fixed_surface: np.ndarray, rest_surface: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` displacement [m] of a volume's nodes ``volume_points`` ``(N, 3)`` at its ``fixed_volume`` nodes
+    (zero elsewhere) when the fixed M_S vertices ``fixed_surface`` move to ``positions`` ``(k, 3)``;
+    ``surface_to_volume`` ``(n,)`` maps M_S vertices to volume nodes (−1: none)."""
+    matrix, shift = affine_fit(rest_surface[fixed_surface], positions)
+    displacement = np.zeros_like(volume_points)
+    points = volume_points[fixed_volume]
+    displacement[fixed_volume] = points @ matrix.T + shift - points
+    mapped = surface_to_volume[fixed_surface]
+    on_surface = mapped >= 0
+    displacement[mapped[on_surface]] = positions[on_surface] - rest_surface[fixed_surface[on_surface]]
+    return displacement
+
+
+def unstable_load_error(solver, error) -> SolverError:
+    """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): the
+    load, the patch's mean pressure against the shear modulus μ, and the fix."""
+    force = float(np.linalg.norm(solver.load[1])) if solver.load else 0.0
+    area = float(solver.lumped_areas()[solver.load_nodes].sum())
+    mu = solver.material.shear_modulus
+    pressure = force / area if area > 0 else np.inf
+    return SolverError(
+        f"{solver.name} solver ({solver.material_model}): a dead load of {force:.3g} N on {solver.load_nodes.size} "
+        f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
+        f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
+        "a body pressed by a fixed force buckles; press with the pin-head's spring (PinHead) or a rigid tip, whose "
+        "force follows from the displacement, or lower the load")
+
+
+def finite_volume(solver, mesh, linear):
+    """The :class:`~tissuesim.fem.nonlinear.NonlinearFEM` of ``mesh`` for ``solver``'s finite-strain material (sharing
+    the factor of its LinearFEM ``linear``), or None for the linear material."""
+    if solver.material_model == "linear":
+        return None
+    from ..fem.nonlinear import NonlinearFEM
+
+    return NonlinearFEM(mesh, fixed=linear.fixed_dofs, material=solver.material_model, linear=linear)
+
