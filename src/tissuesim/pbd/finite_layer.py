@@ -391,20 +391,26 @@ class FiniteLayer(LayerStatics):
             "may be beyond what the layer carries: lower it, or apply it in steps from the last converged state, "
             "or raise max_iterations")
 
+    def tangent(self, positions: np.ndarray, *, gauss_newton: bool = False) -> sp.csc_matrix:
+        """``(3f, 3f)`` free-free part [N/m] of the layer's tangent at ``positions`` ``(n, 3)`` [m], free dofs in
+        :attr:`free_nodes` order: Newton's Jᵀ α⁻¹ J + Σ (C/α) ∇²C, or with ``gauss_newton`` only Jᵀ α⁻¹ J."""
+        layer_tangent(positions, *self._constraints, gauss_newton, self._stretch_slots, self._hinge_slots,
+                      self._blocks)
+        size = 3 * self.free_nodes.size
+        return sp.bsr_matrix((self._blocks, self._indices, self._indptr), shape=(size, size)).tocsc()
+
     def _newton_direction(self, x: np.ndarray, residual: np.ndarray) -> np.ndarray:
         """``(3f,)`` Newton step H⁻¹ r, with the Gauss–Newton matrix where H is not positive definite."""
         for gauss_newton in (False, True):
-            layer_tangent(x, *self._constraints, gauss_newton, self._stretch_slots, self._hinge_slots, self._blocks)
-            size = 3 * self.free_nodes.size
-            tangent = sp.bsr_matrix((self._blocks, self._indices, self._indptr), shape=(size, size)).tocsc()
             try:
-                factor = factorise_spd(tangent, self._dof_node)
+                factor = factorise_spd(self.tangent(x, gauss_newton=gauss_newton), self._dof_node)
             except SolverError:
                 if not gauss_newton:
                     continue
                 raise SolverError("the surface layer does not hold every free node (its Gauss–Newton matrix is "
-                                  "singular); a cut may have left a flap that only its inertia holds: use the "
-                                  "implicit step") from None
+                                  "singular): a cut may have left a flap that only its inertia holds (use the "
+                                  "implicit step), or a triangle has collapsed (start from a less deformed state, "
+                                  "e.g. the linear answer)") from None
             self.gauss_newton_steps += gauss_newton
             return np.asarray(factor.solve(residual.ravel()))
 
