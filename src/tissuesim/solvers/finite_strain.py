@@ -21,7 +21,7 @@ def check_method_material(cls, material) -> str:
     if material not in cls.materials:
         raise SolverError(f"the {cls.name} method takes material {' or '.join(map(repr, cls.materials))}, not "
                           f"{material!r}; finite strain ({', '.join(map(repr, MATERIALS[1:]))}) is available in "
-                          "the hybrid, fem and embedded methods")
+                          "the hybrid, fem, embedded and pbd methods (pbd: its default xpbd form)")
     return material
 
 

@@ -23,6 +23,12 @@ the embedded FEM displacement (their barycentric embedding in M_V, as the ``embe
 the local detail instead of propagating the whole motion from the control nodes edge by edge. It changes the path,
 not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after a few steps).
 
+Option ``material`` (beyond the paper): ``"corotated"`` or ``"neo-hookean"`` make M_V finite-strain
+(:class:`~tissuesim.fem.nonlinear.NonlinearFEM`) and the layer nonlinear (:mod:`tissuesim.pbd.finite_layer`).
+``solve_static`` then solves both to their converged equilibria (Newton); ``step`` relaxes M_V by
+:data:`VOLUME_ITERATIONS` constant-factor iterations per step, warm-started, until it is at equilibrium, and the
+layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
+
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
 the rest. It needs the fine volume, costs one factorisation when built and three back-substitutions per new contact,
@@ -44,6 +50,8 @@ DEFAULT_WARM_START = True
 #: Default per-step velocity damping: settles 1 N on the cube in 15 steps (0.2: 21; 0.1: 22), 20 N in 31 (0.2: 45),
 #: the same equilibrium.
 HYBRID_DAMPING = 0.4
+#: M_V's constant-factor iterations per step with a finite-strain material: each costs one back-substitution of M_V.
+VOLUME_ITERATIONS = 2
 
 
 @register("hybrid")
@@ -62,10 +70,13 @@ class HybridSolver(SurfaceLayerSolver):
             ``hybrid.control``.
     """
 
+    materials = ("linear", "corotated", "neo-hookean")
+
     def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
                  near_field: float | None = None, **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
+        from .finite_strain import finite_volume
 
         h = hybrid_mesh
         self.warm_start = bool(warm_start)
@@ -80,9 +91,18 @@ class HybridSolver(SurfaceLayerSolver):
         # Prescribed M_S nodes: control nodes (FEM positions) first, then fixed non-control nodes (rest).
         is_control = np.zeros(self.node_count, dtype=bool)
         is_control[control] = True
-        pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
+        self._pinned_rows = np.flatnonzero(~is_control[self.fixed])   # rows of `fixed` that are not control nodes
+        pinned = self.fixed[self._pinned_rows].astype(np.int64)
         self._held = np.concatenate([control, pinned])
         self._set_prescribed(self._held)
+        self._surface_to_volume = surface_to_volume
+        self.finite = finite_volume(self, volume, self.fem)
+        self._volume_u = np.zeros((volume.node_count, 3))
+        self._volume_forces = np.zeros((volume.node_count, 3))
+        self._volume_settled = True
+        if near_field is not None and self.finite is not None:
+            raise SolverError(f"near_field works with material='linear' only: its quadratic window is small-strain; "
+                              f"drop near_field, or the {self.material_model!r} material")
         self._init_near_field(near_field)
         self.control = control
         self.control_count = control.size
@@ -156,11 +176,40 @@ class HybridSolver(SurfaceLayerSolver):
 
     def _on_reset(self) -> None:
         self._embedded[:] = self.rest_positions
+        self._volume_u[:] = 0.0
         self._update_fem()
 
-    def _update_fem(self) -> None:
+    def _move_fixed(self, positions: np.ndarray) -> None:
+        from .finite_strain import support_displacement
+
+        self.finite.set_fixed_displacement(support_displacement(
+            self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
+            positions))
+        self._dirty = True
+
+    def _finite_response(self, exact: bool) -> None:
+        """M_V's finite-strain displacement of the output nodes into ``_u``: converged (``exact``) or relaxed by
+        :data:`VOLUME_ITERATIONS` iterations from the last one."""
+        forces = self._volume_forces
+        forces[:] = 0.0
+        if self._load_node >= 0:
+            patch = self.load_nodes
+            shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
+            np.add.at(forces, self.load_volume_nodes[patch].ravel(), shares[:, None] * self._load_force[None, :])
+        if exact:
+            self._volume_u = self.finite.solve(forces, initial=self._volume_u)
+            self._volume_settled = True
+        else:
+            self._volume_settled = self.finite.relax(forces, self._volume_u, iterations=VOLUME_ITERATIONS)
+        self._u[:] = self._volume_u[self.output_nodes]
+        pinned = self.control_count + np.arange(self._pinned_rows.size)
+        self.targets[pinned] = self.fixed_positions[self._pinned_rows]
+
+    def _update_fem(self, *, exact: bool = False) -> None:
         node = self._load_node
-        if node < 0:
+        if self.finite is not None:
+            self._finite_response(exact)
+        elif node < 0:
             self._u[:] = 0.0
         else:
             # §6.1 for each node carrying a share of the load: its share split over its coarse triangle.
@@ -206,8 +255,13 @@ class HybridSolver(SurfaceLayerSolver):
         self._window, self._window_slots = window, slot[window]
 
     def _prepare_static(self) -> None:
-        if self._dirty:
+        if self._dirty or not self._volume_settled:
             self._update_fem()
+
+    def _static_solve(self) -> int | None:
+        if self.finite is not None:
+            self._update_fem(exact=True)
+        return super()._static_solve()
 
     def _step(self, dt: float) -> None:
         self._prepare_static()

@@ -24,6 +24,11 @@ Masses: the body's mass (density × enclosed volume) spread over the surface nod
 Option ``prestrain`` (xpbd form, beyond the paper): the layer carries the tension of a stretched capsule, released at
 the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.prestress`).
 
+Option ``material`` (xpbd form, implicit integrator): ``"corotated"`` or ``"neo-hookean"`` solve the layer's
+nonlinear constraints as they are (:class:`~tissuesim.pbd.finite_layer.FiniteLayer`: Newton in ``solve_static``, a
+nonlinear implicit step with the constant rest factor in ``step``), so that turning costs no energy; the layer has
+one constitutive form, and both names choose it (the volume's material is what they tell apart).
+
 ``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
 """
 
@@ -60,6 +65,10 @@ DEFAULT_DAMPING = 0.2
 #: The pbd method's default: settles 1 N on the cube in 104 steps (0.2: 157; 0.4: 286) and 20 N in 1261 (0.2: not
 #: within 1500).
 PBD_DAMPING = 0.1
+
+
+#: Constant-factor iterations per step of the finite-strain layer's implicit step.
+LAYER_ITERATIONS = 2
 
 
 class SurfaceLayerSolver(Solver):
@@ -109,6 +118,10 @@ class SurfaceLayerSolver(Solver):
             raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
         if integrator not in INTEGRATORS:
             raise SolverError(f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
+        if self.material_model != "linear" and (form, integrator) != ("xpbd", "implicit"):
+            raise SolverError(f"material={self.material_model!r} needs the layer's xpbd form with the implicit "
+                              f"integrator (the {form} form with integrator={integrator!r} has no finite-strain "
+                              "solve); drop form/integrator, or use material='linear'")
         self.form = form
         self.integrator = integrator
         self.iterations = int(iterations)
@@ -223,18 +236,29 @@ class SurfaceLayerSolver(Solver):
             return None
         positions[statics.free_nodes] += displacement
         self.state.velocities[:] = 0.0
-        return 1
+        if self.material_model == "linear":
+            return 1
+        return 1 + statics.static(positions, self.applied_forces(), self.targets)  # from the linear answer
 
     def _implicit_step(self, dt: float) -> None:
         """Linear implicit Euler on the layer (:meth:`LayerStatics.implicit_step`); damping removes a fraction of the
         velocity before the step, as in the kernels."""
         s = self.state
+        options = {} if self.material_model == "linear" else {"iterations": LAYER_ITERATIONS}
         self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.applied_forces(),
-                                     self.targets, self.mass, dt, self.damping)
+                                     self.targets, self.mass, dt, self.damping, **options)
 
     def statics(self):
         """The :class:`~tissuesim.pbd.static.LayerStatics` of this layer and its prescribed nodes (built on first
         use: one sparse factorisation)."""
+        if self._statics is None and self.material_model != "linear":
+            from ..pbd.finite_layer import FiniteLayer
+
+            c = self.constraints
+            self._statics = FiniteLayer(self.rest_positions, edges=c.edges, rest_length=c.rest_length,
+                                        stretch_compliance=self.stretch_compliance, hinges=c.bending,
+                                        rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
+                                        prescribed=self.prescribed)
         if self._statics is None:
             from ..pbd.static import LayerStatics, layer_stiffness
 
@@ -275,6 +299,11 @@ class SurfaceLayerSolver(Solver):
 class PBDSolver(SurfaceLayerSolver):
     """PBD on M_S alone: fixed nodes pinned at rest, every other node projected (see the module docstring)."""
 
+    materials = ("linear", "corotated", "neo-hookean")
+
     def __init__(self, hybrid_mesh, *, damping: float = PBD_DAMPING, **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         self._set_prescribed(self.fixed)
+
+    def _move_fixed(self, positions: np.ndarray) -> None:
+        self.targets[:] = positions  # the prescribed nodes are the fixed ones, in the same order
