@@ -40,7 +40,7 @@ from ..errors import BoundaryConditionError, InversionError, SolverError, first_
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
-from .finite_strain import check_method_material, unstable_load_error
+from .finite_strain import check_dead_press, check_method_material, unstable_load_error
 from .report import SolveReport, linear_validity_warning
 from .state import State, farthest_node, motion_and_displacement, remaining_error
 
@@ -352,6 +352,7 @@ class Solver(ABC):
         node = self._check_node(node)
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
+        check_dead_press(self, node, force, radius)
         before = (self.state.positions.copy(), self.state.velocities.copy(), self.load, self.load_radius)
         if reset:
             self.reset()

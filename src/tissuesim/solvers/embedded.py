@@ -72,7 +72,8 @@ class EmbeddedSolver(Solver):
         self._dirty = False
         self._surface_to_volume = surface_to_volume
         self.finite = finite_volume(self, volume, self.fem)
-        self._volume_u = np.zeros((volume.node_count, 3))
+        #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
+        self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
 
     def _on_load_changed(self) -> None:
@@ -94,8 +95,8 @@ class EmbeddedSolver(Solver):
             self._volume_forces[:] = 0.0
             np.add.at(self._volume_forces, volume_nodes, forces)
         if self.finite is not None:
-            self._volume_u = self.finite.solve(self._volume_forces, initial=self._volume_u)
-            self._u[:] = self._volume_u[self.carrier_nodes]
+            self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)
+            self._u[:] = self.volume_displacement[self.carrier_nodes]
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         self.finite.set_fixed_displacement(support_displacement(

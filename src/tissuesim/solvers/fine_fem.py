@@ -48,7 +48,8 @@ class FineFEMSolver(Solver):
                              fixed=self.fixed_volume)
         self._volume_forces = np.zeros((volume.node_count, 3))
         self.finite = finite_volume(self, volume, self.fem)
-        self._volume_u = np.zeros((volume.node_count, 3))
+        #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
+        self.volume_displacement = np.zeros((volume.node_count, 3))
 
     def _step(self, dt: float) -> None:
         state = self.state
@@ -64,8 +65,8 @@ class FineFEMSolver(Solver):
         self._volume_forces[self.surface_nodes[self.load_nodes]] = self.forces[self.load_nodes]
         if self.finite is None:
             return self.fem.solve(self._volume_forces)
-        self._volume_u = self.finite.solve(self._volume_forces, initial=self._volume_u)
-        return self._volume_u
+        self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)
+        return self.volume_displacement
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         self.finite.set_fixed_displacement(support_displacement(

@@ -90,3 +90,33 @@ def finite_volume(solver, mesh, linear):
 
     return NonlinearFEM(mesh, fixed=linear.fixed_dofs, material=solver.material_model, linear=linear)
 
+
+
+#: A dead-load press whose mean pressure over the contact patch exceeds this many shear moduli μ is refused with a
+#: finite-strain material: in the mesh-converged finite-strain solution of the cube (docs/finite-strain.md) a dead
+#: traction above about μ over the patch has no stable equilibrium, and the load at which a given mesh still
+#: converges falls as it is refined, so a coarse mesh's answer beyond it means nothing.
+PRESS_LIMIT = 1.0
+
+
+def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
+    """Refuse (SolverError) a finite-strain dead load at ``node`` that presses into the surface with a mean pressure
+    above :data:`PRESS_LIMIT` μ over its contact patch; pulls and shears of any size pass."""
+    if solver.material_model == "linear":
+        return
+    nodes, _ = solver.contact_patch(node, radius)
+    rest, triangles = solver.rest_positions, solver.hybrid.surface.triangles
+    around = triangles[np.any(triangles == node, axis=1)]
+    normal = np.cross(rest[around[:, 1]] - rest[around[:, 0]], rest[around[:, 2]] - rest[around[:, 0]]).sum(axis=0)
+    normal /= np.linalg.norm(normal)      # the outward normal at the node, area-weighted over its triangles
+    area = float(solver.lumped_areas()[nodes].sum())
+    pressure = max(0.0, -float(np.dot(force, normal))) / area
+    mu = solver.material.shear_modulus
+    if pressure > PRESS_LIMIT * mu:
+        largest = PRESS_LIMIT * mu * area
+        raise SolverError(
+            f"a dead load pressing {-float(np.dot(force, normal)):.3g} N into the surface over {nodes.size} node(s) "
+            f"({1e6 * area:.3g} mm²) is a mean pressure of {pressure:.3g} Pa = {pressure / mu:.2g} μ "
+            f"(μ = {mu:.3g} Pa): beyond about μ a body pressed by a fixed force has no stable finite-strain "
+            f"equilibrium (here: above {largest:.3g} N); press with the pin-head's spring (PinHead) or a rigid tip, "
+            "whose force follows from the displacement, or lower the load")

@@ -97,7 +97,8 @@ class HybridSolver(SurfaceLayerSolver):
         self._set_prescribed(self._held)
         self._surface_to_volume = surface_to_volume
         self.finite = finite_volume(self, volume, self.fem)
-        self._volume_u = np.zeros((volume.node_count, 3))
+        #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
+        self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
         self._volume_settled = True
         if near_field is not None and self.finite is not None:
@@ -176,7 +177,7 @@ class HybridSolver(SurfaceLayerSolver):
 
     def _on_reset(self) -> None:
         self._embedded[:] = self.rest_positions
-        self._volume_u[:] = 0.0
+        self.volume_displacement[:] = 0.0
         self._update_fem()
 
     def _move_fixed(self, positions: np.ndarray) -> None:
@@ -197,11 +198,11 @@ class HybridSolver(SurfaceLayerSolver):
             shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
             np.add.at(forces, self.load_volume_nodes[patch].ravel(), shares[:, None] * self._load_force[None, :])
         if exact:
-            self._volume_u = self.finite.solve(forces, initial=self._volume_u)
+            self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
             self._volume_settled = True
         else:
-            self._volume_settled = self.finite.relax(forces, self._volume_u, iterations=VOLUME_ITERATIONS)
-        self._u[:] = self._volume_u[self.output_nodes]
+            self._volume_settled = self.finite.relax(forces, self.volume_displacement, iterations=VOLUME_ITERATIONS)
+        self._u[:] = self.volume_displacement[self.output_nodes]
         pinned = self.control_count + np.arange(self._pinned_rows.size)
         self.targets[pinned] = self.fixed_positions[self._pinned_rows]
 
@@ -257,6 +258,14 @@ class HybridSolver(SurfaceLayerSolver):
     def _prepare_static(self) -> None:
         if self._dirty or not self._volume_settled:
             self._update_fem()
+
+    def _finite_start(self, positions: np.ndarray) -> None:
+        """The finite-strain layer starts from the surface carried by M_V's finite-strain displacement (its
+        embedding, as ``warm_start``), much closer than the linear layer's answer once M_V turns."""
+        if self.warm_start:
+            map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
+                         positions)
+            positions[self.prescribed] = self.targets
 
     def _static_solve(self) -> int | None:
         if self.finite is not None:

@@ -238,7 +238,12 @@ class SurfaceLayerSolver(Solver):
         self.state.velocities[:] = 0.0
         if self.material_model == "linear":
             return 1
-        return 1 + statics.static(positions, self.applied_forces(), self.targets)  # from the linear answer
+        self._finite_start(positions)
+        return 1 + statics.static(positions, self.applied_forces(), self.targets)
+
+    def _finite_start(self, positions: np.ndarray) -> None:
+        """Where the finite-strain layer's Newton starts, in place on ``positions`` ``(n, 3)`` [m]: the linear
+        answer they hold, unless a subclass knows better."""
 
     def _implicit_step(self, dt: float) -> None:
         """Linear implicit Euler on the layer (:meth:`LayerStatics.implicit_step`); damping removes a fraction of the

@@ -1,0 +1,228 @@
+"""Finite strain (corotated, stable neo-Hookean) against what nobody here wrote: the exact homogeneous uniaxial
+stretch, the small-load limit of linear elasticity, rigid motions that must cost nothing, frame invariance, and the
+stability limit of a dead-load press."""
+
+import numpy as np
+import pytest
+from scipy.optimize import fsolve
+
+from tissuesim.errors import BoundaryConditionError, SolverError
+from tissuesim.fem.hyperelastic import (energy_density, material_parameters, piola_stress, stress_tangent)
+from tissuesim.fem.linear import LinearFEM
+from tissuesim.fem.nonlinear import NonlinearFEM
+from tissuesim.mesh.tetmesh import structured_box, tet_signed_volumes
+from tissuesim.solvers.registry import make_solver
+
+E, NU = 5500.0, 0.3
+MU, LAM = E / (2 * (1 + NU)), E * NU / ((1 + NU) * (1 - 2 * NU))
+FINITE = ("corotated", "neo-hookean")
+SIZE = (0.02, 0.02, 0.04)
+
+
+def _rollers(mesh):
+    """Dof mask: x fixed on x = 0, y on y = 0, z on z = 0 (a block free to contract sideways)."""
+    p = mesh.points
+    mask = np.zeros((mesh.node_count, 3), dtype=bool)
+    for axis in range(3):
+        mask[:, axis] = np.isclose(p[:, axis], 0.0)
+    return mask
+
+
+def _top_traction(mesh, traction):
+    """Nodal forces [N] of a uniform nominal traction [Pa] along z on the top face (area thirds per vertex)."""
+    p, top = mesh.points, np.isclose(mesh.points[:, 2], SIZE[2])
+    tris = mesh.boundary_triangles
+    tris = tris[np.all(top[tris], axis=1)]
+    area = 0.5 * np.linalg.norm(np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]]), axis=1)
+    forces = np.zeros((mesh.node_count, 3))
+    np.add.at(forces[:, 2], tris.ravel(), np.repeat(area / 3.0, 3) * traction)
+    return forces
+
+
+def _analytic_uniaxial(material, traction):
+    """(lateral stretch a, axial stretch s) of F = diag(a, a, s) with P_11 = 0 and P_33 = traction [Pa]."""
+    params = material_parameters(material, shear_modulus=MU, lame_lambda=LAM)
+    scratch, p = np.empty((5, 3, 3)), np.empty((3, 3))
+
+    def equations(stretches):
+        piola_free = np.diag([stretches[0], stretches[0], stretches[1]])
+        piola_stress(piola_free, params, p, scratch)
+        return [p[0, 0] / MU, (p[2, 2] - traction) / MU]
+
+    # The closed form for neo-Hookean (an independent check of piola_stress at diagonal F):
+    a, s = fsolve(equations, [1.0, 1.0 + traction / E], xtol=1e-12)
+    if material == "neo-hookean":
+        mu, lam = 4 / 3 * MU, LAM + 5 / 6 * MU
+        alpha = 1 + 0.75 * mu / lam
+        ic, j = 2 * a * a + s * s, a * a * s
+        shear = mu * (1 - 1 / (ic + 1))
+        assert shear * a + lam * (j - alpha) * a * s == pytest.approx(0.0, abs=1e-9 * MU)
+        assert shear * s + lam * (j - alpha) * a * a == pytest.approx(traction, rel=1e-9)
+    return a, s
+
+
+@pytest.mark.parametrize("material", FINITE)
+@pytest.mark.parametrize("traction", [500.0, 3000.0])   # 0.1 and 0.55 E: from mild to a 40 % stretch
+def test_uniaxial_tension_is_the_exact_homogeneous_stretch(material, traction):
+    mesh = structured_box(SIZE, (2, 2, 4))
+    fem = NonlinearFEM(mesh, fixed=_rollers(mesh), material=material)
+    u = fem.solve(_top_traction(mesh, traction))
+    a, s = _analytic_uniaxial(material, traction)
+    # linear tets represent a homogeneous deformation exactly, so the only error is the solver's (rtol 1e-9)
+    np.testing.assert_allclose(mesh.points + u, mesh.points * [a, a, s], atol=1e-6 * SIZE[2])
+
+
+@pytest.mark.parametrize("material", FINITE)
+def test_stress_and_tangent_are_the_derivatives_of_the_energy(material):
+    params = material_parameters(material, shear_modulus=MU, lame_lambda=LAM)
+    rng = np.random.default_rng(3)
+    scratch, p, a = np.empty((5, 3, 3)), np.empty((3, 3)), np.empty((9, 9))
+    for f in (np.eye(3) + 0.3 * rng.standard_normal((3, 3)), np.diag([1.2, 0.9, -0.4])):  # the second inverted
+        piola_stress(f, params, p, scratch)
+        stress_tangent(f, params, a, scratch)
+        h = 1e-6
+        for q in range(9):
+            step = np.zeros(9)
+            step[q] = h
+            plus, minus = f + step.reshape(3, 3), f - step.reshape(3, 3)
+            dpsi = (energy_density(plus, params, scratch) - energy_density(minus, params, scratch)) / (2 * h)
+            assert dpsi == pytest.approx(p.ravel()[q], abs=1e-6 * np.abs(p).max())
+            p_plus, p_minus = np.empty((3, 3)), np.empty((3, 3))
+            piola_stress(plus, params, p_plus, scratch)
+            piola_stress(minus, params, p_minus, scratch)
+            np.testing.assert_allclose(a[:, q], ((p_plus - p_minus) / (2 * h)).ravel(), atol=1e-6 * np.abs(a).max())
+        assert np.isfinite(energy_density(f, params, scratch))   # finite through inversion (no log J)
+
+
+@pytest.mark.parametrize("material", FINITE)
+def test_rest_is_stress_free_and_linearises_to_hookes_law(material):
+    params = material_parameters(material, shear_modulus=MU, lame_lambda=LAM)
+    scratch, p, a = np.empty((5, 3, 3)), np.empty((3, 3)), np.empty((9, 9))
+    piola_stress(np.eye(3), params, p, scratch)
+    stress_tangent(np.eye(3), params, a, scratch)
+    eye = np.eye(3)
+    hooke = (MU * (np.einsum("ij,kl->ikjl", eye, eye) + np.einsum("il,kj->ikjl", eye, eye))
+             + LAM * np.einsum("ik,jl->ikjl", eye, eye)).reshape(9, 9)
+    assert np.abs(p).max() <= 1e-12 * MU
+    np.testing.assert_allclose(a, hooke, atol=1e-10 * MU)
+
+
+@pytest.mark.parametrize("material", FINITE)
+def test_a_rigidly_rotated_body_under_a_rotated_load_gives_the_rotated_answer(material):
+    mesh = structured_box(SIZE, (2, 2, 4))
+    bottom = np.flatnonzero(np.isclose(mesh.points[:, 2], 0.0))
+    top = np.flatnonzero(np.isclose(mesh.points[:, 2], SIZE[2]))
+    forces = np.zeros((mesh.node_count, 3))
+    forces[top] = [0.05, 0.0, 0.2]                      # a pull that also turns the block
+    u = NonlinearFEM(mesh, fixed=bottom, material=material).solve(forces)
+    q = np.linalg.qr(np.random.default_rng(5).standard_normal((3, 3)))[0]
+    q *= np.sign(np.linalg.det(q))
+    turned = type(mesh)(points=mesh.points @ q.T, tets=mesh.tets)
+    u_turned = NonlinearFEM(turned, fixed=bottom, material=material).solve(forces @ q.T)
+    np.testing.assert_allclose(u_turned, u @ q.T, atol=1e-7 * np.abs(u).max())
+
+
+@pytest.mark.parametrize("material", FINITE)
+def test_turning_the_supports_turns_the_body_rigidly_where_linear_elasticity_inflates(material):
+    mesh = structured_box(SIZE, (2, 2, 4))
+    bottom = np.flatnonzero(np.isclose(mesh.points[:, 2], 0.0))
+    angle = np.radians(60.0)
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[1, 0, 0], [0, c, -s], [0, s, c]])   # about x: the block tips over
+    moved = mesh.points @ turn.T + [0.01, 0.0, 0.005] - mesh.points
+    fem = NonlinearFEM(mesh, fixed=bottom, material=material)
+    fem.set_fixed_displacement(moved)
+    u = fem.solve(np.zeros((mesh.node_count, 3)))
+    np.testing.assert_allclose(u, moved, atol=1e-9 * SIZE[2])
+    assert fem.energy(u) <= 1e-12 * E * np.prod(SIZE)
+    # linear elasticity, given the same support motion, grows the volume (by about 1 + θ² / ... per element)
+    linear = LinearFEM(mesh, fixed=bottom)
+    free = linear.free_dofs
+    flat = np.where(linear.fixed_dofs, moved, 0.0).ravel()
+    flat[free] = linear._lu.solve(-(linear.stiffness @ flat)[free])
+    volume = tet_signed_volumes(mesh.points + flat.reshape(-1, 3), mesh.tets).sum()
+    assert volume / np.prod(SIZE) > 1.2
+
+
+@pytest.fixture(scope="module")
+def cube_case():
+    from tissuesim.experiments.protocol import load_node
+    from tissuesim.mesh import models
+    from tissuesim.mesh.hybrid import HybridMesh
+
+    hybrid = HybridMesh.build(models.cube())
+    return hybrid, load_node(hybrid.surface.vertices, hybrid.surface.triangles)
+
+
+@pytest.mark.parametrize("method", ["hybrid", "fem", "embedded", "pbd"])
+def test_at_a_small_load_finite_strain_equals_linear_within_one_percent(cube_case, method):
+    hybrid, node = cube_case
+    rest = hybrid.surface.vertices
+    linear = make_solver(method, hybrid).solve_static(node, (0, 0, 0.01), radius=0.004) - rest
+    for material in FINITE:
+        finite = make_solver(method, hybrid, material=material).solve_static(node, (0, 0, 0.01), radius=0.004)
+        error = np.linalg.norm(finite - rest - linear) / np.linalg.norm(linear)
+        assert error < 0.01, (material, error)
+
+
+@pytest.mark.parametrize("method", ["hybrid", "fem", "embedded", "pbd"])
+def test_a_rigid_motion_of_the_fixed_set_moves_the_unloaded_body_rigidly(cube_case, method):
+    hybrid, _ = cube_case
+    rest = hybrid.surface.vertices
+    solver = make_solver(method, hybrid, material="neo-hookean")
+    angle = np.radians(40.0)
+    c, s = np.cos(angle), np.sin(angle)
+    turn = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    centre = rest.mean(axis=0)
+    expected = (rest - centre) @ turn.T + centre + [0.0, 0.02, 0.0]
+    solver.set_fixed_positions(expected[solver.fixed])
+    solver.solve_static(int(np.argmax(rest[:, 2])), (0, 0, 0), reset=False)
+    size = np.linalg.norm(np.ptp(rest, axis=0))
+    assert np.abs(solver.positions - expected).max() < 1e-6 * size
+
+
+def test_the_linear_material_refuses_to_move_the_fixed_set(cube_case):
+    hybrid, _ = cube_case
+    solver = make_solver("hybrid", hybrid)
+    with pytest.raises(BoundaryConditionError, match="finite-strain material"):
+        solver.set_fixed_positions(solver.rest_positions[solver.fixed])
+
+
+def test_stepping_under_a_constant_load_rests_where_the_static_solve_does(cube_case):
+    hybrid, node = cube_case
+    answers = []
+    for dt in (0.005, 0.02):
+        solver = make_solver("hybrid", hybrid, material="neo-hookean", dt=dt)
+        static = solver.solve_static(node, (0.3, 0.0, 1.0), radius=0.004)
+        solver.reset()
+        solver.set_load(node, (0.3, 0.0, 1.0), radius=0.004)
+        for _ in range(400):
+            solver.step()
+        scale = np.abs(static - hybrid.surface.vertices).max()
+        answers.append(np.abs(solver.positions - static).max() / scale)
+    assert max(answers) < 1e-5, answers
+
+
+def test_a_dead_load_press_beyond_the_stable_range_is_refused_and_changes_nothing(cube_case):
+    hybrid, node = cube_case
+    solver = make_solver("embedded", hybrid, material="neo-hookean")
+    solver.solve_static(node, (0, 0, 0.2), radius=0.008)
+    before = solver.positions.copy()
+    with pytest.raises(SolverError, match=r"mean pressure .* μ.*pin-head"):
+        solver.solve_static(node, (0, 0, -5.0), radius=0.008)
+    with pytest.raises(SolverError, match=r"mean pressure .* μ.*pin-head"):   # just above μ over the patch
+        solver.solve_static(node, (0, 0, -0.6), radius=0.008)
+    np.testing.assert_array_equal(solver.positions, before)
+    assert solver.load[1][2] == 0.2
+    solver.solve_static(node, (0, 0, -0.4), radius=0.008)     # below μ: a stable equilibrium
+    solver.solve_static(node, (0, 0, 20.0), radius=0.008)     # pulls of any size are not presses
+
+
+@pytest.mark.parametrize("method", ["hybrid", "fem"])
+def test_a_20_newton_pull_inverts_no_element(cube_case, method):
+    hybrid, node = cube_case
+    solver = make_solver(method, hybrid, material="neo-hookean")
+    solver.solve_static(node, (0, 0, 20.0), radius=0.004)
+    fem = solver.finite
+    volumes = tet_signed_volumes(fem.rest + solver.volume_displacement, fem.tets)
+    assert volumes.min() > 0.0
