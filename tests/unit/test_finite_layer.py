@@ -1,4 +1,5 @@
-"""The surface layer in finite strain (tissuesim.pbd.finite_layer): energy, forces, tangent, static and step."""
+"""The surface layer in finite strain (tissuesim.pbd.finite_layer, finite_kernels): energy, forces, tangent, static
+and implicit step."""
 
 import numpy as np
 import pytest
@@ -7,7 +8,8 @@ from scipy.spatial.transform import Rotation
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
 from tissuesim.pbd.compliance import relative_shell_compliance
-from tissuesim.pbd.finite_layer import FiniteLayer, layer_energy_gradient
+from tissuesim.pbd.finite_kernels import layer_energy_gradient
+from tissuesim.pbd.finite_layer import FiniteLayer
 from tissuesim.pbd.static import LayerStatics, layer_stiffness
 from tissuesim.pbd.topology import SurfaceConstraints
 

@@ -14,9 +14,12 @@ current positions, so a rigid motion costs no energy, whatever its size.
   the complex-step derivative (Squire & Trapp 1998) of the closed-form ∇β: exact to round-off, no step to tune.
 * :meth:`FiniteLayer.implicit_step`: the interactive path. Implicit Euler of the nonlinear layer, solved by a fixed
   number of iterations with the constant matrix M/dt² + K_ff(rest) (factorised once per dt, as
-  :meth:`LayerStatics.implicit_step`'s): each iteration removes the part of the residual the rest stiffness sees;
-  what is left (the rotation of the stiffness) carries into the next step. At rest under a constant load its fixed
-  point is :meth:`FiniteLayer.static`'s equilibrium, whatever dt, mass or iteration count.
+  :meth:`LayerStatics.implicit_step`'s), each line-searched on the step's incremental potential: the matrix is
+  positive definite, so its correction always descends, and the search stops it overshooting where the layer has
+  turned far from rest and K(rest) is the wrong stiffness (without it the step diverged within 5 steps under 1 N on
+  a cube corner; with it, while the layer moved, the accepted fraction of the correction was 0.05–0.5). What one
+  step leaves carries into the next. At rest under a constant load its fixed point is :meth:`FiniteLayer.static`'s
+  equilibrium, whatever dt, mass or iteration count.
 
 Only the signed bending form is provided (the hybrid's xpbd layer uses it: smooth at flat hinges, where eq 10's
 unsigned angle has a cusp, and so twice differentiable as Newton needs).
@@ -24,15 +27,13 @@ unsigned angle has a cusp, and so twice differentiable as Newton needs).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import scipy.sparse as sp
-from numba import njit
 
 from ..errors import SolverError
 from ..fem.linear import factorise_spd
-from .kernels import TINY_LENGTH, _bend_gradient_signed
+from .finite_kernels import (layer_energy_gradient, layer_tangent, step_advance, step_descent, step_predict,
+                             step_residual, step_velocities)
 from .static import LayerStatics, layer_stiffness
 
 # Residual tolerance relative to the load the layer carries (applied forces plus reactions): Newton's last step
@@ -42,246 +43,16 @@ STATIC_TOLERANCE = 1e-8
 # ∇U, so an unloaded layer (a rigid motion of its supports) still converges.
 FORCE_FLOOR = 1e-12
 STATIC_ITERATIONS = 50
-# Backtracking: Armijo's sufficient decrease; a step shorter than this fraction of Newton's means no descent.
-ARMIJO = 1e-4
+# Backtracking: Armijo's sufficient decrease, E(s) − E(0) ≤ c s E'(0). With c = 1/4 a step may overshoot E's
+# minimum along the line by at most half (exactly so on a quadratic): the implicit step's constant matrix is not the
+# tangent, and c = 1e-4 let it overshoot nearly twofold, so that a soft mode rang from step to step. Newton's own
+# steps pass it (c < 1/2). Where E's change is below round-off, the slope test: E'(s) ≤ (1 − 2c) |E'(0)|.
+SUFFICIENT_DECREASE = 0.25
+DECREASE_SLOPE = 1.0 - 2.0 * SUFFICIENT_DECREASE
+# A step shorter than this fraction of the first means no descent.
 SHORTEST_STEP = 1e-10
-# A change of Π (or of the step's incremental potential) below this many round-offs of U cannot be measured.
+# A change of E (Π, or the step's incremental potential) below this many round-offs cannot be measured.
 ROUNDOFF = 1e3 * np.finfo(np.float64).eps
-# Complex step, relative to the hinge edge's length: any size far below 1 is exact to round-off.
-COMPLEX_STEP = 1e-20
-
-
-# ---------------------------------------------------------------- energy, forces, tangent
-
-@njit(cache=True)
-def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, out):
-    """The energy U = Σ_c C_c²/(2 α_c) [J] at positions ``x`` ``(n, 3)`` [m], returned, and its gradient
-    ∇U = Σ_c (C_c/α_c) ∇C_c [N] into ``out`` ``(n, 3)`` (the layer's internal forces are −∇U). Degenerate hinges
-    count zero, as in the kernels; a zero-length edge has energy but no direction, so no force."""
-    out[:] = 0.0
-    total = 0.0
-    for c in range(edges.shape[0]):
-        i = edges[c, 0]
-        j = edges[c, 1]
-        d0 = x[i, 0] - x[j, 0]
-        d1 = x[i, 1] - x[j, 1]
-        d2 = x[i, 2] - x[j, 2]
-        length = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-        value = length - rest_length[c]
-        total += value * value / (2.0 * stretch_compliance[c])
-        if length <= TINY_LENGTH:
-            continue
-        s = value / (stretch_compliance[c] * length)
-        out[i, 0] += s * d0
-        out[i, 1] += s * d1
-        out[i, 2] += s * d2
-        out[j, 0] -= s * d0
-        out[j, 1] -= s * d1
-        out[j, 2] -= s * d2
-    for c in range(hinges.shape[0]):
-        i1 = hinges[c, 0]
-        i2 = hinges[c, 1]
-        i3 = hinges[c, 2]
-        i4 = hinges[c, 3]
-        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
-            x, i1, i2, i3, i4)
-        if not valid:
-            continue
-        value = beta - rest_angle[c]
-        total += value * value / (2.0 * bend_compliance[c])
-        s = value / bend_compliance[c]
-        out[i1, 0] += s * g1x
-        out[i1, 1] += s * g1y
-        out[i1, 2] += s * g1z
-        out[i2, 0] += s * g2x
-        out[i2, 1] += s * g2y
-        out[i2, 2] += s * g2z
-        out[i3, 0] += s * g3x
-        out[i3, 1] += s * g3y
-        out[i3, 2] += s * g3z
-        out[i4, 0] += s * g4x
-        out[i4, 1] += s * g4y
-        out[i4, 2] += s * g4z
-    return total
-
-
-@njit(cache=True, inline="always")
-def _hinge_gradient_abc(ax, ay, az, bx, by, bz, cx, cy, cz):
-    """(∇_2β, ∇_3β, ∇_4β) of the signed angle as 9 numbers, from a = P2 − P1, b = P3 − P1, c = P4 − P1 (∇_1β is
-    minus their sum): :func:`kernels._bend_gradient_signed`'s closed form without atan2 or branches, so that it
-    runs on complex numbers for the complex-step Hessian."""
-    nax = ay * bz - az * by
-    nay = az * bx - ax * bz
-    naz = ax * by - ay * bx
-    nbx = cy * az - cz * ay
-    nby = cz * ax - cx * az
-    nbz = cx * ay - cy * ax
-    length2 = ax * ax + ay * ay + az * az
-    length = np.sqrt(length2)
-    fa = -length / (nax * nax + nay * nay + naz * naz)
-    fb = -length / (nbx * nbx + nby * nby + nbz * nbz)
-    ta = (bx * ax + by * ay + bz * az) / length2
-    tb = (cx * ax + cy * ay + cz * az) / length2
-    return (-ta * fa * nax - tb * fb * nbx, -ta * fa * nay - tb * fb * nby, -ta * fa * naz - tb * fb * nbz,
-            fa * nax, fa * nay, fa * naz, fb * nbx, fb * nby, fb * nbz)
-
-
-@njit(cache=True)
-def _hinge_hessian(x, i1, i2, i3, i4, work, out):
-    """``out`` ``(12, 12)`` = ∇²β of a (valid) hinge over (P1, P2, P3, P4), in place; ``work`` ``(9,) complex128``.
-
-    Column k of ∂(∇_2β, ∇_3β, ∇_4β)/∂(a, b, c) is Im ∇β(v + i h e_k)/h; P1 enters through a, b, c with sign −1, and
-    ∇_1β = −Σ, so its rows and columns are minus the sums of the others'. Symmetrised against round-off."""
-    for k in range(3):
-        work[k] = x[i2, k] - x[i1, k]
-        work[3 + k] = x[i3, k] - x[i1, k]
-        work[6 + k] = x[i4, k] - x[i1, k]
-    h = COMPLEX_STEP * math.sqrt(work[0].real ** 2 + work[1].real ** 2 + work[2].real ** 2)
-    out[:] = 0.0
-    for col in range(9):
-        work[col] += 1j * h
-        g = _hinge_gradient_abc(work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[7], work[8])
-        work[col] -= 1j * h
-        for row in range(9):
-            out[3 + row, 3 + col] = g[row].imag / h
-    for row in range(3, 12):
-        for k in range(3):
-            out[row, k] = -(out[row, 3 + k] + out[row, 6 + k] + out[row, 9 + k])
-    for col in range(12):
-        for k in range(3):
-            out[k, col] = -(out[3 + k, col] + out[6 + k, col] + out[9 + k, col])
-    for row in range(12):
-        for col in range(row + 1, 12):
-            mean = 0.5 * (out[row, col] + out[col, row])
-            out[row, col] = mean
-            out[col, row] = mean
-
-
-@njit(cache=True)
-def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, gauss_newton,
-                  stretch_slots, hinge_slots, data):
-    """The layer's tangent at ``x`` ``(n, 3)`` [m] into the 3×3 blocks ``data`` ``(m, 3, 3)`` [N/m] of a block-sparse
-    matrix, in place: Jᵀ α⁻¹ J, plus Σ (C/α) ∇²C unless ``gauss_newton``. ``stretch_slots`` ``(e, 4)`` and
-    ``hinge_slots`` ``(b, 16)`` give the block of each node pair (ii, ij, ji, jj; row-major over the hinge's 4×4
-    pairs), −1 where either node is prescribed."""
-    data[:] = 0.0
-    block = np.empty((3, 3))
-    d = np.empty(3)
-    for c in range(edges.shape[0]):
-        i = edges[c, 0]
-        j = edges[c, 1]
-        for k in range(3):
-            d[k] = x[i, k] - x[j, k]
-        length = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
-        if length <= TINY_LENGTH:
-            continue
-        d /= length
-        # ∇²C of |x_i − x_j| is (I − d̂d̂ᵀ)/|d| on the ii and jj blocks, minus that on ij and ji
-        geometric = 0.0 if gauss_newton else (length - rest_length[c]) / length
-        for p in range(3):
-            for q in range(3):
-                block[p, q] = ((1.0 - geometric) * d[p] * d[q] + (geometric if p == q else 0.0)) / stretch_compliance[c]
-        for pair in range(4):
-            slot = stretch_slots[c, pair]
-            if slot >= 0:
-                sign = 1.0 if pair == 0 or pair == 3 else -1.0
-                for p in range(3):
-                    for q in range(3):
-                        data[slot, p, q] += sign * block[p, q]
-    hessian = np.empty((12, 12))
-    gradient = np.empty(12)
-    work = np.empty(9, dtype=np.complex128)
-    for c in range(hinges.shape[0]):
-        i1 = hinges[c, 0]
-        i2 = hinges[c, 1]
-        i3 = hinges[c, 2]
-        i4 = hinges[c, 3]
-        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
-            x, i1, i2, i3, i4)
-        if not valid:
-            continue
-        gradient[0], gradient[1], gradient[2], gradient[3], gradient[4], gradient[5] = g1x, g1y, g1z, g2x, g2y, g2z
-        gradient[6], gradient[7], gradient[8], gradient[9], gradient[10], gradient[11] = g3x, g3y, g3z, g4x, g4y, g4z
-        inverse = 1.0 / bend_compliance[c]
-        if gauss_newton:
-            hessian[:] = 0.0
-        else:
-            _hinge_hessian(x, i1, i2, i3, i4, work, hessian)
-        curvature = (beta - rest_angle[c]) * inverse
-        for a in range(4):
-            for b in range(4):
-                slot = hinge_slots[c, 4 * a + b]
-                if slot < 0:
-                    continue
-                for p in range(3):
-                    for q in range(3):
-                        data[slot, p, q] += (inverse * gradient[3 * a + p] * gradient[3 * b + q]
-                                             + curvature * hessian[3 * a + p, 3 * b + q])
-
-
-# ---------------------------------------------------------------- the implicit step's per-dof kernels
-
-@njit(cache=True)
-def _predict(positions, velocities, old, predicted, free, prescribed, targets, dt, keep):
-    """Save ``old`` positions, set x_pred = x + dt (1 − damping) v on the free nodes (also the iterations' start)
-    and put the prescribed nodes at their targets."""
-    old[:] = positions
-    for r in range(free.shape[0]):
-        i = free[r]
-        for k in range(3):
-            predicted[r, k] = positions[i, k] + dt * keep * velocities[i, k]
-            positions[i, k] = predicted[r, k]
-    for r in range(prescribed.shape[0]):
-        for k in range(3):
-            positions[prescribed[r], k] = targets[r, k]
-
-
-@njit(cache=True)
-def _inertial_residual(positions, predicted, free, inertia, forces, gradient, out):
-    """``out`` ``(3f,)`` = M/dt² (x_pred − x) + f − ∇U on the free dofs [N]."""
-    for r in range(free.shape[0]):
-        i = free[r]
-        for k in range(3):
-            row = 3 * r + k
-            out[row] = inertia[row] * (predicted[r, k] - positions[i, k]) + forces[i, k] - gradient[i, k]
-
-
-@njit(cache=True)
-def _descent(positions, predicted, free, inertia, forces, gradient, correction):
-    """Along Δx = ``correction`` ``(3f,)``, the incremental potential E(x) = ½ |x − x_pred|²_M/dt² + U(x) − f_fᵀx_f
-    changes by U(x + sΔx) − U(x) + s a + ½ s² q. Returns ``(a, q, dE/ds at 0)`` [J]."""
-    linear = 0.0
-    quadratic = 0.0
-    slope = 0.0
-    for r in range(free.shape[0]):
-        i = free[r]
-        for k in range(3):
-            row = 3 * r + k
-            d = correction[row]
-            pull = inertia[row] * (positions[i, k] - predicted[r, k]) - forces[i, k]
-            linear += d * pull
-            quadratic += inertia[row] * d * d
-            slope += d * (pull + gradient[i, k])
-    return linear, quadratic, slope
-
-
-@njit(cache=True)
-def _advance(positions, free, correction, step, out):
-    """``out`` = ``positions`` with x_f + ``step`` × ``correction`` ``(3f,)`` on the free nodes."""
-    out[:] = positions
-    for r in range(free.shape[0]):
-        i = free[r]
-        for k in range(3):
-            out[i, k] += step * correction[3 * r + k]
-
-
-@njit(cache=True)
-def _velocities(positions, velocities, old, dt):
-    """v = (x − x_old)/dt on every node."""
-    inv_dt = 1.0 / dt
-    for i in range(positions.shape[0]):
-        for k in range(3):
-            velocities[i, k] = (positions[i, k] - old[i, k]) * inv_dt
 
 
 # ---------------------------------------------------------------- the solver
@@ -344,6 +115,13 @@ class FiniteLayer(LayerStatics):
                          prescribed=prescribed)
         self._constraints = (edges, arrays["rest_length"], arrays["stretch_compliance"], hinges,
                              arrays["rest_angle"], arrays["bend_compliance"])
+        # the step needs only the constraints that move with a free node (those among prescribed nodes alone add a
+        # constant to U and nothing to ∇U_f): a third fewer on the hybrid cube
+        moves = np.ones(len(rest), dtype=bool)
+        moves[self.prescribed] = False
+        keep_edges, keep_hinges = moves[edges].any(axis=1), moves[hinges].any(axis=1)
+        self._moving = tuple(np.ascontiguousarray(a[keep]) for a, keep in zip(
+            self._constraints, (keep_edges, keep_edges, keep_edges, keep_hinges, keep_hinges, keep_hinges)))
         self._force_unit = float(np.linalg.norm(arrays["rest_length"] / arrays["stretch_compliance"]))
         self._indptr, self._indices, self._stretch_slots, self._hinge_slots = _block_pattern(
             len(rest), self.free_nodes, edges, hinges)
@@ -417,36 +195,42 @@ class FiniteLayer(LayerStatics):
     def _line_search(self, x: np.ndarray, direction: np.ndarray, energy: float, forces: np.ndarray) -> None:
         """Move ``x`` (U = ``energy``, ∇U in the buffer) in place along ``direction`` ``(3f,)`` on the free nodes,
         as far as lowers Π = U − f_fᵀx_f (:meth:`_backtrack`); raises SolverError if no step does."""
-        if self._backtrack(x, direction, energy, self._no_inertia, forces) is None:
+        if self._backtrack(x, direction, energy, self._no_inertia, forces, self._constraints) is None:
             raise SolverError(
                 "the surface layer's finite-strain solve found no step that lowers its potential; the layer may be "
                 "tangled (a hinge folded through itself): start from a less deformed state or apply the load in "
                 "steps")
         x[:] = self._trial
 
-    def _backtrack(self, x, direction, energy, inertia, forces) -> float | None:
+    def _backtrack(self, x, direction, energy, inertia, forces, constraints) -> float | None:
         """Backtracking along ``direction`` ``(3f,)`` from ``x`` (U = ``energy``, ∇U in the buffer) on the
-        incremental potential E = ½ |x − x_pred|²_M/dt² + U − f_fᵀx_f (``inertia`` M/dt² ``(3f,)``; zero: Π).
+        incremental potential E = ½ |x − x_pred|²_M/dt² + U − f_fᵀx_f (``inertia`` M/dt² ``(3f,)``; zero: Π),
+        with U over ``constraints`` (those that move with the free nodes suffice: the rest is constant).
 
-        Returns U at the longest s = 2⁻ᵏ ≥ SHORTEST_STEP that meets Armijo's condition, its positions and ∇U left
-        in the trial buffers, or None. Near a minimum, E's change falls below U's round-off and cannot be
-        measured; there the step must instead not raise E's slope above its magnitude at s = 0 (Hager & Zhang
-        2005's approximate Armijo condition, the same test for a quadratic)."""
+        Returns U at the first step s with sufficient decrease, its positions and ∇U left in the trial buffers, or
+        None when s falls below SHORTEST_STEP or E's slope at 0 is within its round-off (nothing to gain). A
+        rejected s is followed by the secant estimate of E's minimum along the line from E's slopes at 0 and s,
+        kept within [s/10, s/2]. Near a minimum, E's change falls below U's round-off and cannot be measured;
+        there the slope at s must instead be below DECREASE_SLOPE of its magnitude at 0 (Hager & Zhang 2005's
+        approximate Armijo condition, the same test for a quadratic)."""
         free, predicted = self.free_nodes, self._predicted
-        linear, quadratic, slope = _descent(x, predicted, free, inertia, forces, self._gradient, direction)
+        linear, quadratic, slope, magnitude = step_descent(x, predicted, free, inertia, forces, self._gradient,
+                                                       direction)
+        if -slope <= ROUNDOFF * magnitude:
+            return None
         step = 1.0
         while step >= SHORTEST_STEP:
-            _advance(x, free, direction, step, self._trial)
-            trial_energy = layer_energy_gradient(self._trial, *self._constraints, self._trial_gradient)
+            step_advance(x, free, direction, step, self._trial)
+            trial_energy = layer_energy_gradient(self._trial, *constraints, self._trial_gradient)
             change = trial_energy - energy + step * linear + 0.5 * step * step * quadratic
-            if change <= ARMIJO * step * slope:
+            if change <= SUFFICIENT_DECREASE * step * slope:
                 return trial_energy
-            if abs(change) <= ROUNDOFF * energy:
-                trial_slope = _descent(self._trial, predicted, free, inertia, forces, self._trial_gradient,
-                                       direction)[2]
-                if trial_slope <= (2.0 * ARMIJO - 1.0) * slope:
-                    return trial_energy
-            step *= 0.5
+            trial_slope = step_descent(self._trial, predicted, free, inertia, forces, self._trial_gradient,
+                                   direction)[2]
+            if abs(change) <= ROUNDOFF * energy and trial_slope <= -DECREASE_SLOPE * slope:
+                return trial_energy
+            secant = step * slope / (slope - trial_slope) if trial_slope > slope else 0.5 * step
+            step = min(max(secant, 0.1 * step), 0.5 * step)
         return None
 
     def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
@@ -464,26 +248,26 @@ class FiniteLayer(LayerStatics):
         not needed: the layer's rest state is in its rest lengths and angles). With CHOLMOD a step allocates
         nothing."""
         free = self.free_nodes
-        _predict(positions, velocities, self._old, self._predicted, free, self.prescribed, targets, dt,
+        step_predict(positions, velocities, self._old, self._predicted, free, self.prescribed, targets, dt,
                  1.0 - damping)
         if free.size:
             if self._dynamic is None or self._dynamic[0] != dt:
                 self._dynamic = (dt, *self._dynamic_factor(mass, dt))
             self._relax(positions, forces, iterations)
-        _velocities(positions, velocities, self._old, dt)
+        step_velocities(positions, velocities, self._old, dt)
 
     def _relax(self, positions: np.ndarray, forces: np.ndarray, iterations: int) -> None:
         """The implicit step's ``iterations`` line-searched corrections of ``positions``, in place."""
         _, factor, inertia, buffer, rhs = self._dynamic
-        energy = layer_energy_gradient(positions, *self._constraints, self._gradient)
+        energy = layer_energy_gradient(positions, *self._moving, self._gradient)
         for _ in range(iterations):
-            _inertial_residual(positions, self._predicted, self.free_nodes, inertia, forces, self._gradient, rhs)
+            step_residual(positions, self._predicted, self.free_nodes, inertia, forces, self._gradient, rhs)
             if buffer is None:
                 correction = np.asarray(factor.solve(rhs))
             else:
                 factor.solve_in_place(buffer)
                 correction = rhs
-            trial_energy = self._backtrack(positions, correction, energy, inertia, forces)
+            trial_energy = self._backtrack(positions, correction, energy, inertia, forces, self._moving)
             if trial_energy is None:  # no measurable descent left: converged as far as round-off allows
                 return
             positions[:] = self._trial
