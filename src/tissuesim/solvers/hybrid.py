@@ -91,8 +91,7 @@ class HybridSolver(SurfaceLayerSolver):
         # Prescribed M_S nodes: control nodes (FEM positions) first, then fixed non-control nodes (rest).
         is_control = np.zeros(self.node_count, dtype=bool)
         is_control[control] = True
-        self._pinned_rows = np.flatnonzero(~is_control[self.fixed])   # rows of `fixed` that are not control nodes
-        pinned = self.fixed[self._pinned_rows].astype(np.int64)
+        pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
         self._held = np.concatenate([control, pinned])
         self._set_prescribed(self._held)
         self._surface_to_volume = surface_to_volume
@@ -203,8 +202,8 @@ class HybridSolver(SurfaceLayerSolver):
         else:
             self._volume_settled = self.finite.relax(forces, self.volume_displacement, iterations=VOLUME_ITERATIONS)
         self._u[:] = self.volume_displacement[self.output_nodes]
-        pinned = self.control_count + np.arange(self._pinned_rows.size)
-        self.targets[pinned] = self.fixed_positions[self._pinned_rows]
+        pinned = self.prescribed[self.control_count:]    # the fixed nodes that are not control nodes
+        self.targets[self.control_count:] = self.fixed_positions[np.searchsorted(self.fixed, pinned)]
 
     def _update_fem(self, *, exact: bool = False) -> None:
         node = self._load_node

@@ -239,7 +239,24 @@ class SurfaceLayerSolver(Solver):
         if self.material_model == "linear":
             return 1
         self._finite_start(positions)
-        return 1 + statics.static(positions, self.applied_forces(), self.targets)
+        return 1 + self._finite_static(statics, positions)
+
+    def _finite_static(self, statics, positions: np.ndarray) -> int:
+        """The finite-strain layer's equilibrium from ``positions`` (in place); where Newton does not converge
+        under the whole load, the load is applied in steps, each from the last equilibrium. Returns the iterations."""
+        forces = self.applied_forces()
+        done, step, iterations = 0.0, 1.0, 0
+        while done < 1.0:
+            target = min(1.0, done + step)
+            try:
+                iterations += statics.static(positions, target * forces, self.targets)
+            except SolverError:
+                step *= 0.5
+                if step < 1.0 / 64.0:
+                    raise
+                continue
+            done, step = target, 2.0 * step
+        return iterations
 
     def _finite_start(self, positions: np.ndarray) -> None:
         """Where the finite-strain layer's Newton starts, in place on ``positions`` ``(n, 3)`` [m]: the linear
