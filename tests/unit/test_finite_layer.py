@@ -95,7 +95,7 @@ def test_rest_state_has_no_energy_and_the_rest_tangent_is_the_linear_stiffness(c
 def test_non_positive_compliance_is_refused(cube):
     rest, c, inputs, bottom = cube
     bad = dict(inputs, bend_compliance=np.where(np.arange(c.bending_count) == 5, 0.0, inputs["bend_compliance"]))
-    with pytest.raises(SolverError, match=r"1 bend_compliance values are not positive \(first at \[5\]\)"):
+    with pytest.raises(SolverError, match=r"1 bend_compliance values are not positive \(first: 5\)"):
         FiniteLayer(rest, **bad, prescribed=bottom)
 
 

@@ -12,6 +12,9 @@ current positions, so a rigid motion costs no energy, whatever its size.
   Where H is not positive definite (compressed edges, hinges bent against their rest angle), that iteration uses
   the Gauss–Newton matrix Jᵀ α⁻¹ J at the current x instead, which is positive semi-definite. The hinge's ∇²β is
   the complex-step derivative (Squire & Trapp 1998) of the closed-form ∇β: exact to round-off, no step to tune.
+  Measured on the hybrid cube's layer (1,352 nodes, 647 prescribed at the FEM's answer), from the linear answer:
+  1 N on the top node, 6 iterations, none of them Gauss–Newton (Gauss–Newton alone: 71); 5 N, 7 (Gauss–Newton alone
+  did not converge in 200).
 * :meth:`FiniteLayer.implicit_step`: the interactive path. Implicit Euler of the nonlinear layer, solved by a fixed
   number of iterations with the constant matrix M/dt² + K_ff(rest) (factorised once per dt, as
   :meth:`LayerStatics.implicit_step`'s), each line-searched on the step's incremental potential: the matrix is
@@ -30,7 +33,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from ..errors import SolverError
+from ..errors import SolverError, first_indices
 from ..fem.linear import factorise_spd
 from .finite_kernels import (layer_energy_gradient, layer_tangent, step_advance, step_descent, step_predict,
                              step_residual, step_velocities)
@@ -76,6 +79,22 @@ def _block_pattern(node_count, free_nodes, edges, hinges):
     return indptr, keys % f, slots[0], slots[1]
 
 
+def _checked_constraints(edge_count: int, hinge_count: int, **values) -> dict:
+    """The per-constraint arrays ``values`` as ``(e,)`` or ``(b,)`` float64 (``rest_length`` and
+    ``stretch_compliance`` per edge, the others per hinge); SolverError for a wrong shape or a compliance ≤ 0."""
+    arrays = {}
+    for name, value in values.items():
+        count = edge_count if name in ("rest_length", "stretch_compliance") else hinge_count
+        arrays[name] = np.ascontiguousarray(value, dtype=np.float64)
+        if arrays[name].shape != (count,):
+            raise SolverError(f"{name} has shape {arrays[name].shape}; expected ({count},), one per constraint")
+        bad = np.flatnonzero(~(arrays[name] > 0.0))
+        if name.endswith("compliance") and bad.size:
+            raise SolverError(f"{bad.size} {name} values are not positive (first: {first_indices(bad)}); the "
+                              "finite-strain layer needs a finite stiffness for every constraint")
+    return arrays
+
+
 class FiniteLayer(LayerStatics):
     """The surface layer's finite-strain equilibrium and implicit step, some nodes prescribed (module docstring).
 
@@ -97,19 +116,9 @@ class FiniteLayer(LayerStatics):
         rest = np.ascontiguousarray(rest_positions, dtype=np.float64)
         edges = np.ascontiguousarray(edges, dtype=np.int64).reshape(-1, 2)
         hinges = np.ascontiguousarray(hinges, dtype=np.int64).reshape(-1, 4)
-        arrays = {}
-        for name, value, count in (("rest_length", rest_length, len(edges)),
-                                   ("stretch_compliance", stretch_compliance, len(edges)),
-                                   ("rest_angle", rest_angle, len(hinges)),
-                                   ("bend_compliance", bend_compliance, len(hinges))):
-            arrays[name] = np.ascontiguousarray(value, dtype=np.float64)
-            if arrays[name].shape != (count,):
-                raise SolverError(f"{name} has shape {arrays[name].shape}; expected ({count},), one per constraint")
-        for name in ("stretch_compliance", "bend_compliance"):
-            bad = np.flatnonzero(~(arrays[name] > 0.0))
-            if bad.size:
-                raise SolverError(f"{bad.size} {name} values are not positive (first at {bad[:3].tolist()}); the "
-                                  "finite-strain layer needs a finite stiffness for every constraint")
+        arrays = _checked_constraints(len(edges), len(hinges), rest_length=rest_length,
+                                      stretch_compliance=stretch_compliance, rest_angle=rest_angle,
+                                      bend_compliance=bend_compliance)
         super().__init__(layer_stiffness(rest, edges=edges, stretch_compliance=arrays["stretch_compliance"],
                                          hinges=hinges, bend_compliance=arrays["bend_compliance"]),
                          prescribed=prescribed)
