@@ -41,6 +41,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--repair", action="store_true",
                         help="fix what can be fixed safely in a surface file (e.g. inward faces) and say what changed")
     parser.add_argument("--steps", metavar="COUNT", help="timed steps per case and method (default: 30; quick: 5)")
+    parser.add_argument("--material", default="linear", metavar="NAME",
+                        help="linear (the paper's, default), corotated or neo-hookean: finite strain for every method "
+                             "that has it, the fem reference included")
     parser.add_argument("--no-plots", action="store_true", help="skip the radar plots")
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
 
@@ -51,6 +54,7 @@ def run(args) -> int:
     from ..experiments.protocol import METHODS, REFERENCE
     from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
     from ..experiments.run import ExperimentConfig, run_experiment
+    from ..fem.hyperelastic import check_material
     from ..mesh.models import MODELS
 
     output = check_output_folder(args.output)  # refuse a bad target before minutes of work
@@ -74,6 +78,7 @@ def run(args) -> int:
         options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["scale"] = _number(args.scale, "--scale", "factor")
     options["repair"] = bool(args.repair)
+    options["material"] = check_material(args.material)
     check_model_files(models, scale=options["scale"], repair=options["repair"])
     if args.steps is not None:
         options["timing_steps"] = int(_number(args.steps, "--steps", "steps", integer=True))

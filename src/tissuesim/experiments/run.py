@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InversionError, SolverError, TissuesimError
+from ..fem.hyperelastic import check_material
 from ..io import SURFACE_EXTENSIONS
 from ..mesh import models as builtin_models
 from . import protocol
@@ -64,6 +65,11 @@ class ExperimentConfig:
             has not settled by then is recorded with its last positions and ``converged: false`` rather than
             stopping the whole sweep; the report lists such cases.
         solver_options: per-method keyword options for ``make_solver`` (default: the calibrated defaults).
+        material: ``"linear"`` (the paper's) or a finite-strain material (:data:`tissuesim.fem.hyperelastic.MATERIALS`)
+            for every method that has it, the ``fem`` reference included; the others run as they are. With a
+            finite-strain material a pressure case beyond the stable dead-load range
+            (:func:`tissuesim.solvers.finite_strain.check_dead_press`) is not run; the model's metadata lists it
+            under ``beyond_stable_press`` with the largest stable load.
         point_load_levels: refinement levels of the single-node load's reference measured per model to show that
             it diverges (:func:`.reference.point_load_divergence`); 0 skips it.
     """
@@ -81,6 +87,7 @@ class ExperimentConfig:
     max_steps: int = 1000
     solver_options: dict = field(default_factory=dict)
     point_load_levels: int = 3
+    material: str = "linear"
 
     def __post_init__(self):
         if not self.models:
@@ -98,6 +105,7 @@ class ExperimentConfig:
             raise SolverError(f"dt must be a positive number of seconds, got {self.dt!r}")
         if self.max_steps < 1:
             raise SolverError(f"max_steps must be at least 1, got {self.max_steps}")
+        check_material(self.material)
         if self.warmup_steps < 0 or self.timing_steps < 1:
             raise SolverError(f"need warmup_steps ≥ 0 and timing_steps ≥ 1, got {self.warmup_steps}, "
                               f"{self.timing_steps}")
@@ -179,11 +187,15 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
                 model_info[name]["point_load_refinement"] = point_load_divergence(
                     hybrid, node, levels=config.point_load_levels)
             reference = {}
+            model_cases = cases
             for method in methods:
                 bar.set_postfix_str(f"{name}: {method}")
-                solver = make_solver(method, hybrid, **config.solver_options.get(method, {}))
+                solver = make_solver(method, hybrid, **_options(method, config))
                 check_free_node(solver, node, name, role="the experiments' load at its top centre")
-                for case in cases:
+                if method == protocol.REFERENCE:
+                    model_cases = _stable_cases(solver, cases, node, model_info[name])
+                    bar.total -= (len(cases) - len(model_cases)) * len(methods)
+                for case in model_cases:
                     try:
                         record = _measure(solver, case, node, config)
                     except SolverError as error:
@@ -213,6 +225,34 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
     data = {"schema": SCHEMA_VERSION, "metadata": metadata, "records": records}
     check_results(data)
     return data
+
+
+def _options(method: str, config: ExperimentConfig) -> dict:
+    """``make_solver`` options of ``method``: its ``solver_options``, and the material where the method has it."""
+    from ..solvers import solver_class
+
+    options = dict(config.solver_options.get(method, {}))
+    if config.material in solver_class(method).materials:
+        options.setdefault("material", config.material)
+    return options
+
+
+def _stable_cases(reference, cases: list, node: int, info: dict) -> list:
+    """The ``cases`` the ``reference`` solver's material can carry as dead loads; the others go into ``info``'s
+    ``beyond_stable_press`` (with the largest stable press [N], the same for every force)."""
+    from ..solvers.finite_strain import check_dead_press
+
+    kept, beyond = [], []
+    for case in cases:
+        try:
+            check_dead_press(reference, node, case.vector, None)
+        except SolverError as error:
+            beyond.append({"load": case.load, "force_N": float(case.force_N), "reason": str(error).split(";")[0]})
+            continue
+        kept.append(case)
+    if beyond:
+        info["beyond_stable_press"] = beyond
+    return kept
 
 
 def _defect(error: SolverError) -> str:
