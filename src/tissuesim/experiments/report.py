@@ -75,7 +75,11 @@ def report_markdown(data: dict) -> str:
     parts += ["", "## Where our figures differ from the paper's, and why", ""]
     parts += [f"- {line}" for line in _differences(data)]
     parts += [f"- {line}" for line in STRUCTURAL_DIFFERENCES]
-    parts += ["", "## Validity of linear elasticity", ""] + [f"- {line}" for line in _validity(data)]
+    material = data["metadata"].get("options", {}).get("material", "linear")
+    if material == "linear":
+        parts += ["", "## Validity of linear elasticity", ""] + [f"- {line}" for line in _validity(data)]
+    else:
+        parts += ["", f"## Validity of the {material} runs", ""] + [f"- {line}" for line in _finite_validity(data)]
     parts += ["", "## Defects of the published tables", ""] + [f"- {note}" for note in paper.NOTES]
     parts += ["", "Full tables: `tables.md`; radar plots: `radar_<model>.png`; raw figures: `results.json`.", ""]
     return "\n".join(parts)
@@ -214,6 +218,28 @@ def _validity(data: dict) -> list[str]:
                      f"({size_mm:.0f} mm): {onset} (worst: {worst[2] / size_mm:.2g} sizes, {worst[0]} "
                      f"{worst[1]:g} N). There the methods are compared with a linear reference, not with what "
                      "tissue would do.")
+    return lines
+
+
+def _finite_validity(data: dict) -> list[str]:
+    """Per model: inverted elements of the finite-strain solves, and the presses beyond the stable dead-load range
+    that were not run."""
+    lines = []
+    for model in models_of(data):
+        records = [r for r in data["records"] if r["model"] == model and "inverted_elements" in r]
+        inverted = [r for r in records if r["inverted_elements"]]
+        if records:
+            lines.append(f"{model}: no finite-strain solve inverted an element ({len(records)} solves)" if not inverted
+                         else f"{model}: {len(inverted)} of {len(records)} finite-strain solves inverted elements "
+                         "(worst: " + ", ".join(f"{r['method']} {r['load']} {r['force_N']:g} N: "
+                                                f"{r['inverted_elements']}" for r in inverted[:3]) + ")")
+        beyond = data["metadata"]["models"].get(model, {}).get("beyond_stable_press", [])
+        if beyond:
+            lines.append(f"{model}: {len(beyond)} pressure cases not run, beyond the stable dead-load range: "
+                         + ", ".join(f"{b['force_N']:g} N" for b in beyond) + f" ({beyond[0]['reason']}); a press "
+                         "that large is a displacement-driven contact (the pin-head's spring, a rigid tip)")
+    lines.append("Finite strain holds at any strain; contact of the surface with itself is not detected, so a fold "
+                 "that would touch passes through itself.")
     return lines
 
 

@@ -73,6 +73,8 @@ class Solver(ABC):
         forces: ``(n, 3) float64`` external nodal forces [N] on M_S (zero but for the loaded node); read-only to
             users, change it through :meth:`set_load` / :meth:`clear_load`.
         state: the :class:`State`.
+        material: the constitutive model, ``"linear"`` or a finite-strain one (the ``material`` option);
+            ``elasticity``: its :class:`~tissuesim.fem.material.Material` (E, ν and the Lamé constants).
         size: diagonal of M_S's rest bounding box [m].
         runaway_distance: :data:`RUNAWAY_SIZES` × ``size`` [m]: a node farther than this from rest, or a non-finite
             position, makes :meth:`step` and :meth:`solve_static` raise :class:`SolverError` (a blow-up).
@@ -107,10 +109,10 @@ class Solver(ABC):
                 "tissuesim.HybridMesh.build(surface)"
             )
         self.hybrid = hybrid_mesh
-        self.material = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)  # checks both
-        self.youngs_modulus = self.material.youngs_modulus
-        self.poisson_ratio = self.material.poisson_ratio
-        self.material_model = check_method_material(type(self), material)
+        self.elasticity = Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)  # checks both
+        self.youngs_modulus = self.elasticity.youngs_modulus
+        self.poisson_ratio = self.elasticity.poisson_ratio
+        self.material = check_method_material(type(self), material)
         self.density = positive_number("density", density, "kg/m³")
         self.dt = dt
         self.damping = fraction("damping", damping)
@@ -369,7 +371,7 @@ class Solver(ABC):
         start = time.perf_counter()
         iterations = self._static_solve()
         if iterations is not None:
-            self._check_blow_up(dt, " in its static solve", linear=self.material_model == "linear")
+            self._check_blow_up(dt, " in its static solve", linear=self.material == "linear")
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
                                           *self._largest_displacement())
             return self.state.positions.copy()
@@ -414,7 +416,7 @@ class Solver(ABC):
         it, so the linear material refuses (BoundaryConditionError)."""
         from .finite_strain import check_fixed_positions
 
-        if self.material_model == "linear":
+        if self.material == "linear":
             raise BoundaryConditionError(
                 f"moving the fixed set needs a finite-strain material: linear elasticity inflates a turned body (by "
                 f"about 1 + θ² at θ radians); build the {self.name} solver with material='corotated' or "

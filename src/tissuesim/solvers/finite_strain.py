@@ -71,10 +71,10 @@ def unstable_load_error(solver, error) -> SolverError:
     load, the patch's mean pressure against the shear modulus μ, and the fix."""
     force = float(np.linalg.norm(solver.load[1])) if solver.load else 0.0
     area = float(solver.lumped_areas()[solver.load_nodes].sum())
-    mu = solver.material.shear_modulus
+    mu = solver.elasticity.shear_modulus
     pressure = force / area if area > 0 else np.inf
     return SolverError(
-        f"{solver.name} solver ({solver.material_model}): a dead load of {force:.3g} N on {solver.load_nodes.size} "
+        f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {solver.load_nodes.size} "
         f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
         f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
         "a body pressed by a fixed force buckles; press with the pin-head's spring (PinHead) or a rigid tip, whose "
@@ -84,11 +84,11 @@ def unstable_load_error(solver, error) -> SolverError:
 def finite_volume(solver, mesh, linear):
     """The :class:`~tissuesim.fem.nonlinear.NonlinearFEM` of ``mesh`` for ``solver``'s finite-strain material (sharing
     the factor of its LinearFEM ``linear``), or None for the linear material."""
-    if solver.material_model == "linear":
+    if solver.material == "linear":
         return None
     from ..fem.nonlinear import NonlinearFEM
 
-    return NonlinearFEM(mesh, fixed=linear.fixed_dofs, material=solver.material_model, linear=linear)
+    return NonlinearFEM(mesh, fixed=linear.fixed_dofs, material=solver.material, linear=linear)
 
 
 
@@ -102,7 +102,7 @@ PRESS_LIMIT = 1.0
 def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
     """Refuse (SolverError) a finite-strain dead load at ``node`` that presses into the surface with a mean pressure
     above :data:`PRESS_LIMIT` μ over its contact patch; pulls and shears of any size pass."""
-    if solver.material_model == "linear":
+    if solver.material == "linear":
         return
     nodes, _ = solver.contact_patch(node, radius)
     rest, triangles = solver.rest_positions, solver.hybrid.surface.triangles
@@ -111,7 +111,7 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
     normal /= np.linalg.norm(normal)      # the outward normal at the node, area-weighted over its triangles
     area = float(solver.lumped_areas()[nodes].sum())
     pressure = max(0.0, -float(np.dot(force, normal))) / area
-    mu = solver.material.shear_modulus
+    mu = solver.elasticity.shear_modulus
     if pressure > PRESS_LIMIT * mu:
         largest = PRESS_LIMIT * mu * area
         raise SolverError(

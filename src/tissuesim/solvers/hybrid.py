@@ -102,7 +102,7 @@ class HybridSolver(SurfaceLayerSolver):
         self._volume_settled = True
         if near_field is not None and self.finite is not None:
             raise SolverError(f"near_field works with material='linear' only: its quadratic window is small-strain; "
-                              f"drop near_field, or the {self.material_model!r} material")
+                              f"drop near_field, or the {self.material!r} material")
         self._init_near_field(near_field)
         self.control = control
         self.control_count = control.size

@@ -118,8 +118,8 @@ class SurfaceLayerSolver(Solver):
             raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
         if integrator not in INTEGRATORS:
             raise SolverError(f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
-        if self.material_model != "linear" and (form, integrator) != ("xpbd", "implicit"):
-            raise SolverError(f"material={self.material_model!r} needs the layer's xpbd form with the implicit "
+        if self.material != "linear" and (form, integrator) != ("xpbd", "implicit"):
+            raise SolverError(f"material={self.material!r} needs the layer's xpbd form with the implicit "
                               f"integrator (the {form} form with integrator={integrator!r} has no finite-strain "
                               "solve); drop form/integrator, or use material='linear'")
         self.form = form
@@ -236,7 +236,7 @@ class SurfaceLayerSolver(Solver):
             return None
         positions[statics.free_nodes] += displacement
         self.state.velocities[:] = 0.0
-        if self.material_model == "linear":
+        if self.material == "linear":
             return 1
         self._finite_start(positions)
         return 1 + self._finite_static(statics, positions)
@@ -266,14 +266,14 @@ class SurfaceLayerSolver(Solver):
         """Linear implicit Euler on the layer (:meth:`LayerStatics.implicit_step`); damping removes a fraction of the
         velocity before the step, as in the kernels."""
         s = self.state
-        options = {} if self.material_model == "linear" else {"iterations": LAYER_ITERATIONS}
+        options = {} if self.material == "linear" else {"iterations": LAYER_ITERATIONS}
         self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.applied_forces(),
                                      self.targets, self.mass, dt, self.damping, **options)
 
     def statics(self):
         """The :class:`~tissuesim.pbd.static.LayerStatics` of this layer and its prescribed nodes (built on first
         use: one sparse factorisation)."""
-        if self._statics is None and self.material_model != "linear":
+        if self._statics is None and self.material != "linear":
             from ..pbd.finite_layer import FiniteLayer
 
             c = self.constraints
