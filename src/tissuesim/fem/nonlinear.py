@@ -1,5 +1,7 @@
 """Finite-strain statics on a tet mesh: the converged equilibrium of a hyperelastic body (:mod:`.hyperelastic`),
-with fixed nodes that may move (a base that is carried or turned, as by a grasper or a retractor).
+with fixed nodes that may move (a base that is carried or turned, as by a grasper or a retractor), on linear tets
+(:class:`NonlinearFEM`) or quadratic ones (:class:`QuadraticNonlinearFEM`, :mod:`.hyperelastic_quadratic`); both
+share the solvers below and differ only in their element kernels and K₀.
 
 Two ways to the same equilibrium ∂W/∂u = f (W the stored energy, f the nodal loads), both descending the total
 potential Π(u) = W(u) − fᵀu with a backtracking line search, so every iteration lowers Π and the answer is a stable
@@ -9,9 +11,9 @@ equilibrium (a minimum of Π):
   projected to positive semi-definite: a descent direction still), load stepping when a full load does not
   converge; converged to a residual below :data:`RTOL` of the load. One factorisation per iteration.
 * :meth:`NonlinearFEM.relax`: a fixed number of iterations that all use the constant, prefactorised rest stiffness
-  K₀ of :class:`~.linear.LinearFEM` (modified Newton: K₀ is positive definite, so K₀⁻¹ r descends too). The
-  interactive path: warm-started from the last answer it costs back-substitutions only, and repeated under a
-  constant load it converges to :meth:`solve`'s answer.
+  K₀ of :class:`~.linear.LinearFEM` (of :class:`~.quadratic.QuadraticFEM` on quadratic tets; modified Newton: K₀ is
+  positive definite, so K₀⁻¹ r descends too). The interactive path: warm-started from the last answer it costs
+  back-substitutions only, and repeated under a constant load it converges to :meth:`solve`'s answer.
 
 A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch): then no
 load step converges, or the converged state's exact tangent is not positive definite. :meth:`solve` raises
@@ -27,8 +29,11 @@ from ..mesh.tetmesh import TetMesh
 from .assembly import scatter_elements, shape_gradients
 from .hyperelastic import (check_material, element_energy, element_tangents, internal_forces,
                            material_parameters)
+from .hyperelastic_quadratic import (quadratic_element_tangents, quadratic_energy, quadratic_internal_forces,
+                                     quadrature_gradients)
 from .linear import LinearFEM, factorise_spd
-from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS
+from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
+from .quadratic import QuadraticFEM
 
 #: A Newton solve has converged when the free residual is below this fraction of the load's size (the larger of the
 #: applied forces and the support reactions, so a pure motion of the supports converges too).
@@ -50,75 +55,57 @@ class UnstableLoadError(SolverError):
         self.reached = float(reached)
 
 
-class NonlinearFEM:
-    """Hyperelastic statics of ``mesh`` (see the module docstring).
+class _HyperelasticStatics:
+    """Newton, line search, load stepping and the constant-factor relaxation, whatever the elements: a subclass
+    calls :meth:`_setup` and defines the element kernels ``_energy``, ``_forces_into`` and ``_tangents_into``."""
 
-    Args:
-        mesh: the tet mesh (rest shape).
-        youngs_modulus, poisson_ratio: E [Pa], ν [-] (Hooke's law at small strain).
-        fixed: the supports, as :class:`~.linear.LinearFEM` takes them.
-        material: ``"corotated"`` or ``"neo-hookean"`` (:mod:`.hyperelastic`).
-        linear: an existing :class:`~.linear.LinearFEM` of the same mesh, material and supports whose factor
-            :meth:`relax` reuses (default: one is built).
-
-    Attributes:
-        linear: the small-strain model (K₀ and its factor).
-        fixed_displacement: ``(n, 3) float64`` [m] the supports' displacement (zero until
-            :meth:`set_fixed_displacement`); entries of free dofs are unused.
-        gradients: ``(m, 4, 3) float64`` rest shape-function gradients [1/m]; ``volumes`` ``(m,)`` [m³].
-    """
-
-    def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
-                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
-                 linear: LinearFEM | None = None):
-        self.material_name = check_material(material)
-        self.linear = linear if linear is not None else LinearFEM(
-            mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
-        self.mesh = mesh
-        material_ = self.linear.material
-        self.params = material_parameters(material, shear_modulus=material_.shear_modulus,
-                                          lame_lambda=material_.lame_lambda)
-        self.tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
-        self.gradients = shape_gradients(mesh)
-        self.volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)
-        self.rest = np.ascontiguousarray(mesh.points, dtype=np.float64)
-        self.free_dofs = self.linear.free_dofs
-        self.fixed_displacement = np.zeros((mesh.node_count, 3))
-        self._fixed_mask = self.linear.fixed_dofs
+    def _setup(self, material: str, elastic: Material, rest: np.ndarray, fixed_mask: np.ndarray,
+               element_nodes: np.ndarray, rest_factor) -> None:
+        """The state every element type shares: kernel parameters of ``material`` from the small-strain
+        ``elastic``, rest positions ``(n, 3)`` [m], the ``(n, 3) bool`` fixed-dof mask, the elements' nodes
+        ``(m, w)`` (for the tangent's pattern) and the factor of the rest stiffness K₀ on the free dofs."""
+        self.params = material_parameters(material, shear_modulus=elastic.shear_modulus,
+                                          lame_lambda=elastic.lame_lambda)
+        self.rest = np.ascontiguousarray(rest, dtype=np.float64)
+        self.free_dofs = np.flatnonzero(~fixed_mask.ravel())
+        self.fixed_displacement = np.zeros_like(self.rest)
+        self._fixed_mask = fixed_mask
         self._fixed_dofs = np.flatnonzero(self._fixed_mask.ravel())
+        self._element_nodes = element_nodes
+        self._rest_factor = rest_factor
         # Residual scale when neither loads nor reactions give one (a rigid motion of the supports): a force that
         # strains the body by 1e-3 over its size.
         size = float(np.linalg.norm(np.ptp(self.rest, axis=0)))
-        self._force_floor = 1e-3 * material_.youngs_modulus * size * size
+        self._force_floor = 1e-3 * elastic.youngs_modulus * size * size
         self._x = np.empty_like(self.rest)
         self._forces = np.empty_like(self.rest)
-        self._tangents = np.empty((len(self.tets), 12, 12))
+        width = 3 * element_nodes.shape[1]
+        self._tangents = np.empty((len(element_nodes), width, width))
         self.last_iterations = 0
 
     @property
     def node_count(self) -> int:
-        return self.mesh.node_count
+        return len(self.rest)
 
     # ------------------------------------------------------------------------------------------ energy and forces
     def energy(self, u: np.ndarray) -> float:
         """Stored energy W [J] at displacement ``u`` ``(n, 3)`` [m]."""
         np.add(self.rest, u, out=self._x)
-        return float(element_energy(self._x, self.tets, self.gradients, self.volumes, self.params))
+        return float(self._energy(self._x))
 
     def internal_forces(self, u: np.ndarray) -> np.ndarray:
         """``(n, 3)`` ∂W/∂u [N] at displacement ``u`` [m] (at fixed dofs: minus the support reactions); the array
         is reused by the next call."""
         np.add(self.rest, u, out=self._x)
-        internal_forces(self._x, self.tets, self.gradients, self.volumes, self.params, self._forces)
+        self._forces_into(self._x, self._forces)
         return self._forces
 
     def tangent(self, u: np.ndarray, *, project: bool = True):
         """``(3n, 3n)`` CSR tangent stiffness ∂²W/∂u² [N/m] at ``u``; element tangents projected to positive
         semi-definite when ``project``."""
         np.add(self.rest, u, out=self._x)
-        element_tangents(self._x, self.tets, self.gradients, self.volumes, self.params, bool(project),
-                         self._tangents)
-        return scatter_elements(self.node_count, self.tets, self._tangents)
+        self._tangents_into(self._x, bool(project), self._tangents)
+        return scatter_elements(self.node_count, self._element_nodes, self._tangents)
 
     # --------------------------------------------------------------------------------------------- supports
     def set_fixed_displacement(self, displacement) -> None:
@@ -179,7 +166,7 @@ class NonlinearFEM:
             residual = flat_f[free] - g[free]
             if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
                 return True
-            if not self._line_search(u, np.asarray(self.linear._lu.solve(residual)), residual, forces):
+            if not self._line_search(u, np.asarray(self._rest_factor.solve(residual)), residual, forces):
                 return False
         return False
 
@@ -271,3 +258,90 @@ class NonlinearFEM:
         if forces.shape != (self.node_count, 3) or not np.all(np.isfinite(forces)):
             raise SolverError(f"forces must be a finite ({self.node_count}, 3) array [N], got shape {forces.shape}")
         return forces
+
+
+class NonlinearFEM(_HyperelasticStatics):
+    """Hyperelastic statics of ``mesh`` on linear tets (see the module docstring).
+
+    Args:
+        mesh: the tet mesh (rest shape).
+        youngs_modulus, poisson_ratio: E [Pa], ν [-] (Hooke's law at small strain).
+        fixed: the supports, as :class:`~.linear.LinearFEM` takes them.
+        material: ``"corotated"`` or ``"neo-hookean"`` (:mod:`.hyperelastic`).
+        linear: an existing :class:`~.linear.LinearFEM` of the same mesh, material and supports whose factor
+            :meth:`relax` reuses (default: one is built).
+
+    Attributes:
+        linear: the small-strain model (K₀ and its factor).
+        fixed_displacement: ``(n, 3) float64`` [m] the supports' displacement (zero until
+            :meth:`set_fixed_displacement`); entries of free dofs are unused.
+        gradients: ``(m, 4, 3) float64`` rest shape-function gradients [1/m]; ``volumes`` ``(m,)`` [m³].
+    """
+
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
+                 linear: LinearFEM | None = None):
+        self.material_name = check_material(material)
+        self.linear = linear if linear is not None else LinearFEM(
+            mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
+        self.mesh = mesh
+        self.tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
+        self.gradients = shape_gradients(mesh)
+        self.volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)
+        self._setup(material, self.linear.material, mesh.points, self.linear.fixed_dofs, self.tets,
+                    self.linear._lu)
+
+    def _energy(self, x):
+        return element_energy(x, self.tets, self.gradients, self.volumes, self.params)
+
+    def _forces_into(self, x, out):
+        internal_forces(x, self.tets, self.gradients, self.volumes, self.params, out)
+
+    def _tangents_into(self, x, project, out):
+        element_tangents(x, self.tets, self.gradients, self.volumes, self.params, project, out)
+
+
+class QuadraticNonlinearFEM(_HyperelasticStatics):
+    """Hyperelastic statics on the quadratic (10-node) tets of :class:`~.quadratic.QuadraticFEM`
+    (:mod:`.hyperelastic_quadratic`): the same Newton, load stepping and :meth:`relax` as :class:`NonlinearFEM`, with
+    K₀ the quadratic small-strain stiffness (the tangent at rest, exactly).
+
+    Args:
+        mesh: the tet mesh whose nodes are the corners; midside nodes are added as QuadraticFEM adds them.
+        youngs_modulus, poisson_ratio: E [Pa], ν [-].
+        fixed: the supports among all N corner and midside nodes, as QuadraticFEM takes them (a callable
+            ``points (N, 3) ->`` indices or a node or dof mask).
+        material: ``"corotated"`` or ``"neo-hookean"``.
+        linear: an existing QuadraticFEM of the same mesh, E, ν and supports whose factor :meth:`relax` reuses
+            (default: one is built).
+
+    Attributes:
+        linear: the small-strain quadratic model; ``rest`` ``(N, 3) float64`` [m] all its nodes.
+        elements: ``(m, 10) int64`` corners and midsides of each tet.
+        gradients: ``(m, 4, 10, 3) float64`` rest shape-function gradients at the quadrature points [1/m];
+            ``weights`` ``(m, 4)`` [m³].
+    """
+
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
+                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
+                 linear: QuadraticFEM | None = None):
+        self.material_name = check_material(material)
+        elastic = Material(youngs_modulus, poisson_ratio)
+        self.linear = linear if linear is not None else QuadraticFEM(
+            mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
+        self.mesh = mesh
+        self.elements = np.ascontiguousarray(self.linear.elements, dtype=np.int64)
+        self.gradients, self.weights = quadrature_gradients(mesh)
+        fixed_mask = np.ones(3 * self.linear.node_count, dtype=bool)
+        fixed_mask[self.linear.free_dofs] = False
+        self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3), self.elements,
+                    self.linear._factor)
+
+    def _energy(self, x):
+        return quadratic_energy(x, self.elements, self.gradients, self.weights, self.params)
+
+    def _forces_into(self, x, out):
+        quadratic_internal_forces(x, self.elements, self.gradients, self.weights, self.params, out)
+
+    def _tangents_into(self, x, project, out):
+        quadratic_element_tangents(x, self.elements, self.gradients, self.weights, self.params, project, out)
