@@ -124,12 +124,13 @@ def _hinge_hessian(x, i1, i2, i3, i4, work, out):
 
 
 @njit(cache=True)
-def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, gauss_newton,
+def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, definite,
                   stretch_slots, hinge_slots, data):
     """The layer's tangent at ``x`` ``(n, 3)`` [m] into the 3×3 blocks ``data`` ``(m, 3, 3)`` [N/m] of a block-sparse
-    matrix, in place: Jᵀ α⁻¹ J, plus Σ (C/α) ∇²C unless ``gauss_newton``. ``stretch_slots`` ``(e, 4)`` and
-    ``hinge_slots`` ``(b, 16)`` give the block of each node pair (ii, ij, ji, jj; row-major over the hinge's 4×4
-    pairs), −1 where either node is prescribed."""
+    matrix, in place: Jᵀ α⁻¹ J + Σ (C/α) ∇²C; with ``definite``, only the parts that are positive semi-definite
+    whatever x: Jᵀ α⁻¹ J and the geometric stiffness of stretched edges (C > 0), without that of compressed edges
+    and of the hinges. ``stretch_slots`` ``(e, 4)`` and ``hinge_slots`` ``(b, 16)`` give the block of each node pair
+    (ii, ij, ji, jj; row-major over the hinge's 4×4 pairs), −1 where either node is prescribed."""
     data[:] = 0.0
     block = np.empty((3, 3))
     d = np.empty(3)
@@ -143,7 +144,9 @@ def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle,
             continue
         d /= length
         # ∇²C of |x_i − x_j| is (I − d̂d̂ᵀ)/|d| on the ii and jj blocks, minus that on ij and ji
-        geometric = 0.0 if gauss_newton else (length - rest_length[c]) / length
+        geometric = (length - rest_length[c]) / length
+        if definite and geometric < 0.0:
+            geometric = 0.0
         for p in range(3):
             for q in range(3):
                 block[p, q] = ((1.0 - geometric) * d[p] * d[q] + (geometric if p == q else 0.0)) / stretch_compliance[c]
@@ -169,7 +172,7 @@ def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle,
         gradient[0], gradient[1], gradient[2], gradient[3], gradient[4], gradient[5] = g1x, g1y, g1z, g2x, g2y, g2z
         gradient[6], gradient[7], gradient[8], gradient[9], gradient[10], gradient[11] = g3x, g3y, g3z, g4x, g4y, g4z
         inverse = 1.0 / bend_compliance[c]
-        if gauss_newton:
+        if definite:
             hessian[:] = 0.0
         else:
             _hinge_hessian(x, i1, i2, i3, i4, work, hessian)
