@@ -20,7 +20,8 @@ from ..errors import TissuesimError
 from ..recording import Recorder, border_edges, solver_frame
 from ..recording_place import session_path
 from ..solvers.near_field import NEAR_FIELD_WINDOW
-from ..solvers.registry import available_solvers, solver_options
+from ..fem.hyperelastic import MATERIALS
+from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES, Controller
 from .gl import look_at_oblique, polyscope
 
@@ -263,6 +264,15 @@ class ViewerApp:
             psim.TextWrapped(c.notice)
         psim.PopItemWidth()
 
+    def _finite_strain(self, psim, s) -> None:
+        """The material selector where the method has finite strain; a line saying so where it has not."""
+        if set(MATERIALS) <= set(solver_class(s.method).materials):
+            changed, index = psim.Combo("strain", MATERIALS.index(s.material), list(MATERIALS))
+            if changed:
+                self._configure(material=MATERIALS[index])
+        elif s.material != "linear":
+            psim.TextUnformatted(f"{s.method}: no finite strain, its own model")
+
     def _material(self, psim, s) -> None:
         enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
         changed, e = psim.InputFloat("E [Pa]", s.youngs_modulus, 0.0, 0.0, "%.0f", enter)
@@ -283,6 +293,7 @@ class ViewerApp:
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
                                                             1, 50)
             self._apply_on_release(psim, "iterations")
+        self._finite_strain(psim, s)
         if "near_field" in solver_options(s.method):
             if self.controller.near_field_available():
                 changed, on = psim.Checkbox(f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)",

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead, checked_point
-from ..solvers.registry import make_solver, solver_options
+from ..solvers.registry import make_solver, solver_class, solver_options
 from .settings import DEFAULT_STIFFNESS, Settings, checked_settings
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
@@ -42,7 +42,7 @@ BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picke
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
 MODES = ("pin", "scalpel")
 # settings whose change needs a new solver (the others are set on the live objects)
-_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field")
+_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material")
 
 
 @dataclass(frozen=True)
@@ -326,14 +326,20 @@ class Controller:
             options["prestrain"] = float(s.prestrain)
         if s.near_field is not None and self.near_field_available(hybrid):
             options["near_field"] = float(s.near_field)
+        if self.finite_strain_available():
+            options["material"] = s.material
         return options
+
+    def finite_strain_available(self) -> bool:
+        """Whether the current method takes the ``material`` setting."""
+        return self.settings.material in solver_class(self.settings.method).materials
 
     def near_field_available(self, hybrid=None) -> bool:
         """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
-        volume."""
+        volume, and the linear material (the near field is small-strain)."""
         mesh = self.solver.hybrid if hybrid is None else hybrid
         return ("near_field" in solver_options(self.settings.method) and mesh.fine_volume is not None
-                and not mesh.info.get("cuts"))
+                and not mesh.info.get("cuts") and self.settings.material == "linear")
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
         """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is

@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from ..errors import SolverError
+from ..fem.hyperelastic import check_material
 from ..pbd.prestress import check_prestrain
 from ..solvers.checks import is_integer, positive_number, time_step
 from ..solvers.registry import available_solvers
@@ -30,6 +31,8 @@ class Settings:
             take one (hybrid, pbd): a cut then gapes by itself.
         near_field: W [m] of the hybrid's near field (:mod:`tissuesim.solvers.near_field`), or None (the paper's
             hybrid); not on a cut mesh (its fine volume is not cut).
+        material: ``"linear"`` or a finite-strain material (:data:`tissuesim.fem.hyperelastic.MATERIALS`), on the
+            methods that have it (the others keep their own model).
     """
 
     method: str = "hybrid"
@@ -41,6 +44,7 @@ class Settings:
     dt: float = 0.01
     prestrain: float = 0.0
     near_field: float | None = None
+    material: str = "linear"
 
 
 def _setting_number(name: str, value, unit: str, check=positive_number) -> float:
@@ -87,4 +91,5 @@ def checked_settings(settings: Settings) -> Settings:
         dt=_setting_number("dt (time step dt)", settings.dt, "s", lambda name, value, unit: time_step(value, name)),
         prestrain=_setting_number("prestrain (in-plane strain)", settings.prestrain, "1", lambda name, value, unit:
                                   check_prestrain(value)),
-        near_field=None if near_field is None else _setting_number("near_field (near field W)", near_field, "m"))
+        near_field=None if near_field is None else _setting_number("near_field (near field W)", near_field, "m"),
+        material=check_material(settings.material))
