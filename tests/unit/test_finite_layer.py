@@ -142,6 +142,21 @@ def test_a_rigid_rotation_of_the_supports_turns_the_unloaded_layer_rigidly(cube)
     assert layer.energy(start) <= 1e-16  # J; the linear answer's strain energy, for scale: 0.28 J
 
 
+def test_a_large_load_from_rest_reaches_the_equilibrium_that_load_steps_reach(cube):
+    rest, c, inputs, bottom = cube
+    layer = FiniteLayer(rest, **inputs, prescribed=bottom)
+    forces, _ = _corner_load(rest, 10.0)  # lifts the corner by 13 cm, 1.7 cube edges
+    direct = _solved(layer, rest, forces, rest[bottom])
+    assert layer.definite_steps > 0  # Newton's tangent was indefinite on the way (measured: 2 of 8 iterations)
+    stepped = rest.copy()
+    for share in (0.1, 0.3, 1.0):
+        layer.static(stepped, share * forces, rest[bottom])
+    scale = np.abs(direct - rest).max()
+    assert scale > EDGE
+    # both converged to 1e-8 of the load; a different path to the same equilibrium
+    assert np.abs(direct - stepped).max() <= 1e-8 * scale
+
+
 def test_a_load_that_cannot_converge_is_refused_and_changes_nothing(cube):
     rest, c, inputs, bottom = cube
     layer = FiniteLayer(rest, **inputs, prescribed=bottom)
