@@ -143,6 +143,7 @@ class FiniteLayer(LayerStatics):
         self._predicted = np.zeros((self.free_nodes.size, 3))
         self._no_inertia = np.zeros(3 * self.free_nodes.size)  # the static solve's line search is on Π
         self.definite_steps = 0
+        self._first_steps = []  # the implicit step's first trial step per iteration (see _relax)
 
     def energy(self, positions: np.ndarray) -> float:
         """The layer's elastic energy U [J] at ``positions`` ``(n, 3)`` [m]."""
@@ -213,15 +214,15 @@ class FiniteLayer(LayerStatics):
                 "steps")
         x[:] = self._trial
 
-    def _backtrack(self, x, direction, energy, inertia, forces, constraints) -> float | None:
+    def _backtrack(self, x, direction, energy, inertia, forces, constraints, first=1.0) -> tuple | None:
         """Backtracking along ``direction`` ``(3f,)`` from ``x`` (U = ``energy``, ∇U in the buffer) on the
         incremental potential E = ½ |x − x_pred|²_M/dt² + U − f_fᵀx_f (``inertia`` M/dt² ``(3f,)``; zero: Π),
         with U over ``constraints`` (those that move with the free nodes suffice: the rest is constant).
 
-        Returns U at the first step s with sufficient decrease, its positions and ∇U left in the trial buffers, or
-        None when s falls below SHORTEST_STEP or E's slope at 0 is within its round-off (nothing to gain). A
-        rejected s is followed by the secant estimate of E's minimum along the line from E's slopes at 0 and s,
-        kept within [s/10, s/2]. Near a minimum, E's change falls below U's round-off and cannot be measured;
+        Tries s = ``first``, then after a rejected s the secant estimate of E's minimum along the line from E's
+        slopes at 0 and s, kept within [s/10, s/2]. Returns U at the first s with sufficient decrease (its positions
+        and ∇U left in the trial buffers) and the secant estimate of the minimum there, or None when s falls below
+        SHORTEST_STEP or E's slope at 0 is within its round-off (nothing to gain). Near a minimum, E's change falls below U's round-off and cannot be measured;
         there the slope at s must instead be below DECREASE_SLOPE of its magnitude at 0 (Hager & Zhang 2005's
         approximate Armijo condition, the same test for a quadratic)."""
         free, predicted = self.free_nodes, self._predicted
@@ -229,18 +230,17 @@ class FiniteLayer(LayerStatics):
                                                        direction)
         if -slope <= ROUNDOFF * magnitude:
             return None
-        step = 1.0
+        step = first
         while step >= SHORTEST_STEP:
             step_advance(x, free, direction, step, self._trial)
             trial_energy = layer_energy_gradient(self._trial, *constraints, self._trial_gradient)
             change = trial_energy - energy + step * linear + 0.5 * step * step * quadratic
-            if change <= SUFFICIENT_DECREASE * step * slope:
-                return trial_energy
             trial_slope = step_descent(self._trial, predicted, free, inertia, forces, self._trial_gradient,
-                                   direction)[2]
-            if abs(change) <= ROUNDOFF * energy and trial_slope <= -DECREASE_SLOPE * slope:
-                return trial_energy
-            secant = step * slope / (slope - trial_slope) if trial_slope > slope else 0.5 * step
+                                       direction)[2]
+            secant = step * slope / (slope - trial_slope) if trial_slope > slope else 2.0 * step
+            if change <= SUFFICIENT_DECREASE * step * slope or (
+                    abs(change) <= ROUNDOFF * energy and trial_slope <= -DECREASE_SLOPE * slope):
+                return trial_energy, secant
             step = min(max(secant, 0.1 * step), 0.5 * step)
         return None
 
@@ -271,16 +271,22 @@ class FiniteLayer(LayerStatics):
         """The implicit step's ``iterations`` line-searched corrections of ``positions``, in place."""
         _, factor, inertia, buffer, rhs = self._dynamic
         energy = layer_energy_gradient(positions, *self._moving, self._gradient)
-        for _ in range(iterations):
+        if len(self._first_steps) != iterations:
+            self._first_steps = [1.0] * iterations
+        for iteration in range(iterations):
             step_residual(positions, self._predicted, self.free_nodes, inertia, forces, self._gradient, rhs)
             if buffer is None:
                 correction = np.asarray(factor.solve(rhs))
             else:
                 factor.solve_in_place(buffer)
                 correction = rhs
-            trial_energy = self._backtrack(positions, correction, energy, inertia, forces, self._moving)
-            if trial_energy is None:  # no measurable descent left: converged as far as round-off allows
+            found = self._backtrack(positions, correction, energy, inertia, forces, self._moving,
+                                    self._first_steps[iteration])
+            if found is None:  # no measurable descent left: converged as far as round-off allows
                 return
+            energy, minimum = found
+            # the next step's same iteration starts at this one's estimated minimum: how far K(rest) overshoots
+            # changes slowly from step to step (Nocedal & Wright 2006, §3.5's initial step)
+            self._first_steps[iteration] = min(1.0, minimum)
             positions[:] = self._trial
             self._gradient, self._trial_gradient = self._trial_gradient, self._gradient
-            energy = trial_energy
