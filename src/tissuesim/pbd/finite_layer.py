@@ -222,12 +222,12 @@ class FiniteLayer(LayerStatics):
         Tries s = ``first``, then after a rejected s the secant estimate of E's minimum along the line from E's
         slopes at 0 and s, kept within [s/10, s/2]. Returns U at the first s with sufficient decrease (its positions
         and ∇U left in the trial buffers) and the secant estimate of the minimum there, or None when s falls below
-        SHORTEST_STEP or E's slope at 0 is within its round-off (nothing to gain). Near a minimum, E's change falls below U's round-off and cannot be measured;
-        there the slope at s must instead be below DECREASE_SLOPE of its magnitude at 0 (Hager & Zhang 2005's
-        approximate Armijo condition, the same test for a quadratic)."""
+        SHORTEST_STEP or E's slope at 0 is within its round-off (nothing to gain). Near a minimum, E's change falls
+        below U's round-off and cannot be measured; there the slope at s must instead be below DECREASE_SLOPE of its
+        magnitude at 0 (Hager & Zhang 2005's approximate Armijo condition, the same test for a quadratic)."""
         free, predicted = self.free_nodes, self._predicted
         linear, quadratic, slope, magnitude = step_descent(x, predicted, free, inertia, forces, self._gradient,
-                                                       direction)
+                                                           direction)
         if -slope <= ROUNDOFF * magnitude:
             return None
         step = first
