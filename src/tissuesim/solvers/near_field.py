@@ -14,6 +14,10 @@ the contact.
 * **Cost.** One factorisation of the quadratic fine volume when the solver is built, and one back-substitution per
   axis when the contact node or radius changes (cached for the last one); a change of the force alone is three
   3×3 products per window node.
+* **Finite strain.** With ``material="corotated"`` or ``"neo-hookean"`` the window follows the converged Newton
+  equilibrium of the same quadratic volume (:class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM`) under the
+  same traction as a dead load, warm-started from the last answer for the same contact (a drag changes only the
+  force); :meth:`NearField.displacement` gives it for any material.
 * **Validity.** The fine volume is not cut: a cut switches the near field off (with a warning).
 """
 
@@ -22,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
+from ..fem.hyperelastic import check_material
 from ..loads import lumped_areas
 
 #: W [m] of the contact protocol's ``hybrid-near`` (``make_solver("hybrid", mesh, near_field=W)``), chosen on its
@@ -39,20 +44,36 @@ class NearField:
         fixed: the fixed nodes among the quadratic volume's corner and midside nodes, as
             :class:`~tissuesim.fem.quadratic.QuadraticFEM` takes them (:func:`fixed_corners` for a list of fixed
             corner nodes).
+        material: ``"linear"`` (small strain), ``"corotated"`` or ``"neo-hookean"``.
 
     Attributes:
         surface_nodes: ``(n,) int64`` fine-volume node of each M_S vertex.
         lumped_area: ``(n,) float64`` [m²] each M_S vertex's third of its triangles' areas.
+        finite: the :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` of a finite-strain material (sharing
+            :attr:`fem`'s factor), or None for ``"linear"``.
+        last_iterations: Newton iterations of the last converged finite-strain :meth:`displacement` (0: its warm
+            start was already in equilibrium).
     """
 
-    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed):
+    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed,
+                 material: str = "linear"):
         from ..fem.quadratic import QuadraticFEM
 
+        material = check_material(material)
         if hybrid_mesh.fine_volume is None or hybrid_mesh.fine_surface_nodes is None:
             raise SolverError("near_field needs the fine volume mesh, but this hybrid mesh was built without it; "
                               "rebuild with HybridMesh.build(surface, fine_volume=True) or drop near_field")
         self.fem = QuadraticFEM(hybrid_mesh.fine_volume, youngs_modulus=youngs_modulus,
                                 poisson_ratio=poisson_ratio, fixed=fixed)
+        self.finite = None
+        if material != "linear":
+            from ..fem.nonlinear import QuadraticNonlinearFEM
+
+            self.finite = QuadraticNonlinearFEM(hybrid_mesh.fine_volume, youngs_modulus=youngs_modulus,
+                                                poisson_ratio=poisson_ratio, fixed=fixed, material=material,
+                                                linear=self.fem)
+        self.last_iterations = 0
+        self._contact = None     # (load key, weights (N,), last displacement (N, 3) [m]) of the finite solve
         surface = hybrid_mesh.surface
         self.surface_nodes = np.asarray(hybrid_mesh.fine_surface_nodes, dtype=np.int64)
         self._triangles = np.asarray(surface.triangles, dtype=np.int64)
@@ -75,6 +96,34 @@ class NearField:
                 response[:, :, axis] = self.fem.solve(forces)[fine]
             self._key, self._response = key, response
         return self._response
+
+    def displacement(self, load_nodes: np.ndarray, load_shares: np.ndarray, force, nodes: np.ndarray, *,
+                     iterations: int | None = None) -> np.ndarray:
+        """``(k, 3) float64`` [m]: M_S nodes ``nodes``' displacement under ``force`` ``(3,)`` [N] shared as
+        ``load_shares`` ``(p,)`` by the M_S nodes ``load_nodes`` ``(p,)``. Linear: exactly ``response(...) @ force``
+        (``iterations`` unused). Finite strain, from the last answer for the same contact (from rest for a new
+        one): with ``iterations=None`` the converged equilibrium (Newton; raises
+        :class:`~tissuesim.fem.nonlinear.UnstableLoadError` for a dead load with no stable equilibrium, keeping the
+        last answer as the next start); with an int, that many constant-K₀ iterations toward it (the interactive
+        path: back-substitutions with the factor built at start-up, no refactorisation)."""
+        force = np.asarray(force, dtype=np.float64)
+        if force.shape != (3,) or not np.all(np.isfinite(force)):
+            raise SolverError(f"the near field's force must be a finite (3,) vector [N], got shape {force.shape}")
+        if self.finite is None:
+            return self.response(load_nodes, load_shares, nodes) @ force
+        key = (np.asarray(load_nodes).tobytes(), np.asarray(load_shares).tobytes())
+        if self._contact is None or self._contact[0] != key:   # a new contact starts from rest
+            weights = self._load_weights(np.asarray(load_nodes, dtype=np.int64), np.asarray(load_shares, float))
+            self._contact = (key, weights, np.zeros_like(self.finite.rest))
+        _, weights, u = self._contact
+        forces = weights[:, None] * force[None, :]
+        if iterations is None:
+            u = self.finite.solve(forces, initial=u)
+            self.last_iterations = self.finite.last_iterations
+        else:
+            self.finite.relax(forces, u, iterations=iterations)
+        self._contact = (key, weights, u)
+        return u[self.surface_nodes[np.asarray(nodes, dtype=np.int64)]]
 
     def _load_weights(self, load_nodes: np.ndarray, load_shares: np.ndarray) -> np.ndarray:
         density = np.zeros(len(self.lumped_area))
