@@ -9,22 +9,23 @@ current positions, so a rigid motion costs no energy, whatever its size.
 
 * :meth:`FiniteLayer.static`: the equilibrium ∇U(x) = f on the free nodes, by Newton's method with the consistent
   tangent H = Jᵀ α⁻¹ J + Σ_c (C_c/α_c) ∇²C_c and a backtracking line search on the total potential Π = U − fᵀx.
-  Where H is not positive definite (compressed edges, the hinges' curvature terms), that iteration uses the part
-  of H that is positive semi-definite at any x instead: Gauss–Newton's Jᵀ α⁻¹ J plus the geometric stiffness of the
-  stretched edges, which holds a pulled membrane sideways as its tension does (measured on the hybrid cube below,
-  5 N from rest: 8 iterations with it, 46 with Gauss–Newton's matrix as the fallback). The hinge's ∇²β is
-  the complex-step derivative (Squire & Trapp 1998) of the closed-form ∇β: exact to round-off, no step to tune.
-  Measured on the hybrid cube's layer (1,352 nodes, 647 prescribed at the FEM's answer), from the linear answer:
-  1 N on the top node, 6 iterations, none of them a fallback (Gauss–Newton alone: 71); 5 N, 6 (Gauss–Newton alone
-  did not converge in 200).
+  The hinge's ∇²β is the complex-step derivative (Squire & Trapp 1998) of the closed-form ∇β: exact to round-off,
+  no step to tune. Where H is not positive definite (compressed edges, the hinges' curvature terms), that iteration
+  uses the part of H that is positive semi-definite at any x instead: Gauss–Newton's Jᵀ α⁻¹ J plus the geometric
+  stiffness of the stretched edges, which holds a pulled membrane sideways as its tension does. Measured on the
+  hybrid cube's layer (1,352 nodes, 647 prescribed at the FEM's answer), 1 N on the top node: 6 iterations from the
+  linear answer, none of them a fallback (Gauss–Newton's matrix alone: 71); 5 N: 6 from the linear answer, 8 from
+  rest (46 with Gauss–Newton's matrix as the fallback; Gauss–Newton alone did not converge in 200).
 * :meth:`FiniteLayer.implicit_step`: the interactive path. Implicit Euler of the nonlinear layer, solved by a fixed
   number of iterations with the constant matrix M/dt² + K_ff(rest) (factorised once per dt, as
   :meth:`LayerStatics.implicit_step`'s), each line-searched on the step's incremental potential: the matrix is
   positive definite, so its correction always descends, and the search stops it overshooting where the layer has
   turned far from rest and K(rest) is the wrong stiffness (without it the step diverged within 5 steps under 1 N on
-  a cube corner; with it, while the layer moved, the accepted fraction of the correction was 0.05–0.5). What one
-  step leaves carries into the next. At rest under a constant load its fixed point is :meth:`FiniteLayer.static`'s
-  equilibrium, whatever dt, mass or iteration count.
+  a cube corner; with it, while the layer moved, the accepted fraction of the correction was 0.05–0.5, so each
+  iteration starts its search where the last step found the minimum). What one step leaves carries into the next.
+  At rest under a constant load its fixed point is :meth:`FiniteLayer.static`'s equilibrium, whatever dt, mass or
+  iteration count. A step costs 3–4 evaluations of U and ∇U and two back-substitutions, against LayerStatics' one
+  back-substitution: about 4× its time on the hybrid cube while the layer moves under 1 N.
 
 Only the signed bending form is provided (the hybrid's xpbd layer uses it: smooth at flat hinges, where eq 10's
 unsigned angle has a cusp, and so twice differentiable as Newton needs).
