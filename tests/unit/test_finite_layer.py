@@ -213,4 +213,4 @@ def test_the_static_equilibrium_is_a_fixed_point_of_the_step(cube):
     layer.implicit_step(x, v, rest, forces, rest[bottom], np.full(len(rest), 1e-4), 1e-2, 0.0, iterations=3)
     # the residual left by the static tolerance (1e-8 of the load) moves it by far less than this
     assert np.abs(x - start).max() <= 1e-9 * EDGE
-    assert np.abs(v).max() <= 1e-7 * EDGE
+    assert np.abs(v).max() <= 1e-9 * EDGE / 1e-2  # m/s: that motion over the step
