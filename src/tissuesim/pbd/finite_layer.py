@@ -261,7 +261,7 @@ class FiniteLayer(LayerStatics):
         nothing."""
         free = self.free_nodes
         step_predict(positions, velocities, self._old, self._predicted, free, self.prescribed, targets, dt,
-                 1.0 - damping)
+                     1.0 - damping)
         if free.size:
             if self._dynamic is None or self._dynamic[0] != dt:
                 self._dynamic = (dt, *self._dynamic_factor(mass, dt))
