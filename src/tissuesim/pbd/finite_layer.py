@@ -268,6 +268,11 @@ class FiniteLayer(LayerStatics):
             self._relax(positions, forces, iterations)
         step_velocities(positions, velocities, self._old, dt)
 
+    def _balanced(self, residual: np.ndarray, forces: np.ndarray) -> bool:
+        """Whether the step's ``residual`` ``(3f,)`` [N] is within :meth:`static`'s tolerance of the load."""
+        load = float(np.linalg.norm(forces[self.free_nodes])) + float(np.linalg.norm(self._gradient[self.prescribed]))
+        return float(np.linalg.norm(residual)) <= STATIC_TOLERANCE * load + FORCE_FLOOR * self._force_unit
+
     def _relax(self, positions: np.ndarray, forces: np.ndarray, iterations: int) -> None:
         """The implicit step's ``iterations`` line-searched corrections of ``positions``, in place."""
         _, factor, inertia, buffer, rhs = self._dynamic
@@ -276,6 +281,8 @@ class FiniteLayer(LayerStatics):
             self._first_steps = [1.0] * iterations
         for iteration in range(iterations):
             step_residual(positions, self._predicted, self.free_nodes, inertia, forces, self._gradient, rhs)
+            if self._balanced(rhs, forces):   # at rest at the equilibrium (a held load): nothing to solve
+                return
             if buffer is None:
                 correction = np.asarray(factor.solve(rhs))
             else:
