@@ -18,6 +18,11 @@ import tetgen
 import skfem
 from skfem.helpers import ddot, det, grad, identity, inv, mul, transpose
 
+from tissuesim.errors import SolverError
+from tissuesim.experiments import contact, protocol
+from tissuesim.experiments.finite_reference import FORCES_N, load_finite_reference
+from tissuesim.experiments.inputs import builtin_surface
+from tissuesim.fem.nonlinear import NonlinearFEM
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes
 from tissuesim.mesh.tetmesh import TetMesh
@@ -56,44 +61,61 @@ def _residual(v, w):
 
 @skfem.BilinearForm
 def _tangent(du, v, w):
-    """dP[∇δu] : ∇v, with d cof F[δF] = tr(F⁻¹ δF) cof F − cof F δFᵀ F⁻ᵀ."""
-    f, j, i_c, cof, inv_t = _kinematics(w)
+    """dP[∇δu] : ∇v, with d cof F[δF] = tr(F⁻¹ δF) cof F − cof F δFᵀ F⁻ᵀ; the state's fields come from
+    :func:`_tangent_fields`, so that they are computed once per assembly, not once per pair of basis functions."""
+    f, cof, inv_t = w.F, w.cof, w.inv_t
     d_f, g = grad(du), grad(v)
     d_cof = ddot(inv_t, d_f) * cof - mul(mul(cof, transpose(d_f)), inv_t)
-    return (w.mu * (1.0 - 1.0 / (i_c + 1.0)) * ddot(d_f, g)
-            + 2.0 * w.mu / (i_c + 1.0) ** 2 * ddot(f, d_f) * ddot(f, g)
-            + w.lam * ddot(cof, d_f) * ddot(cof, g) + w.lam * (j - w.alpha) * ddot(d_cof, g))
+    return (w.shear * ddot(d_f, g) + w.stiffening * ddot(f, d_f) * ddot(f, g)
+            + w.lam * ddot(cof, d_f) * ddot(cof, g) + w.volumetric * ddot(d_cof, g))
+
+
+def _tangent_fields(basis, u, mu, lam, alpha) -> dict:
+    """The state-dependent fields of :func:`_tangent` at the quadrature points of ``basis`` for the dofs ``u``."""
+    f, j, i_c, cof, inv_t = _kinematics({"u": basis.interpolate(u)})
+    return dict(F=f, cof=cof, inv_t=inv_t, shear=mu * (1.0 - 1.0 / (i_c + 1.0)),
+                stiffening=2.0 * mu / (i_c + 1.0) ** 2, volumetric=lam * (j - alpha), lam=lam)
+
+
+def assemble_tangent(basis, u, youngs_modulus: float, poisson_ratio: float):
+    """The tangent stiffness ∂r/∂u [N/m] ``(N, N)`` CSR at the dofs ``u`` ``(N,)`` [m]."""
+    return skfem.asm(_tangent, basis, **_tangent_fields(basis, u, *neo_hookean_constants(youngs_modulus,
+                                                                                            poisson_ratio)))
 
 
 def linear_stiffness(basis, youngs_modulus: float, poisson_ratio: float):
     """K at rest [N/m] ``(N, N)`` CSR: the tangent at u = 0, which is Hooke's law with (E, ν) by construction."""
-    mu, lam, alpha = neo_hookean_constants(youngs_modulus, poisson_ratio)
-    return skfem.asm(_tangent, basis, u=basis.zeros(), mu=mu, lam=lam, alpha=alpha)
+    return assemble_tangent(basis, basis.zeros(), youngs_modulus, poisson_ratio)
 
 
-def newton(basis, fixed_dofs, load, youngs_modulus, poisson_ratio, *, tolerance=1e-10, max_iterations=30,
-           steps=1, solve=None, progress=None):
+def newton(basis, fixed_dofs, load, youngs_modulus, poisson_ratio, *, tolerance=1e-10, max_iterations=15,
+           steps=1, initial=None, solve=None, progress=None):
     """Equilibrium of the stable neo-Hookean body under the dead nodal load ``load`` ``(N,)`` [N] (skfem dofs) with
     ``fixed_dofs`` at zero: ``(N,)`` displacement [m].
 
-    Newton with an energy line search (Armijo, halving), the load applied in ``steps`` equal increments; an
-    increment that does not converge is halved (at most 8 times). Converged when the free residual's norm is at
-    most ``tolerance`` × the load's. ``solve(K_ff, r_f) -> (f,)`` solves the linear systems (default SuperLU).
+    Newton with an energy line search (Armijo, halving), the load applied in ``steps`` equal increments from
+    ``initial`` = ``(u, its load)`` (default: rest, no load); an increment that does not converge is halved (at most
+    8 times). Converged when the free residual's norm is at most ``tolerance`` × the load's. ``solve(K_ff, r_f) ->
+    (f,)`` solves the linear systems (default SuperLU).
     """
     mu, lam, alpha = neo_hookean_constants(youngs_modulus, poisson_ratio)
     params = dict(mu=mu, lam=lam, alpha=alpha)
     free = np.setdiff1d(np.arange(basis.N), fixed_dofs)
     solve = solve or (lambda k, r: spla.spsolve(k.tocsc(), r))
+    u, start = (basis.zeros(), np.zeros_like(load)) if initial is None else (initial[0].copy(), initial[1])
     scale = np.linalg.norm(load[free])
 
-    def total(u, fraction):
-        return skfem.asm(_energy, basis, u=basis.interpolate(u), **params) - fraction * load @ u
+    def loading(fraction):
+        return start + fraction * (load - start)
 
-    u, reached, increment = basis.zeros(), 0.0, 1.0 / steps
+    def total(u, fraction):
+        return skfem.asm(_energy, basis, u=basis.interpolate(u), **params) - loading(fraction) @ u
+
+    reached, increment = 0.0, 1.0 / steps
     while reached < 1.0 - 1e-12:
         fraction = min(1.0, reached + increment)
-        trial = _newton_increment(basis, free, load, fraction, u, params, total, scale, tolerance, max_iterations,
-                                  solve)
+        trial = _newton_increment(basis, free, loading(fraction), fraction, u, params, total, scale, tolerance,
+                                  max_iterations, solve)
         if trial is None:
             increment *= 0.5
             if increment < 1.0 / (steps * 2 ** 8):
@@ -106,14 +128,14 @@ def newton(basis, fixed_dofs, load, youngs_modulus, poisson_ratio, *, tolerance=
 
 
 def _newton_increment(basis, free, load, fraction, u, params, total, scale, tolerance, max_iterations, solve):
-    """Newton at one load level from ``u``; the converged displacement, or None."""
+    """Newton under ``load`` (at ``fraction`` of the path) from ``u``; the converged displacement, or None."""
     u = u.copy()
     for _ in range(max_iterations):
         state = basis.interpolate(u)
-        residual = skfem.asm(_residual, basis, u=state, **params) - fraction * load
+        residual = skfem.asm(_residual, basis, u=state, **params) - load
         if np.linalg.norm(residual[free]) <= tolerance * scale:
             return u
-        tangent = skfem.asm(_tangent, basis, u=state, **params)
+        tangent = skfem.asm(_tangent, basis, **_tangent_fields(basis, u, **params))
         step = np.zeros_like(u)
         step[free] = solve(tangent[free][:, free], -residual[free])
         if not np.all(np.isfinite(step)):
@@ -221,12 +243,11 @@ def patch_load(mesh: TetMesh, total_newtons: float, radius: float) -> np.ndarray
 # 0.5 N moves the patch by about 2 mm, 5 N by about 24 mm (30 % of the 8 cm cube).
 @pytest.mark.parametrize("newtons", [0.5, 5.0])
 def test_library_neo_hookean_equals_scikit_fem(newtons):
-    nonlinear = pytest.importorskip("tissuesim.fem.nonlinear")
     mesh = cube_mesh()
     fixed = bottom_nodes(mesh.points)
     forces = patch_load(mesh, newtons, radius=0.012)
     expected = skfem_neo_hookean(mesh.points, mesh.tets, fixed, forces, E, NU, steps=4)
-    fem = nonlinear.NonlinearFEM(mesh, youngs_modulus=E, poisson_ratio=NU, fixed=fixed, material="neo-hookean")
+    fem = NonlinearFEM(mesh, youngs_modulus=E, poisson_ratio=NU, fixed=fixed, material="neo-hookean")
     u = fem.solve(forces)
     # Both solve the same discrete equations to a tight residual: they agree to 1e-6 of the largest displacement.
     assert np.abs(u - expected).max() <= 1e-6 * np.abs(expected).max()
@@ -264,3 +285,89 @@ def test_tangent_at_rest_is_scikit_fems_linear_elasticity():
     basis = p1_basis(mesh.points, mesh.tets)
     expected = skfem.asm(linear_elasticity(*lame_parameters(E, NU)), basis)
     assert abs(linear_stiffness(basis, E, NU) - expected).max() <= 1e-12 * abs(expected).max()
+
+
+# --- the shipped finite-strain contact reference ----------------------------------------------------------------
+
+def test_shipped_reference_matches_the_contact_protocol():
+    reference = load_finite_reference()
+    surface = builtin_surface("cube")
+    node = protocol.load_node(surface.vertices, surface.triangles)
+    # The same model, load node, samples and radius as the contact protocol's cases (assigned values: exact).
+    assert reference.model == "cube" and reference.load_node == node and reference.radius_mm in contact.RADII_MM
+    assert np.array_equal(reference.samples, protocol.sample_nodes(surface.vertices, node, protocol.RMSE_SAMPLES))
+    assert reference.forces == FORCES_N
+    assert (reference.youngs_modulus, reference.poisson_ratio) == (E, NU)
+    # Converged means every load's last change is below the tolerance, and the levels say the same.
+    assert reference.converged == all(c is not None and c < reference.tolerance for c in reference.changes.values())
+    assert len(reference.levels) >= 2    # a change needs two levels
+    assert reference.levels[-1]["change"] == {f"{f:g}": c for f, c in reference.changes.items()}
+
+
+def test_shipped_reference_is_physical():
+    reference = load_finite_reference()
+    lifts = [reference.displacements[f][0, 2] for f in reference.forces]
+    assert np.all(np.diff(lifts) > 0) and lifts[0] > 0     # a pull lifts the load node, more for more force
+    for force in reference.forces:
+        # The linear answer is linear in the force: the stored ones are one solution scaled (round-off of the JSON
+        # text, which keeps 17 digits).
+        scaled = reference.linear[force] / force
+        assert np.abs(scaled - reference.linear[0.1] / 0.1).max() <= 1e-12 * np.abs(scaled).max()
+    # Finite strain departs from linear with the strain near the patch: 0.1 N is a mean traction of 0.7 μ over the
+    # 4 mm patch, strains of tens of % at its rim, so a difference of several % (bound 10 %); 5 N is 35 μ, more than
+    # 10 %; and the difference grows with the force.
+    difference = {f: relative_difference(reference.displacements[f], reference.linear[f]) for f in reference.forces}
+    assert difference[0.1] < 0.10 and difference[5.0] > 0.10
+    assert np.all(np.diff([difference[f] for f in reference.forces]) > 0)
+
+
+def relative_difference(values, reference) -> float:
+    """RMS over the samples of |values − reference| over the RMS of |reference| (the protocol's relative RMSE)."""
+    return float(np.sqrt(np.sum((values - reference) ** 2) / np.sum(reference ** 2)))
+
+
+def test_missing_or_foreign_reference_is_refused(tmp_path):
+    missing = tmp_path / "finite_strain_reference.json"
+    with pytest.raises(SolverError, match="is missing.*finite_strain_reference.py"):
+        load_finite_reference(missing)
+    missing.write_text('{"schema": "tissuesim-contact/1"}')
+    with pytest.raises(SolverError, match="schema 'tissuesim-contact/1'"):
+        load_finite_reference(missing)
+
+
+@pytest.mark.slow
+def test_reference_problem_is_the_linear_contact_references():
+    # The generator's mesh, support and load at level 0 (the default fine volume) are those of the linear contact
+    # reference: its linear answer equals the library's quadratic tets under the same traction, to solver round-off.
+    import importlib.util
+    from pathlib import Path
+
+    from tissuesim.experiments.reference import RefinementSettings
+    from tissuesim.fem.quadratic import QuadraticFEM
+    from tissuesim.mesh.regions import bottom_height, nodes_below
+
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "finite_strain_reference.py"
+    spec = importlib.util.spec_from_file_location("finite_strain_reference", path)
+    generator = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(generator)
+    surface = builtin_surface("cube")
+    node = protocol.load_node(surface.vertices, surface.triangles)
+    radius = 1e-3 * generator.RADIUS_MM
+    basis, unit_load, fixed, _ = generator.level_problem(surface, node, radius, 0, RefinementSettings())
+    free = np.setdiff1d(np.arange(basis.N), fixed)
+    u = np.zeros(basis.N)
+    u[free] = spla.spsolve(linear_stiffness(basis, E, NU)[free][:, free].tocsc(), unit_load[free])
+    mesh = TetMesh(basis.mesh.p.T, basis.mesh.t.T)
+    height = bottom_height(surface.vertices)
+    fem = QuadraticFEM(mesh, youngs_modulus=E, poisson_ratio=NU, fixed=lambda points: nodes_below(points, height))
+    triangles = basis.mesh.facets[:, basis.mesh.boundary_facets()].T
+    centroids = mesh.points[triangles].mean(axis=1)
+    triangles = triangles[np.linalg.norm(centroids - surface.vertices[node], axis=1) <= radius]
+    areas = 0.5 * np.linalg.norm(np.cross(*(mesh.points[triangles[:, k]] - mesh.points[triangles[:, 0]]
+                                            for k in (1, 2))), axis=1)
+    forces = np.zeros((fem.node_count, 3))
+    forces[:, 2] = fem.traction_weights(triangles, areas / areas.sum())
+    expected = fem.solve(forces)[: mesh.node_count]
+    ours = u[basis.nodal_dofs.T]
+    # Two direct solves of the same SPD system (condition ~1e8): agreement to 1e-8 of the largest displacement.
+    assert np.abs(ours - expected).max() <= 1e-8 * np.abs(expected).max()
