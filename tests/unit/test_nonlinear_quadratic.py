@@ -93,6 +93,21 @@ def test_turning_the_supports_turns_the_body_rigidly_without_energy(material):
     assert fem.energy(u) <= 1e-12 * E * np.prod(SIZE)
 
 
+@pytest.mark.parametrize("material", FINITE)
+def test_a_rigidly_rotated_body_under_a_rotated_load_gives_the_rotated_answer(material):
+    fem = _block(material)
+    forces = _top_pull(fem, [0.02, 0.0, 0.2])           # N: a 9 % stretch that also bends the block
+    u = fem.solve(forces)
+    q = np.linalg.qr(np.random.default_rng(5).standard_normal((3, 3)))[0]
+    q *= np.sign(np.linalg.det(q))
+    turned_mesh = type(fem.mesh)(points=fem.mesh.points @ q.T, tets=fem.mesh.tets)
+    fixed = np.isin(np.arange(fem.node_count), fem.free_dofs // 3, invert=True)   # the same nodes, turned
+    turned = QuadraticNonlinearFEM(turned_mesh, youngs_modulus=E, poisson_ratio=NU, fixed=lambda p: fixed,
+                                   material=material)
+    # both solves converge to rtol 1e-9 of the load; the rotation only reorders round-off
+    np.testing.assert_allclose(turned.solve(forces @ q.T), u @ q.T, atol=1e-7 * np.abs(u).max())
+
+
 def test_the_constant_factor_relaxation_reaches_newtons_answer():
     fem = _block("neo-hookean")
     forces = _top_pull(fem, [0.01, 0.0, 0.2])           # N: a 9 % stretch that also bends the block by 3 mm
