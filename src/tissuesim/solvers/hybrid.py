@@ -100,9 +100,6 @@ class HybridSolver(SurfaceLayerSolver):
         self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
         self._volume_settled = True
-        if near_field is not None and self.finite is not None:
-            raise SolverError(f"near_field works with material='linear' only: its quadratic window is small-strain; "
-                              f"drop near_field, or the {self.material!r} material")
         self._init_near_field(near_field)
         self.control = control
         self.control_count = control.size
@@ -151,6 +148,7 @@ class HybridSolver(SurfaceLayerSolver):
             fixed = fixed_corners(fine, self.fixed_volume_nodes(
                 fine.points, np.asarray(self.hybrid.fine_surface_nodes, dtype=np.int64)))
         self._near = NearField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                               material=self.material,
                                fixed=fixed)
         self.near_field = float(near_field)
         self._is_free = np.ones(self.node_count, dtype=bool)
@@ -181,6 +179,10 @@ class HybridSolver(SurfaceLayerSolver):
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         from .finite_strain import support_displacement
+
+        if self._near is not None:
+            raise SolverError("the near field's fine volume keeps its supports at rest: drop near_field to move the "
+                              "fixed set")
 
         self.finite.set_fixed_displacement(support_displacement(
             self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
@@ -223,9 +225,7 @@ class HybridSolver(SurfaceLayerSolver):
         c = self.control_count
         np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
         if self._near is not None and self._window.size:
-            rest = self.rest_positions
-            response = self._near.response(self.load_nodes, self.load_shares, self._window)
-            self.targets[self._window_slots] = rest[self._window] + response @ self._load_force
+            self._prescribe_near(exact)
         if self.warm_start:
             map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
                          self._embedded_new)
@@ -235,6 +235,16 @@ class HybridSolver(SurfaceLayerSolver):
             self.state.positions += self._delta
             self._embedded[:] = self._embedded_new
         self._dirty = False
+
+    def _prescribe_near(self, exact: bool) -> None:
+        """The window's targets: the near field's displacement under the load (converged when ``exact``, else
+        :data:`VOLUME_ITERATIONS` iterations toward it; still moving means M_V's part is not settled either)."""
+        iterations = None if exact or self._near.finite is None else VOLUME_ITERATIONS
+        targets = self.rest_positions[self._window] + self._near.displacement(
+            self.load_nodes, self.load_shares, self._load_force, self._window, iterations=iterations)
+        if iterations is not None and not np.array_equal(targets, self.targets[self._window_slots]):
+            self._volume_settled = False
+        self.targets[self._window_slots] = targets
 
     def _prescribe_window(self, node: int) -> None:
         """The window: the M_S nodes within W of the contact node but the pinned ones. Its control nodes keep

@@ -336,10 +336,10 @@ class Controller:
 
     def near_field_available(self, hybrid=None) -> bool:
         """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
-        volume, and the linear material (the near field is small-strain)."""
+        volume."""
         mesh = self.solver.hybrid if hybrid is None else hybrid
         return ("near_field" in solver_options(self.settings.method) and mesh.fine_volume is not None
-                and not mesh.info.get("cuts") and self.settings.material == "linear")
+                and not mesh.info.get("cuts"))
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
         """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is
