@@ -102,6 +102,18 @@ def test_interactive_steps_under_a_constant_force_settle_at_the_converged_answer
     np.testing.assert_allclose(stepped, converged, atol=1e-4 * np.abs(converged).max())
 
 
+def test_after_a_reset_the_near_field_starts_from_rest(cube):
+    hybrid, (patch, shares), window = cube
+    force = np.array([0.0, 0.0, 1.0])                    # N
+    fresh = _near(hybrid, "neo-hookean").displacement(patch, shares, force, window, iterations=1)
+    near = _near(hybrid, "neo-hookean")
+    near.displacement(patch, shares, 2 * force, window)  # a converged answer to start from, then forgotten
+    near.reset()
+    # the same arithmetic from rest: equal to round-off, while a warm start would be a whole iteration apart
+    np.testing.assert_allclose(near.displacement(patch, shares, force, window, iterations=1), fresh,
+                               atol=1e-12 * np.abs(fresh).max())
+
+
 @pytest.mark.slow    # about a minute: load stepping halves the press down to 1/32 before it gives up
 def test_a_press_with_no_stable_equilibrium_is_refused_and_the_drag_goes_on_from_its_last_answer(cube):
     hybrid, (patch, shares), window = cube

@@ -125,6 +125,11 @@ class NearField:
         self._contact = (key, weights, u)
         return u[self.surface_nodes[np.asarray(nodes, dtype=np.int64)]]
 
+    def reset(self) -> None:
+        """Forget the last finite-strain answer: the next :meth:`displacement` starts from rest (as M_V does after a
+        solver's reset)."""
+        self._contact = None
+
     def _load_weights(self, load_nodes: np.ndarray, load_shares: np.ndarray) -> np.ndarray:
         density = np.zeros(len(self.lumped_area))
         density[load_nodes] = load_shares / self.lumped_area[load_nodes]
