@@ -96,10 +96,12 @@ def test_interactive_steps_under_a_constant_force_settle_at_the_converged_answer
     near = _near(hybrid, "neo-hookean")
     converged = near.displacement(patch, shares, force, window)
     steps = _near(hybrid, "neo-hookean")
-    for _ in range(20):                                  # frames of three constant-factor iterations each
+    for frame in range(20):                              # frames of three constant-factor iterations each
         stepped = steps.displacement(patch, shares, force, window, iterations=3)
+        assert frame > 0 or not steps.settled            # three iterations from rest: not yet the equilibrium
     # K₀'s iterations contract the error about 10× per dozen here (60: ~3e-6), and stall near 1e-7 at Π's round-off
     np.testing.assert_allclose(stepped, converged, atol=1e-4 * np.abs(converged).max())
+    assert near.settled
 
 
 def test_after_a_reset_the_near_field_starts_from_rest(cube):

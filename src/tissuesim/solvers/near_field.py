@@ -53,6 +53,8 @@ class NearField:
             :attr:`fem`'s factor), or None for ``"linear"``.
         last_iterations: Newton iterations of the last converged finite-strain :meth:`displacement` (0: its warm
             start was already in equilibrium).
+        settled: whether the last :meth:`displacement` is the equilibrium (always, but after constant-factor
+            iterations that have not reached it yet): a stepping caller repeats them until it is.
     """
 
     def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed,
@@ -73,6 +75,7 @@ class NearField:
                                                 poisson_ratio=poisson_ratio, fixed=fixed, material=material,
                                                 linear=self.fem)
         self.last_iterations = 0
+        self.settled = True
         self._contact = None     # (load key, weights (N,), last displacement (N, 3) [m]) of the finite solve
         surface = hybrid_mesh.surface
         self.surface_nodes = np.asarray(hybrid_mesh.fine_surface_nodes, dtype=np.int64)
@@ -119,9 +122,9 @@ class NearField:
         forces = weights[:, None] * force[None, :]
         if iterations is None:
             u = self.finite.solve(forces, initial=u)
-            self.last_iterations = self.finite.last_iterations
+            self.last_iterations, self.settled = self.finite.last_iterations, True
         else:
-            self.finite.relax(forces, u, iterations=iterations)
+            self.settled = self.finite.relax(forces, u, iterations=iterations)
         self._contact = (key, weights, u)
         return u[self.surface_nodes[np.asarray(nodes, dtype=np.int64)]]
 
