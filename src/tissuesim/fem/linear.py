@@ -392,12 +392,20 @@ class _PermutedLU:
         return x
 
 
-def factorise_spd(reduced: sp.csc_matrix, dof_node: np.ndarray):
-    """Factorise the SPD K_ff once (see the module docstring); ``dof_node`` ``(f,)`` is the node of each free dof.
+def fill_reducing_order(reduced: sp.csc_matrix, dof_node: np.ndarray):
+    """The METIS nested-dissection order of ``reduced``'s dofs that :func:`factorise_spd` uses (None without
+    pymetis): compute it once for a sequence of matrices with one sparsity pattern (Newton's tangents)."""
+    return _nested_dissection(reduced, dof_node)
+
+
+def factorise_spd(reduced: sp.csc_matrix, dof_node: np.ndarray, *, order=None):
+    """Factorise the SPD K_ff once (see the module docstring); ``dof_node`` ``(f,)`` is the node of each free dof;
+    ``order`` a :func:`fill_reducing_order` of the same pattern, computed here when not given.
 
     Returns an object whose ``solve(b)`` takes ``(f,)`` or ``(f, m)``. Raises SolverError if K_ff is not positive
     definite."""
-    order = _nested_dissection(reduced, dof_node)
+    if order is None:
+        order = _nested_dissection(reduced, dof_node)
     try:
         import cvxopt  # noqa: F401  (optional: CHOLMOD)
     except ImportError:

@@ -10,10 +10,10 @@ equilibrium (a minimum of Π):
 * :meth:`NonlinearFEM.solve`: Newton with the consistent tangent (where it is not positive definite, each element's
   projected to positive semi-definite: a descent direction still), load stepping when a full load does not
   converge; converged to a residual below :data:`RTOL` of the load. One factorisation per iteration.
-* :meth:`NonlinearFEM.relax`: a fixed number of iterations that all use the constant, prefactorised rest stiffness
-  K₀ of :class:`~.linear.LinearFEM` (of :class:`~.quadratic.QuadraticFEM` on quadratic tets; modified Newton: K₀ is
-  positive definite, so K₀⁻¹ r descends too). The interactive path: warm-started from the last answer it costs
-  back-substitutions only, and repeated under a constant load it converges to :meth:`solve`'s answer.
+* :meth:`NonlinearFEM.relax`: a fixed number of L-BFGS iterations preconditioned by the constant, prefactorised
+  rest stiffness K₀ of :class:`~.linear.LinearFEM` (of :class:`~.quadratic.QuadraticFEM` on quadratic tets). The
+  interactive path: warm-started from the last answer it costs back-substitutions only, and repeated under a
+  constant load it converges to :meth:`solve`'s answer.
 
 A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch): then no
 load step converges, or the converged state's exact tangent is not positive definite. :meth:`solve` raises
@@ -31,7 +31,7 @@ from .hyperelastic import (check_material, element_energy, element_tangents, int
                            material_parameters)
 from .hyperelastic_quadratic import (quadratic_element_tangents, quadratic_energy, quadratic_internal_forces,
                                      quadrature_gradients)
-from .linear import LinearFEM, factorise_spd
+from .linear import LinearFEM, factorise_spd, fill_reducing_order
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 from .quadratic import QuadraticFEM
 
@@ -42,6 +42,8 @@ MAX_NEWTON = 25
 #: Load stepping halves a failed increment down to this fraction of the load before giving up (so the largest
 #: stable fraction it reports is known to about 3 %; a converging Newton needs far fewer than MAX_NEWTON).
 MIN_LOAD_STEP = 1.0 / 32.0
+#: Curvature pairs :meth:`NonlinearFEM.relax` keeps.
+LBFGS_MEMORY = 8
 _ARMIJO = 1e-4
 _MAX_HALVINGS = 40
 
@@ -81,6 +83,9 @@ class _HyperelasticStatics:
         self._forces = np.empty_like(self.rest)
         width = 3 * element_nodes.shape[1]
         self._tangents = np.empty((len(element_nodes), width, width))
+        self._order = None        # the tangents' fill-reducing order: one sparsity pattern, computed once
+        self._memory: list[tuple[np.ndarray, np.ndarray, float]] = []    # relax's curvature pairs (s, y, 1/yᵀs)
+        self._last: tuple[np.ndarray, np.ndarray] | None = None           # relax's last (u_f, ∂W/∂u_f)
         self.last_iterations = 0
 
     @property
@@ -115,6 +120,7 @@ class _HyperelasticStatics:
             raise SolverError(f"fixed displacement must be a finite ({self.node_count}, 3) array [m], got shape "
                               f"{displacement.shape}")
         self.fixed_displacement[:] = np.where(self._fixed_mask, displacement, 0.0)
+        self._forget()      # the supports' motion changes ∂W/∂u_f at fixed u_f: old curvature pairs are wrong
 
     # -------------------------------------------------------------------------------------------------- solves
     def solve(self, forces, *, initial=None, rtol: float = RTOL, max_iterations: int = MAX_NEWTON) -> np.ndarray:
@@ -154,10 +160,13 @@ class _HyperelasticStatics:
         return u
 
     def relax(self, forces, u: np.ndarray, *, iterations: int, rtol: float = RTOL) -> bool:
-        """Up to ``iterations`` modified-Newton iterations on ``u`` ``(n, 3)`` [m] in place under ``forces``
-        ``(n, 3)`` [N], each one back-substitution with the constant K₀ and a line search: the interactive path.
-        Returns True when ``u`` is already at equilibrium (residual below ``rtol`` of the load's size, :meth:`solve`'s
-        criterion): further calls then change nothing."""
+        """Up to ``iterations`` quasi-Newton iterations on ``u`` ``(n, 3)`` [m] in place under ``forces`` ``(n, 3)``
+        [N]: the interactive path. L-BFGS (Nocedal & Wright 2006, Algorithm 7.4) whose initial inverse Hessian is
+        the constant, prefactorised K₀⁻¹ (as Liu, Bouaziz & Kavan 2017 do for real-time hyperelasticity), with a
+        line search on Π: one back-substitution per iteration, no refactorisation. The curvature pairs are kept
+        across calls (they depend on W alone, not on the load), so a drag keeps what earlier steps learnt.
+        Returns True when ``u`` is at equilibrium (residual below ``rtol`` of the load's size, :meth:`solve`'s
+        criterion, or no step can lower Π any more): further calls then change nothing."""
         free = self.free_dofs
         u[self._fixed_mask] = self.fixed_displacement[self._fixed_mask]
         flat_f = forces.ravel()
@@ -166,9 +175,41 @@ class _HyperelasticStatics:
             residual = flat_f[free] - g[free]
             if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
                 return True
-            if not self._line_search(u, np.asarray(self._rest_factor.solve(residual)), residual, forces):
-                return False
+            self._learn(u.ravel()[free], g[free])
+            if not self._line_search(u, self._quasi_newton(residual), residual, forces):
+                self._forget()
+                if not self._line_search(u, np.asarray(self._rest_factor.solve(residual)), residual, forces):
+                    return True       # Π cannot fall any further within its round-off
         return False
+
+    def _learn(self, u_free: np.ndarray, g_free: np.ndarray) -> None:
+        """Add the curvature pair from relax's last iterate to this one (skipped where yᵀs ≤ 0: not convex
+        along s), keeping the newest :data:`LBFGS_MEMORY`."""
+        last, self._last = self._last, (u_free.copy(), g_free.copy())
+        if last is None:
+            return
+        s, y = u_free - last[0], g_free - last[1]
+        curvature = float(y @ s)
+        if curvature > 1e-12 * float(np.linalg.norm(y) * np.linalg.norm(s)):
+            self._memory.append((s, y, 1.0 / curvature))
+            del self._memory[:-LBFGS_MEMORY]
+
+    def _forget(self) -> None:
+        self._memory.clear()
+        self._last = None
+
+    def _quasi_newton(self, residual: np.ndarray) -> np.ndarray:
+        """L-BFGS two-loop recursion: ≈ H⁻¹ r with K₀⁻¹ as the initial inverse Hessian."""
+        q = residual.copy()
+        alphas = []
+        for s, y, rho in reversed(self._memory):
+            alpha = rho * float(s @ q)
+            q -= alpha * y
+            alphas.append(alpha)
+        z = np.asarray(self._rest_factor.solve(q), dtype=np.float64)
+        for (s, y, rho), alpha in zip(self._memory, reversed(alphas)):
+            z += s * (alpha - rho * float(y @ z))
+        return z
 
     def _converged(self, forces, u, rtol) -> bool:
         g = self.internal_forces(u).ravel()
@@ -207,10 +248,18 @@ class _HyperelasticStatics:
         free = self.free_dofs
         for project in (False, True):
             try:
-                return factorise_spd(self.tangent(u, project=project)[free][:, free].tocsc(), free // 3)
+                return self._factorise(self.tangent(u, project=project))
             except SolverError:
                 continue
         return None
+
+    def _factorise(self, tangent):
+        """The factor of ``tangent`` ``(3n, 3n)`` on the free dofs, in the order computed at the first call."""
+        free = self.free_dofs
+        reduced = tangent[free][:, free].tocsc()
+        if self._order is None:
+            self._order = fill_reducing_order(reduced, free // 3)
+        return factorise_spd(reduced, free // 3, order=self._order)
 
     def _line_search(self, u, direction, residual, forces) -> bool:
         """Backtrack along ``direction`` (free dofs) until Π = W − fᵀu decreases enough (Armijo); moves ``u`` in
@@ -238,9 +287,8 @@ class _HyperelasticStatics:
 
     def _stable(self, u) -> bool:
         """Whether the exact (unprojected) tangent at ``u`` is positive definite on the free dofs."""
-        free = self.free_dofs
         try:
-            factorise_spd(self.tangent(u, project=False)[free][:, free].tocsc(), free // 3)
+            self._factorise(self.tangent(u, project=False))
         except SolverError:
             return False
         return True

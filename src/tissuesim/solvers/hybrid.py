@@ -51,7 +51,7 @@ DEFAULT_WARM_START = True
 #: the same equilibrium.
 HYBRID_DAMPING = 0.4
 #: M_V's constant-factor iterations per step with a finite-strain material: each costs one back-substitution of M_V.
-VOLUME_ITERATIONS = 2
+VOLUME_ITERATIONS = 1
 
 
 @register("hybrid")
@@ -175,6 +175,8 @@ class HybridSolver(SurfaceLayerSolver):
     def _on_reset(self) -> None:
         self._embedded[:] = self.rest_positions
         self.volume_displacement[:] = 0.0
+        if self._near is not None:
+            self._near.reset()
         self._update_fem()
 
     def _move_fixed(self, positions: np.ndarray) -> None:
@@ -240,11 +242,10 @@ class HybridSolver(SurfaceLayerSolver):
         """The window's targets: the near field's displacement under the load (converged when ``exact``, else
         :data:`VOLUME_ITERATIONS` iterations toward it; still moving means M_V's part is not settled either)."""
         iterations = None if exact or self._near.finite is None else VOLUME_ITERATIONS
-        targets = self.rest_positions[self._window] + self._near.displacement(
+        self.targets[self._window_slots] = self.rest_positions[self._window] + self._near.displacement(
             self.load_nodes, self.load_shares, self._load_force, self._window, iterations=iterations)
-        if iterations is not None and not np.array_equal(targets, self.targets[self._window_slots]):
+        if iterations is not None and not self._near.settled:
             self._volume_settled = False
-        self.targets[self._window_slots] = targets
 
     def _prescribe_window(self, node: int) -> None:
         """The window: the M_S nodes within W of the contact node but the pinned ones. Its control nodes keep

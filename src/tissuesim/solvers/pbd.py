@@ -68,7 +68,7 @@ PBD_DAMPING = 0.1
 
 
 #: Constant-factor iterations per step of the finite-strain layer's implicit step.
-LAYER_ITERATIONS = 2
+LAYER_ITERATIONS = 1
 #: Newton iterations of one finite-strain layer solve: where a strongly pulled layer wrinkles, its tangent is
 #: indefinite and the definite part Newton falls back to converges linearly (measured: 30-50 iterations from 9 N
 #: on the cube's top node).
