@@ -45,3 +45,11 @@ def test_an_unknown_material_is_refused_up_front(tmp_path, capsys):
     error = capsys.readouterr().err.strip()
     assert "\n" not in error and "unknown material 'rubber'" in error
     assert not (tmp_path / "out").exists()
+
+
+def test_the_contact_protocol_refuses_a_finite_strain_material_it_has_no_references_for(tmp_path, capsys):
+    assert main(["experiment", "--protocol", "contact", "--material", "neo-hookean", "--output",
+                 str(tmp_path / "out")]) != 0
+    error = capsys.readouterr().err.strip()
+    assert "\n" not in error and "paper protocol only" in error
+    assert not (tmp_path / "out").exists()

@@ -61,6 +61,10 @@ def run(args) -> int:
     if args.protocol not in PROTOCOLS:
         raise SolverError(f"unknown protocol {args.protocol!r}; choose one of {', '.join(PROTOCOLS)}")
     if args.protocol == "contact":
+        if check_material(args.material) != "linear":
+            raise SolverError(f"--material {args.material} runs with the paper protocol only: the contact protocol's "
+                              "references are linear; the finite-strain methods against the shipped finite-strain "
+                              "reference are in benchmarks/finite_strain_errors.py (docs/finite-strain.md)")
         return _run_contact(args, output)
     models = tuple(args.models) or tuple(MODELS)
     check_model_specs(models)
