@@ -243,7 +243,14 @@ class SurfaceLayerSolver(Solver):
         if self.material == "linear":
             return 1
         self._finite_start(positions)
-        return 1 + self._finite_static(statics, positions)
+        try:
+            return 1 + self._finite_static(statics, positions)
+        except SolverError:
+            # Newton found no way through (a layer pulled into a spike folds its hinges): the implicit steps,
+            # whose rest state is this equilibrium, get there from the embedded start
+            self.static_fallbacks += 1
+            self._finite_start(positions)
+            return None
 
     def _finite_static(self, statics, positions: np.ndarray) -> int:
         """The finite-strain layer's equilibrium, in place on ``positions``; returns the Newton iterations.
