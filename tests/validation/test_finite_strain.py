@@ -242,3 +242,20 @@ def test_a_20_newton_pull_inverts_no_element(cube_case, method):
     fem = solver.finite
     volumes = tet_signed_volumes(fem.rest + solver.volume_displacement, fem.tets)
     assert volumes.min() > 0.0
+
+
+def test_where_the_layers_newton_fails_the_static_solve_steps_to_the_same_equilibrium(cube_case, monkeypatch):
+    from tissuesim.pbd.finite_layer import FiniteLayer
+
+    hybrid, node = cube_case
+    newton = make_solver("hybrid", hybrid, material="neo-hookean").solve_static(node, (0, 0, 1.0), radius=0.008)
+
+    def fails(self, *args, **options):
+        raise SolverError("no step lowers the potential")
+
+    monkeypatch.setattr(FiniteLayer, "static", fails)
+    solver = make_solver("hybrid", hybrid, material="neo-hookean")
+    stepped = solver.solve_static(node, (0, 0, 1.0), radius=0.008, rtol=1e-7)
+    assert solver.static_fallbacks == 1 and solver.last_solve.steps > 1
+    scale = np.abs(newton - hybrid.surface.vertices).max()
+    assert np.abs(stepped - newton).max() < 1e-4 * scale    # the stepped solve stops at rtol's remaining error
