@@ -259,3 +259,16 @@ def test_where_the_layers_newton_fails_the_static_solve_steps_to_the_same_equili
     assert solver.static_fallbacks == 1 and solver.last_solve.steps > 1
     scale = np.abs(newton - hybrid.surface.vertices).max()
     assert np.abs(stepped - newton).max() < 1e-4 * scale    # the stepped solve stops at rtol's remaining error
+
+
+def test_reset_returns_a_moved_base_to_rest(cube_case):
+    hybrid, node = cube_case
+    rest = hybrid.surface.vertices
+    solver = make_solver("embedded", hybrid, material="neo-hookean")
+    solver.set_fixed_positions(rest[solver.fixed] + [0.0, 0.01, 0.0])
+    solver.step()
+    assert np.abs(solver.positions - rest).max() > 0.009
+    solver.reset()
+    solver.step()
+    np.testing.assert_array_equal(solver.fixed_positions, rest[solver.fixed])
+    assert np.abs(solver.positions - rest).max() < 1e-9 * solver.size

@@ -189,6 +189,8 @@ class SolverCut:
         s._previous = spare.extend("previous", s._previous, result.positions[result.old_count:])
         if new_fixed.size:
             s.fixed = spare.extend("fixed", s.fixed, new_fixed.astype(s.fixed.dtype))
+            # a copy of a fixed vertex is held where its original is (moved, with a moving base)
+            s.fixed_positions = spare.extend("fixed_positions", s.fixed_positions, result.positions[new_fixed])
 
     def touched_edges(self, result: CutResult) -> tuple[np.ndarray, np.ndarray]:
         """``(keys (k, 2), owners (k, 2))``: the edges (lo < hi) of the triangles the cut changed, before and after

@@ -312,8 +312,12 @@ class Solver(ABC):
         self._check_blow_up(dt)
 
     def reset(self) -> None:
-        """Back to rest: rest positions, zero velocities, no load."""
+        """Back to rest: rest positions, zero velocities, no load, the fixed set at rest."""
         self._withdraw_load()
+        rest = self.rest_positions[self.fixed]
+        if self.material != "linear" and not np.array_equal(self.fixed_positions, rest):
+            self._move_fixed(rest)
+            self.fixed_positions = np.array(rest)
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
         self.largest_displacement = 0.0
