@@ -313,11 +313,15 @@ class Solver(ABC):
 
     def reset(self) -> None:
         """Back to rest: rest positions, zero velocities, no load, the fixed set at rest."""
-        self._withdraw_load()
         rest = self.rest_positions[self.fixed]
         if self.material != "linear" and not np.array_equal(self.fixed_positions, rest):
             self._move_fixed(rest)
             self.fixed_positions = np.array(rest)
+        self._unloaded()
+
+    def _unloaded(self) -> None:
+        """Rest positions, zero velocities, no load; the fixed set stays where it was put."""
+        self._withdraw_load()
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
         self.largest_displacement = 0.0
@@ -343,7 +347,8 @@ class Solver(ABC):
         directly (a linear solve, exact to round-off). The others step (with the solver's
         damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
         ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
-        stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load.
+        stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load (and on
+        where :meth:`set_fixed_positions` put the fixed set, which it keeps).
         What was done, and whether linear elasticity is valid for the answer (``last_solve.warning``), is in
         :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling, or at once when the state
         blows up (see :meth:`step`).
@@ -361,7 +366,7 @@ class Solver(ABC):
         check_dead_press(self, node, force, radius)
         before = (self.state.positions.copy(), self.state.velocities.copy(), self.load, self.load_radius)
         if reset:
-            self.reset()
+            self._unloaded()
         self.set_load(node, force, radius=radius)
         try:
             return self._settle(dt, tolerance, rtol, max_steps)
@@ -407,7 +412,7 @@ class Solver(ABC):
 
     def _restore(self, positions, velocities, load, radius) -> None:
         """Back to a state and load taken before a refused solve."""
-        self.reset()
+        self._unloaded()
         if load is not None:
             self.set_load(load[0], load[1], radius=radius)
         self.state.positions[:] = positions
@@ -418,7 +423,7 @@ class Solver(ABC):
         carried or turned by a grasper or retractor; the next step or static solve follows). A finite-strain
         ``material`` moves an unloaded body rigidly with a rigid motion of its base; linear elasticity would inflate
         it, so the linear material refuses (BoundaryConditionError)."""
-        from .finite_strain import check_fixed_positions
+        from .finite_strain import check_fixed_positions, check_support_motion
 
         if self.material == "linear":
             raise BoundaryConditionError(
@@ -426,6 +431,7 @@ class Solver(ABC):
                 f"about 1 + θ² at θ radians); build the {self.name} solver with material='corotated' or "
                 "'neo-hookean'")
         positions = check_fixed_positions(positions, self.fixed)
+        check_support_motion(self.rest_positions[self.fixed], positions)
         self._move_fixed(positions)
         self.fixed_positions = positions
 

@@ -21,13 +21,18 @@ def check_method_material(cls, material) -> str:
     if material not in cls.materials:
         raise SolverError(f"the {cls.name} method takes material {' or '.join(map(repr, cls.materials))}, not "
                           f"{material!r}; finite strain ({', '.join(map(repr, MATERIALS[1:]))}) is available in "
-                          "the hybrid, fem, embedded and pbd methods (pbd: its default xpbd form)")
+                          "the hybrid, fem and embedded methods (the pbd and mass-spring surfaces have no volume, and a "
+                          "layer alone under a finite-strain pull tangles)")
     return material
 
 
 def check_fixed_positions(positions, fixed: np.ndarray) -> np.ndarray:
     """``(k, 3) float64`` copy of ``positions`` [m] for the ``fixed`` ``(k,)`` M_S vertices, checked: finite and
     one row per vertex."""
+    kind = getattr(np.asarray(positions), "dtype", np.dtype(object)).kind
+    if kind not in "iuf":
+        raise BoundaryConditionError(f"fixed positions must be real numbers [m] (a ({fixed.size}, 3) float array), "
+                                     f"got an array of {np.asarray(positions).dtype}")
     positions = np.array(positions, dtype=np.float64)
     if positions.shape != (fixed.size, 3):
         raise BoundaryConditionError(f"fixed positions must be a ({fixed.size}, 3) array [m], one row per vertex of "
@@ -35,6 +40,21 @@ def check_fixed_positions(positions, fixed: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(positions)):
         raise BoundaryConditionError("fixed positions must be finite numbers [m]")
     return positions
+
+
+def check_support_motion(rest: np.ndarray, positions: np.ndarray) -> None:
+    """Refuse (BoundaryConditionError) a motion of the fixed set from ``rest`` to ``positions`` ``(k, 3)`` [m] that
+    crushes or mirrors it: the affine map that fits it must keep the orientation and at least 10 % of the volume,
+    and the set at least 30 % of its spread about its centre (a rigid motion keeps all of both; a grasper's squeeze
+    far more)."""
+    matrix, _ = affine_fit(rest, positions)
+    determinant = float(np.linalg.det(matrix))
+    spread = np.linalg.norm(positions - positions.mean(axis=0)) / np.linalg.norm(rest - rest.mean(axis=0))
+    if not (determinant > 0.1 and spread > 0.3):    # a planar base's fit is a rotation: its spread says it all
+        raise BoundaryConditionError(
+            f"the fixed set's motion {'mirrors' if determinant < 0 else 'crushes'} it (the affine map that fits it "
+            f"has determinant {determinant:.3g} and keeps {spread:.2g} of its spread; a rigid motion keeps 1 and 1): "
+            "give positions that carry or turn the base, e.g. rest positions turned and shifted")
 
 
 def affine_fit(rest: np.ndarray, moved: np.ndarray):
@@ -108,7 +128,11 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
     rest, triangles = solver.rest_positions, solver.hybrid.surface.triangles
     around = triangles[np.any(triangles == node, axis=1)]
     normal = np.cross(rest[around[:, 1]] - rest[around[:, 0]], rest[around[:, 2]] - rest[around[:, 0]]).sum(axis=0)
-    normal /= np.linalg.norm(normal)      # the outward normal at the node, area-weighted over its triangles
+    # the outward normal at the node, area-weighted over its triangles, turned with a moved base (a normal maps
+    # by the inverse transpose of the base's fitted affine map)
+    matrix, _ = affine_fit(rest[solver.fixed], solver.fixed_positions)
+    normal = np.linalg.solve(matrix.T, normal)
+    normal /= np.linalg.norm(normal)
     area = float(solver.lumped_areas()[nodes].sum())
     pressure = max(0.0, -float(np.dot(force, normal))) / area
     mu = solver.elasticity.shear_modulus

@@ -41,7 +41,7 @@ from functools import partial
 
 import numpy as np
 
-from ..errors import SolverError, warn
+from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
 from .pbd import SurfaceLayerSolver
@@ -183,8 +183,8 @@ class HybridSolver(SurfaceLayerSolver):
         from .finite_strain import support_displacement
 
         if self._near is not None:
-            raise SolverError("the near field's fine volume keeps its supports at rest: drop near_field to move the "
-                              "fixed set")
+            raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
+                                         "to move the fixed set")
 
         self.finite.set_fixed_displacement(support_displacement(
             self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,

@@ -24,7 +24,8 @@ Masses: the body's mass (density × enclosed volume) spread over the surface nod
 Option ``prestrain`` (xpbd form, beyond the paper): the layer carries the tension of a stretched capsule, released at
 the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.prestress`).
 
-Option ``material`` (xpbd form, implicit integrator): ``"corotated"`` or ``"neo-hookean"`` solve the layer's
+Option ``material`` (the hybrid's layer; xpbd form, implicit integrator, signed bending): ``"corotated"`` or
+``"neo-hookean"`` solve the layer's
 nonlinear constraints as they are (:class:`~tissuesim.pbd.finite_layer.FiniteLayer`: Newton in ``solve_static``, a
 nonlinear implicit step with the constant rest factor in ``step``), so that turning costs no energy; the layer has
 one constitutive form, and both names choose it (the volume's material is what they tell apart).
@@ -122,10 +123,13 @@ class SurfaceLayerSolver(Solver):
             raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
         if integrator not in INTEGRATORS:
             raise SolverError(f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
-        if self.material != "linear" and (form, integrator) != ("xpbd", "implicit"):
-            raise SolverError(f"material={self.material!r} needs the layer's xpbd form with the implicit "
-                              f"integrator (the {form} form with integrator={integrator!r} has no finite-strain "
-                              "solve); drop form/integrator, or use material='linear'")
+        if self.material != "linear" and (form, integrator, signed_bending) not in (("xpbd", "implicit", None),
+                                                                                     ("xpbd", "implicit", True)):
+            chosen = f"form={form!r}" if form != "xpbd" else (
+                f"integrator={integrator!r}" if integrator != "implicit" else "signed_bending=False")
+            raise SolverError(f"material={self.material!r} needs the layer's xpbd form, implicit integrator and "
+                              f"signed bending angle (its finite-strain solve has no other); drop {chosen}, or use "
+                              "material='linear'")
         self.form = form
         self.integrator = integrator
         self.iterations = int(iterations)
@@ -344,11 +348,6 @@ class SurfaceLayerSolver(Solver):
 class PBDSolver(SurfaceLayerSolver):
     """PBD on M_S alone: fixed nodes pinned at rest, every other node projected (see the module docstring)."""
 
-    materials = ("linear", "corotated", "neo-hookean")
-
     def __init__(self, hybrid_mesh, *, damping: float = PBD_DAMPING, **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         self._set_prescribed(self.fixed)
-
-    def _move_fixed(self, positions: np.ndarray) -> None:
-        self.targets[:] = positions  # the prescribed nodes are the fixed ones, in the same order
