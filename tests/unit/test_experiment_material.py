@@ -36,6 +36,8 @@ def test_the_report_gives_the_finite_strain_validity_instead_of_the_linear_one(f
     assert "## Validity of the neo-hookean runs" in report
     assert "Validity of linear elasticity" not in report
     assert "not run, beyond the stable dead-load range" in report
+    assert "reference is finite-strain FEM (neo-hookean)" in report and "reference is linear FEM" not in report
+    assert "RMSE per newton of the linear methods" not in report
 
 
 def test_an_unknown_material_is_refused_up_front(tmp_path, capsys):
