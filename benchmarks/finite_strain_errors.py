@@ -4,7 +4,7 @@ finite strain (the table of docs/finite-strain.md).
 Relative RMSE (eq 26 over the reference's 50 samples, divided by the reference's RMS displacement) per pull force
 and method, for material="linear" and the finite-strain material; the row "linear reference" is the linear answer
 on the reference's own mesh against the finite one (what no small-strain method can beat). Also: each method's
-error against the linear reference at the smallest load, the yardstick of the issue's target (finite-strain error ≤
+error against the linear reference at the smallest load, the yardstick of the target (finite-strain error ≤
 1.1× that). The hybrid's near field (W = 15 mm) is included with --near-field (its quadratic Newton takes minutes).
 
     python benchmarks/finite_strain_errors.py [--material neo-hookean] [--near-field]
