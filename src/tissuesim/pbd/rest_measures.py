@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import TINY_LENGTH
+from .kernels import TINY_LENGTH, _bend_gradient_signed
 
 
 @njit(cache=True)
@@ -66,39 +66,15 @@ def edge_lengths(positions, edges):
 
 @njit(cache=True)
 def signed_bend_angles(positions, bending):
-    """``(b,) float64`` signed angle β [rad] per hinge, by :func:`_project_bend_signed`'s own arithmetic.
+    """``(b,) float64`` signed angle β [rad] per hinge, by :func:`_bend_gradient_signed`, the arithmetic of
+    :func:`_project_bend_signed`.
 
     Degenerate hinges give 0.
     """
     out = np.zeros(bending.shape[0])
     for c in range(bending.shape[0]):
-        i1 = bending[c, 0]
-        ox = positions[i1, 0]
-        oy = positions[i1, 1]
-        oz = positions[i1, 2]
-        ax = positions[bending[c, 1], 0] - ox
-        ay = positions[bending[c, 1], 1] - oy
-        az = positions[bending[c, 1], 2] - oz
-        bx = positions[bending[c, 2], 0] - ox
-        by = positions[bending[c, 2], 1] - oy
-        bz = positions[bending[c, 2], 2] - oz
-        cx = positions[bending[c, 3], 0] - ox
-        cy = positions[bending[c, 3], 1] - oy
-        cz = positions[bending[c, 3], 2] - oz
-        nax = ay * bz - az * by
-        nay = az * bx - ax * bz
-        naz = ax * by - ay * bx
-        nbx = cy * az - cz * ay
-        nby = cz * ax - cx * az
-        nbz = cx * ay - cy * ax
-        la2 = nax * nax + nay * nay + naz * naz
-        lb2 = nbx * nbx + nby * nby + nbz * nbz
-        length2 = ax * ax + ay * ay + az * az
-        if la2 <= TINY_LENGTH or lb2 <= TINY_LENGTH or length2 <= TINY_LENGTH:
-            continue
-        length = math.sqrt(length2)
-        crx = nay * nbz - naz * nby
-        cry = naz * nbx - nax * nbz
-        crz = nax * nby - nay * nbx
-        out[c] = math.atan2((crx * ax + cry * ay + crz * az) / length, nax * nbx + nay * nby + naz * nbz)
+        valid, beta, _, _, _, _, _, _, _, _, _, _, _, _ = _bend_gradient_signed(
+            positions, bending[c, 0], bending[c, 1], bending[c, 2], bending[c, 3])
+        if valid:
+            out[c] = beta
     return out
