@@ -317,3 +317,18 @@ def test_a_static_solve_keeps_a_moved_base_and_judges_a_press_in_the_turned_fram
     np.testing.assert_allclose(x[solver.fixed], turned[solver.fixed], atol=1e-12)
     with pytest.raises(SolverError, match="mean pressure"):                 # a press along the turned normal
         solver.solve_static(node, -5.0 * (turn @ [0.0, 0.0, 1.0]), radius=0.008)
+
+
+@pytest.mark.parametrize("method", ["hybrid", "fem", "embedded"])
+def test_the_finite_strain_equilibrium_ignores_dt_and_density_and_scales_with_the_load_over_e(cube_case, method):
+    """Physics first: the answer of an elastic body depends on the load over E, not on dt or the masses."""
+    hybrid, node = cube_case
+    rest = hybrid.surface.vertices
+    base = make_solver(method, hybrid, material="neo-hookean").solve_static(node, (0.3, 0, 1.0), radius=0.008)
+    scale = np.abs(base - rest).max()
+    others = [make_solver(method, hybrid, material="neo-hookean", dt=0.05, density=5000.0),
+              make_solver(method, hybrid, material="neo-hookean", youngs_modulus=11000.0)]
+    forces = [(0.3, 0, 1.0), (0.6, 0, 2.0)]
+    for solver, force in zip(others, forces):
+        answer = solver.solve_static(node, force, radius=0.008)
+        assert np.abs(answer - base).max() < 1e-8 * scale     # both Newton solves stop at a 1e-9 residual
