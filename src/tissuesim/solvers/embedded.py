@@ -80,23 +80,28 @@ class EmbeddedSolver(Solver):
         self._dirty = True
 
     def _solve(self) -> None:
-        node = self._load_node
-        if node < 0:
-            self._u[:] = 0.0
-            self._volume_forces[:] = 0.0
-        else:
-            # Each loaded M_S node's force goes to its tet's nodes by its barycentric weights.
-            patch = self.load_nodes
-            volume_nodes = self._tets[self.tet_of[patch]].ravel()
-            forces = (self.weights[patch][:, :, None] * self.forces[patch][:, None, :]).reshape(-1, 3)
-            if self.finite is None:
-                self.fem.point_load_response(volume_nodes, forces, output_nodes=self.carrier_nodes, out=self._u)
-                return
-            self._volume_forces[:] = 0.0
-            np.add.at(self._volume_forces, volume_nodes, forces)
         if self.finite is not None:
-            self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)
-            self._u[:] = self.volume_displacement[self.carrier_nodes]
+            self._finite_solve()
+        elif self._load_node < 0:
+            self._u[:] = 0.0
+        else:
+            self.fem.point_load_response(*self._tet_loads(), output_nodes=self.carrier_nodes, out=self._u)
+
+    def _tet_loads(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's force split over its tet's nodes by its
+        barycentric weights."""
+        patch = self.load_nodes
+        forces = (self.weights[patch][:, :, None] * self.forces[patch][:, None, :]).reshape(-1, 3)
+        return self._tets[self.tet_of[patch]].ravel(), forces
+
+    def _finite_solve(self) -> None:
+        """M_V's finite-strain equilibrium, warm-started from the last one; the carriers' displacement into ``_u``."""
+        forces = self._volume_forces
+        forces[:] = 0.0
+        if self._load_node >= 0:
+            np.add.at(forces, *self._tet_loads())
+        self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
+        self._u[:] = self.volume_displacement[self.carrier_nodes]
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         self.finite.set_fixed_displacement(support_displacement(

@@ -26,8 +26,8 @@ not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after 
 Option ``material`` (beyond the paper): ``"corotated"`` or ``"neo-hookean"`` make M_V finite-strain
 (:class:`~tissuesim.fem.nonlinear.NonlinearFEM`) and the layer nonlinear (:mod:`tissuesim.pbd.finite_layer`).
 ``solve_static`` then solves both to their converged equilibria (Newton); ``step`` relaxes M_V by
-:data:`VOLUME_ITERATIONS` constant-factor iterations per step, warm-started, until it is at equilibrium, and the
-layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
+:data:`VOLUME_ITERATIONS` L-BFGS iterations on the constant K₀ factor per step, warm-started, until it is at
+equilibrium, and the layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
 
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
@@ -50,7 +50,8 @@ DEFAULT_WARM_START = True
 #: Default per-step velocity damping: settles 1 N on the cube in 15 steps (0.2: 21; 0.1: 22), 20 N in 31 (0.2: 45),
 #: the same equilibrium.
 HYBRID_DAMPING = 0.4
-#: M_V's constant-factor iterations per step with a finite-strain material: each costs one back-substitution of M_V.
+#: M_V's iterations per step with a finite-strain material (:meth:`NonlinearFEM.relax
+#: <tissuesim.fem.nonlinear.NonlinearFEM.relax>`): each costs one back-substitution of M_V.
 VOLUME_ITERATIONS = 1
 
 
@@ -185,7 +186,6 @@ class HybridSolver(SurfaceLayerSolver):
         if self._near is not None:
             raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
                                          "to move the fixed set")
-
         self.finite.set_fixed_displacement(support_displacement(
             self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
             positions))
@@ -197,9 +197,7 @@ class HybridSolver(SurfaceLayerSolver):
         forces = self._volume_forces
         forces[:] = 0.0
         if self._load_node >= 0:
-            patch = self.load_nodes
-            shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
-            np.add.at(forces, self.load_volume_nodes[patch].ravel(), shares[:, None] * self._load_force[None, :])
+            np.add.at(forces, *self._coarse_loads())
         if exact:
             self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
             self._volume_settled = True
@@ -209,6 +207,13 @@ class HybridSolver(SurfaceLayerSolver):
         pinned = self.prescribed[self.control_count:]    # the fixed nodes that are not control nodes
         self.targets[self.control_count:] = self.fixed_positions[np.searchsorted(self.fixed, pinned)]
 
+    def _coarse_loads(self) -> tuple[np.ndarray, np.ndarray]:
+        """§6.1: ``(M_V nodes (3p,), forces (3p, 3) [N])``, each loaded M_S node's share of the load split over the
+        nodes of its coarse triangle by its barycentric weights."""
+        patch = self.load_nodes
+        shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
+        return self.load_volume_nodes[patch].ravel(), shares[:, None] * self._load_force[None, :]
+
     def _update_fem(self, *, exact: bool = False) -> None:
         node = self._load_node
         if self.finite is not None:
@@ -216,12 +221,7 @@ class HybridSolver(SurfaceLayerSolver):
         elif node < 0:
             self._u[:] = 0.0
         else:
-            # §6.1 for each node carrying a share of the load: its share split over its coarse triangle.
-            patch = self.load_nodes
-            volume_nodes = self.load_volume_nodes[patch].ravel()
-            shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
-            self.fem.point_load_response(volume_nodes, shares[:, None] * self._load_force[None, :],
-                                         output_nodes=self.output_nodes, out=self._u)
+            self.fem.point_load_response(*self._coarse_loads(), output_nodes=self.output_nodes, out=self._u)
         if self._near is not None:
             self._prescribe_window(node)
         c = self.control_count
