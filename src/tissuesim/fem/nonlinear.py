@@ -48,6 +48,23 @@ _ARMIJO = 1e-4
 _MAX_HALVINGS = 40
 
 
+def in_fractions(attempt, *, first: float, smallest: float) -> float:
+    """Continuation: ``attempt(fraction)`` solves under that fraction of a load (from the last success) and says
+    whether it converged. Fractions grow by ``first``; the increment doubles after a success (up to what is left)
+    and halves after a failure. Returns 1.0, or the last fraction reached once the increment falls below
+    ``smallest``."""
+    done, step = 0.0, first
+    while done < 1.0:
+        fraction = min(1.0, done + step)
+        if attempt(fraction):
+            done, step = fraction, min(2.0 * step, 1.0 - fraction) if fraction < 1.0 else step
+            continue
+        step *= 0.5
+        if step < smallest:
+            return done
+    return done
+
+
 class UnstableLoadError(SolverError):
     """A dead load beyond what the body can carry in a stable equilibrium; ``reached`` is the load fraction in
     [0, 1) at which the last stable equilibrium was found."""
@@ -140,20 +157,21 @@ class _HyperelasticStatics:
         if initial is not None and not motion.any() and self._converged(forces, u, rtol):
             self.last_iterations = 0  # already there (an interactive step under an unchanged load)
             return u
-        done, step, iterations = 0.0, 1.0, 0
-        while done < 1.0:
-            target = min(1.0, done + step)
-            trial = u.copy()
-            trial[fixed] = (start + target * motion)[fixed]
-            converged, trial, taken = self._newton(target * forces, trial, rtol, max_iterations)
-            iterations += taken
+        state = {"u": u, "iterations": 0}
+
+        def attempt(fraction: float) -> bool:
+            trial = state["u"].copy()
+            trial[fixed] = (start + fraction * motion)[fixed]
+            converged, trial, taken = self._newton(fraction * forces, trial, rtol, max_iterations)
+            state["iterations"] += taken
             if converged:
-                done, u = target, trial
-                step = min(2.0 * step, 1.0 - done) if done < 1.0 else step
-                continue
-            step *= 0.5
-            if step < MIN_LOAD_STEP:
-                raise UnstableLoadError(self._unstable_message(forces, done), reached=done)
+                state["u"] = trial
+            return converged
+
+        done = in_fractions(attempt, first=1.0, smallest=MIN_LOAD_STEP)
+        if done < 1.0:
+            raise UnstableLoadError(self._unstable_message(forces, done), reached=done)
+        u, iterations = state["u"], state["iterations"]
         if not self._stable(u):
             raise UnstableLoadError(self._unstable_message(forces, done, saddle=True), reached=0.0)
         self.last_iterations = iterations

@@ -25,10 +25,10 @@ Option ``prestrain`` (xpbd form, beyond the paper): the layer carries the tensio
 the lips of a cut so that the wound gapes without a load (:mod:`tissuesim.pbd.prestress`).
 
 Option ``material`` (the hybrid's layer; xpbd form, implicit integrator, signed bending): ``"corotated"`` or
-``"neo-hookean"`` solve the layer's
-nonlinear constraints as they are (:class:`~tissuesim.pbd.finite_layer.FiniteLayer`: Newton in ``solve_static``, a
-nonlinear implicit step with the constant rest factor in ``step``), so that turning costs no energy; the layer has
-one constitutive form, and both names choose it (the volume's material is what they tell apart).
+``"neo-hookean"`` solve the layer's nonlinear constraints as they are (:class:`~tissuesim.pbd.finite_layer.FiniteLayer`:
+Newton in ``solve_static``, a nonlinear implicit step with the constant rest factor in ``step``), so that turning
+costs no energy; the layer has one constitutive form, and both names choose it (the volume's material is what they
+tell apart).
 
 ``pbd``: the fixed nodes are pinned at rest, every other node is projected; no FEM.
 """
@@ -39,6 +39,7 @@ import numpy as np
 
 from ..errors import SolverError, warn
 from ..pbd.kernels import pbd_step, xpbd_step
+from ..fem.nonlinear import in_fractions
 from .base import Solver
 from .checks import positive_number
 from .registry import register
@@ -269,21 +270,22 @@ class SurfaceLayerSolver(Solver):
         forces, rest = self.applied_forces(), self.rest_positions
         start = rest[self.prescribed]
         positions[:] = rest
-        done, step, iterations = 0.0, 0.25, 0
-        while done < 1.0:
-            fraction = min(1.0, done + step)
+        counted = [0]
+
+        def attempt(fraction: float) -> bool:
             trial = positions.copy()
             try:
-                iterations += statics.static(trial, fraction * forces, start + fraction * (self.targets - start),
+                counted[0] += statics.static(trial, fraction * forces, start + fraction * (self.targets - start),
                                              max_iterations=LAYER_NEWTON)
             except SolverError:
-                step *= 0.5
-                if step < 1.0 / 64.0:
-                    raise
-                continue
+                return False
             positions[:] = trial
-            done, step = fraction, 2.0 * step
-        return iterations
+            return True
+
+        reached = in_fractions(attempt, first=0.25, smallest=1.0 / 64.0)
+        if reached < 1.0:
+            raise SolverError(f"the finite-strain layer's continuation stopped at {100 * reached:.3g} % of the load")
+        return counted[0]
 
     def _finite_start(self, positions: np.ndarray) -> None:
         """Where the finite-strain layer's Newton starts, in place on ``positions`` ``(n, 3)`` [m]: the linear
