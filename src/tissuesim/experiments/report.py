@@ -251,7 +251,7 @@ def _finite_validity(data: dict) -> list[str]:
         if beyond:
             lines.append(f"{model}: {len(beyond)} pressure cases not run, beyond the stable dead-load range: "
                          + ", ".join(f"{b['force_N']:g} N" for b in beyond) + f" ({beyond[0]['reason']}); a press "
-                         "that large is a displacement-driven contact (the pin-head's spring, a rigid tip)")
+                         "that large is a contact driven by displacement (a rigid tip), not by a fixed force")
     lines.append("Finite strain holds at any strain; contact of the surface with itself is not detected, so a fold "
                  "that would touch passes through itself.")
     return lines

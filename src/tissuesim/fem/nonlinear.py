@@ -316,8 +316,8 @@ class _HyperelasticStatics:
         what = ("the equilibrium it reaches is unstable (its tangent stiffness is not positive definite)" if saddle
                 else f"no stable equilibrium beyond {100 * reached:.3g} % of it")
         return (f"a dead load of {total:.3g} N on this {self.material_name} body has {what}: the body would buckle "
-                "or collapse under it; apply the load through a displacement (the pin-head's spring or a rigid "
-                "tip), or lower it")
+                "or collapse under it; lower it (a press that deep needs a contact driven by displacement, a rigid "
+                "tip, not a fixed force)")
 
     def _check_forces(self, forces) -> np.ndarray:
         forces = np.asarray(forces, dtype=np.float64)

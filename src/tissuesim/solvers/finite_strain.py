@@ -14,7 +14,6 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError
 from ..fem.hyperelastic import MATERIALS, check_material
 
-
 def check_method_material(cls, material) -> str:
     """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
     material = check_material(material)
@@ -97,8 +96,8 @@ def unstable_load_error(solver, error) -> SolverError:
         f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {solver.load_nodes.size} "
         f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
         f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
-        "a body pressed by a fixed force buckles; press with the pin-head's spring (PinHead) or a rigid tip, whose "
-        "force follows from the displacement, or lower the load")
+        "a body pressed by a fixed force buckles; lower the load (the pin-head's force is such a fixed force too: a "
+        "press that deep needs a rigid tip driven by displacement)")
 
 
 def finite_volume(solver, mesh, linear):
@@ -109,7 +108,6 @@ def finite_volume(solver, mesh, linear):
     from ..fem.nonlinear import NonlinearFEM
 
     return NonlinearFEM(mesh, fixed=linear.fixed_dofs, material=solver.material, linear=linear)
-
 
 
 #: A dead-load press whose mean pressure over the contact patch exceeds this many shear moduli μ is refused with a
@@ -142,5 +140,5 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
             f"a dead load pressing {-float(np.dot(force, normal)):.3g} N into the surface over {nodes.size} node(s) "
             f"({1e6 * area:.3g} mm²) is a mean pressure of {pressure:.3g} Pa = {pressure / mu:.2g} μ "
             f"(μ = {mu:.3g} Pa): beyond about μ a body pressed by a fixed force has no stable finite-strain "
-            f"equilibrium (here: above {largest:.3g} N); press with the pin-head's spring (PinHead) or a rigid tip, "
-            "whose force follows from the displacement, or lower the load")
+            f"equilibrium (here: above {largest:.3g} N); lower the load (the pin-head's force is such a fixed force "
+            "too: a press that deep needs a rigid tip driven by displacement)")
