@@ -293,7 +293,9 @@ class Solver(ContactPatches, ABC):
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
         check_dead_press(self, node, force, radius)
-        before = (self.state.positions.copy(), self.state.velocities.copy(), self.load, self.load_radius)
+        # only a finite-strain solve can find no stable equilibrium and have to restore what it was given
+        before = None if self.material == "linear" else (self.state.positions.copy(), self.state.velocities.copy(),
+                                                         self.load, self.load_radius)
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
