@@ -189,9 +189,8 @@ class _HyperelasticStatics:
         u[self._fixed_mask] = self.fixed_displacement[self._fixed_mask]
         flat_f = forces.ravel()
         for _ in range(int(iterations)):
-            g = self.internal_forces(u).ravel()
-            residual = flat_f[free] - g[free]
-            if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
+            g, residual, converged = self._residual(flat_f, u, rtol)
+            if converged:
                 return True
             self._learn(u.ravel()[free], g[free])
             if not self._line_search(u, self._quasi_newton(residual), residual, forces):
@@ -230,26 +229,25 @@ class _HyperelasticStatics:
         return z
 
     def _converged(self, forces, u, rtol) -> bool:
-        g = self.internal_forces(u).ravel()
-        flat_f = forces.ravel()
-        residual = flat_f[self.free_dofs] - g[self.free_dofs]
-        return bool(np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g))
+        return self._residual(forces.ravel(), u, rtol)[2]
 
-    def _residual_scale(self, flat_forces, internal) -> float:
-        """The load's size [N]: the larger of the applied forces and the support reactions, or a floor."""
-        return max(float(np.linalg.norm(flat_forces)), float(np.linalg.norm(internal[self._fixed_dofs])),
-                   self._force_floor)
+    def _residual(self, flat_forces, u, rtol):
+        """``(∂W/∂u (3n,), free residual f − ∂W/∂u (f,), converged)`` at ``u``: converged when the residual is
+        below ``rtol`` of the load's size, the larger of the applied forces and the support reactions, or a floor."""
+        g = self.internal_forces(u).ravel()
+        residual = flat_forces[self.free_dofs] - g[self.free_dofs]
+        scale = max(float(np.linalg.norm(flat_forces)), float(np.linalg.norm(g[self._fixed_dofs])),
+                    self._force_floor)
+        return g, residual, bool(np.linalg.norm(residual) <= rtol * scale)
 
     # -------------------------------------------------------------------------------------------------- internals
     def _newton(self, forces, u, rtol, max_iterations):
         """(converged, u, iterations) of Newton from ``u`` (copied) under ``forces``."""
         u = u.copy()
-        free = self.free_dofs
         flat_f = forces.ravel()
         for iteration in range(1, max_iterations + 1):
-            g = self.internal_forces(u).ravel()
-            residual = flat_f[free] - g[free]
-            if np.linalg.norm(residual) <= rtol * self._residual_scale(flat_f, g):
+            _, residual, converged = self._residual(flat_f, u, rtol)
+            if converged:
                 return True, u, iteration - 1
             factor = self._tangent_factor(u)
             if factor is None:
@@ -263,7 +261,6 @@ class _HyperelasticStatics:
         """The factor of the exact tangent on the free dofs where it is positive definite (quadratic convergence),
         else of the tangent with each element's projected to positive semi-definite (still a descent direction);
         None when neither factorises."""
-        free = self.free_dofs
         for project in (False, True):
             try:
                 return self._factorise(self.tangent(u, project=project))
