@@ -35,7 +35,7 @@ def test_a_5_cm_drag_on_the_liver_stays_finite_and_turns_no_element_inside_out(l
     node, top = _drag(c, 0.05)
     solver = c.solver
     assert np.all(np.isfinite(solver.positions))
-    volumes = tet_signed_volumes(solver.finite.rest + solver.volume_displacement, solver.finite.tets)
+    volumes = tet_signed_volumes(solver.finite.rest + solver.volume_displacement, solver.finite.elements)
     assert volumes.min() > 0.0
     moved = solver.positions[node] - top
     assert 0.0 < moved[0] < 0.05 and abs(moved[1]) < moved[0]     # toward the pin-head, never past it

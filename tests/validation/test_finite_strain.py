@@ -241,7 +241,7 @@ def test_a_20_newton_pull_inverts_no_element(cube_case, method):
     solver = make_solver(method, hybrid, material="neo-hookean")
     solver.solve_static(node, (0, 0, 20.0), radius=0.008)     # the 8 mm tip of the finite-strain reference
     fem = solver.finite
-    volumes = tet_signed_volumes(fem.rest + solver.volume_displacement, fem.tets)
+    volumes = tet_signed_volumes(fem.rest + solver.volume_displacement, fem.elements)
     assert volumes.min() > 0.0
 
 

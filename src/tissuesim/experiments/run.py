@@ -245,7 +245,7 @@ def _inverted_elements(solver) -> dict:
         return {}
     from ..mesh.tetmesh import tet_signed_volumes
 
-    volumes = tet_signed_volumes(finite.rest + solver.volume_displacement, finite.tets)
+    volumes = tet_signed_volumes(finite.rest + solver.volume_displacement, finite.elements)
     return {"inverted_elements": int(np.count_nonzero(volumes <= 0.0))}
 
 

@@ -226,69 +226,81 @@ def project_psd(a):
 
 
 # ------------------------------------------------------------------------------------------ all elements at once
+# Elements of w nodes (4: linear tets, 10: quadratic ones) integrated at q points: ``elements`` ``(m, w) int``,
+# ``gradients`` ``(m, q, w, 3)`` rest shape-function gradients [1/m] at each point, ``weights`` ``(m, q)`` [m³] (a
+# linear tet: q = 1, its volume; quadratic ones: :func:`.hyperelastic_quadratic.quadrature_gradients`).
 
 @njit(cache=True)
-def _deformation_gradient(x, tets, gradients, e, f):
+def _deformation_gradient(x, elements, gradients, e, q, f):
     for i in range(3):
         for k in range(3):
             acc = 0.0
-            for node in range(4):
-                acc += x[tets[e, node], i] * gradients[e, node, k]
+            for node in range(elements.shape[1]):
+                acc += x[elements[e, node], i] * gradients[e, q, node, k]
             f[i, k] = acc
 
 
 @njit(cache=True)
-def element_energy(x, tets, gradients, volumes, params):
-    """Σ_e V_e Ψ(F_e) [J] at current positions ``x`` ``(n, 3)`` [m]."""
+def element_energy(x, elements, gradients, weights, params):
+    """Σ_e Σ_q w_q Ψ(F_q) [J] at current positions ``x`` ``(N, 3)`` [m] of all nodes."""
     f = np.empty((3, 3))
     scratch = np.empty((5, 3, 3))
     total = 0.0
-    for e in range(tets.shape[0]):
-        _deformation_gradient(x, tets, gradients, e, f)
-        total += volumes[e] * energy_density(f, params, scratch)
+    for e in range(elements.shape[0]):
+        for q in range(gradients.shape[1]):
+            _deformation_gradient(x, elements, gradients, e, q, f)
+            total += weights[e, q] * energy_density(f, params, scratch)
     return total
 
 
 @njit(cache=True)
-def internal_forces(x, tets, gradients, volumes, params, out):
-    """``out`` ``(n, 3)`` = ∂W/∂x [N], the elastic forces the body exerts against a deformation (zero at rest)."""
+def internal_forces(x, elements, gradients, weights, params, out):
+    """``out`` ``(N, 3)`` = ∂W/∂x [N] (zero at rest)."""
     f = np.empty((3, 3))
     p = np.empty((3, 3))
     scratch = np.empty((5, 3, 3))
     out[:, :] = 0.0
-    for e in range(tets.shape[0]):
-        _deformation_gradient(x, tets, gradients, e, f)
-        piola_stress(f, params, p, scratch)
-        v = volumes[e]
-        for node in range(4):
-            t = tets[e, node]
-            for i in range(3):
-                acc = 0.0
-                for k in range(3):
-                    acc += p[i, k] * gradients[e, node, k]
-                out[t, i] += v * acc
+    for e in range(elements.shape[0]):
+        for q in range(gradients.shape[1]):
+            _deformation_gradient(x, elements, gradients, e, q, f)
+            piola_stress(f, params, p, scratch)
+            w = weights[e, q]
+            for node in range(elements.shape[1]):
+                t = elements[e, node]
+                for i in range(3):
+                    acc = 0.0
+                    for k in range(3):
+                        acc += p[i, k] * gradients[e, q, node, k]
+                    out[t, i] += w * acc
 
 
 @njit(cache=True)
-def element_tangents(x, tets, gradients, volumes, params, project, out):
-    """``out`` ``(m, 12, 12)``: K_e[3a + i, 3b + j] = V Σ_kl A[3i + k, 3j + l] ∇N_a,k ∇N_b,l [N/m], each A projected
-    to positive semi-definite when ``project``."""
+def element_tangents(x, elements, gradients, weights, params, project, out):
+    """``out`` ``(m, 3w, 3w)``: K_e[3a + i, 3b + j] = Σ_q w_q Σ_kl A_q[3i + k, 3j + l] ∇N_a,k ∇N_b,l [N/m], each A
+    projected to positive semi-definite when ``project``."""
+    width = elements.shape[1]
     f = np.empty((3, 3))
     a = np.empty((9, 9))
     scratch = np.empty((5, 3, 3))
-    for e in range(tets.shape[0]):
-        _deformation_gradient(x, tets, gradients, e, f)
-        stress_tangent(f, params, a, scratch)
-        if project:
-            project_psd(a)
-        g = gradients[e]
-        v = volumes[e]
-        for na in range(4):
-            for i in range(3):
-                for nb in range(4):
-                    for j in range(3):
-                        acc = 0.0
-                        for k in range(3):
-                            for l in range(3):
-                                acc += a[3 * i + k, 3 * j + l] * g[na, k] * g[nb, l]
-                        out[e, 3 * na + i, 3 * nb + j] = v * acc
+    half = np.empty((width, 3, 9))   # Σ_k A[3i + k, ·] ∇N_a,k: the contraction on the left, once per point
+    for e in range(elements.shape[0]):
+        out[e, :, :] = 0.0
+        for q in range(gradients.shape[1]):
+            _deformation_gradient(x, elements, gradients, e, q, f)
+            stress_tangent(f, params, a, scratch)
+            if project:
+                project_psd(a)
+            g = gradients[e, q]
+            w = weights[e, q]
+            for na in range(width):
+                for i in range(3):
+                    for s in range(9):
+                        half[na, i, s] = (a[3 * i, s] * g[na, 0] + a[3 * i + 1, s] * g[na, 1]
+                                          + a[3 * i + 2, s] * g[na, 2])
+            for na in range(width):
+                for i in range(3):
+                    for nb in range(width):
+                        for j in range(3):
+                            out[e, 3 * na + i, 3 * nb + j] += w * (half[na, i, 3 * j] * g[nb, 0]
+                                                                  + half[na, i, 3 * j + 1] * g[nb, 1]
+                                                                  + half[na, i, 3 * j + 2] * g[nb, 2])

@@ -15,11 +15,9 @@ integrated over each element, total Lagrangian.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 
 from ..mesh.tetmesh import TetMesh
 from .assembly import shape_gradients
-from .hyperelastic import energy_density, piola_stress, project_psd, stress_tangent
 from .quadratic import QUADRATURE, TET_EDGES
 
 
@@ -36,79 +34,3 @@ def quadrature_gradients(mesh: TetMesh) -> tuple[np.ndarray, np.ndarray]:
                                  + points[None, :, a, None] * linear[:, None, b])
     weights = np.repeat(0.25 * np.asarray(mesh.volumes, dtype=np.float64)[:, None], len(points), axis=1)
     return gradients, weights
-
-
-@njit(cache=True)
-def _deformation_gradient(x, elements, gradients, e, q, f):
-    for i in range(3):
-        for k in range(3):
-            acc = 0.0
-            for node in range(elements.shape[1]):
-                acc += x[elements[e, node], i] * gradients[e, q, node, k]
-            f[i, k] = acc
-
-
-@njit(cache=True)
-def quadratic_energy(x, elements, gradients, weights, params):
-    """Σ_e Σ_q w_q Ψ(F_q) [J] at current positions ``x`` ``(N, 3)`` [m] of all nodes."""
-    f = np.empty((3, 3))
-    scratch = np.empty((5, 3, 3))
-    total = 0.0
-    for e in range(elements.shape[0]):
-        for q in range(gradients.shape[1]):
-            _deformation_gradient(x, elements, gradients, e, q, f)
-            total += weights[e, q] * energy_density(f, params, scratch)
-    return total
-
-
-@njit(cache=True)
-def quadratic_internal_forces(x, elements, gradients, weights, params, out):
-    """``out`` ``(N, 3)`` = ∂W/∂x [N] (zero at rest)."""
-    f = np.empty((3, 3))
-    p = np.empty((3, 3))
-    scratch = np.empty((5, 3, 3))
-    out[:, :] = 0.0
-    for e in range(elements.shape[0]):
-        for q in range(gradients.shape[1]):
-            _deformation_gradient(x, elements, gradients, e, q, f)
-            piola_stress(f, params, p, scratch)
-            w = weights[e, q]
-            for node in range(elements.shape[1]):
-                t = elements[e, node]
-                for i in range(3):
-                    acc = 0.0
-                    for k in range(3):
-                        acc += p[i, k] * gradients[e, q, node, k]
-                    out[t, i] += w * acc
-
-
-@njit(cache=True)
-def quadratic_element_tangents(x, elements, gradients, weights, params, project, out):
-    """``out`` ``(m, 30, 30)``: K_e[3a + i, 3b + j] = Σ_q w_q Σ_kl A_q[3i + k, 3j + l] ∇N_a,k ∇N_b,l [N/m], each A
-    projected to positive semi-definite when ``project``."""
-    width = elements.shape[1]
-    f = np.empty((3, 3))
-    a = np.empty((9, 9))
-    scratch = np.empty((5, 3, 3))
-    half = np.empty((width, 3, 9))   # Σ_k A[3i + k, ·] ∇N_a,k: the contraction on the left, once per point
-    for e in range(elements.shape[0]):
-        out[e, :, :] = 0.0
-        for q in range(gradients.shape[1]):
-            _deformation_gradient(x, elements, gradients, e, q, f)
-            stress_tangent(f, params, a, scratch)
-            if project:
-                project_psd(a)
-            g = gradients[e, q]
-            w = weights[e, q]
-            for na in range(width):
-                for i in range(3):
-                    for s in range(9):
-                        half[na, i, s] = (a[3 * i, s] * g[na, 0] + a[3 * i + 1, s] * g[na, 1]
-                                          + a[3 * i + 2, s] * g[na, 2])
-            for na in range(width):
-                for i in range(3):
-                    for nb in range(width):
-                        for j in range(3):
-                            out[e, 3 * na + i, 3 * nb + j] += w * (half[na, i, 3 * j] * g[nb, 0]
-                                                                  + half[na, i, 3 * j + 1] * g[nb, 1]
-                                                                  + half[na, i, 3 * j + 2] * g[nb, 2])

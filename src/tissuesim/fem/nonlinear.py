@@ -29,8 +29,7 @@ from ..mesh.tetmesh import TetMesh
 from .assembly import scatter_elements, shape_gradients
 from .hyperelastic import (check_material, element_energy, element_tangents, internal_forces,
                            material_parameters)
-from .hyperelastic_quadratic import (quadratic_element_tangents, quadratic_energy, quadratic_internal_forces,
-                                     quadrature_gradients)
+from .hyperelastic_quadratic import quadrature_gradients
 from .linear import LinearFEM, factorise_spd, fill_reducing_order
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 from .quadratic import QuadraticFEM
@@ -76,13 +75,14 @@ class UnstableLoadError(SolverError):
 
 class _HyperelasticStatics:
     """Newton, line search, load stepping and the constant-factor relaxation, whatever the elements: a subclass
-    calls :meth:`_setup` and defines the element kernels ``_energy``, ``_forces_into`` and ``_tangents_into``."""
+    calls :meth:`_setup` with its elements and their quadrature (:mod:`.hyperelastic`'s element loops)."""
 
     def _setup(self, material: str, elastic: Material, rest: np.ndarray, fixed_mask: np.ndarray,
-               element_nodes: np.ndarray, rest_factor) -> None:
+               elements: np.ndarray, gradients: np.ndarray, weights: np.ndarray, rest_factor) -> None:
         """The state every element type shares: kernel parameters of ``material`` from the small-strain
-        ``elastic``, rest positions ``(n, 3)`` [m], the ``(n, 3) bool`` fixed-dof mask, the elements' nodes
-        ``(m, w)`` (for the tangent's pattern) and the factor of the rest stiffness K₀ on the free dofs."""
+        ``elastic``, rest positions ``(n, 3)`` [m], the ``(n, 3) bool`` fixed-dof mask, the elements ``(m, w)``
+        with their rest shape-function gradients ``(m, q, w, 3)`` [1/m] and weights ``(m, q)`` [m³] at q points,
+        and the factor of the rest stiffness K₀ on the free dofs."""
         self.params = material_parameters(material, shear_modulus=elastic.shear_modulus,
                                           lame_lambda=elastic.lame_lambda)
         self.rest = np.ascontiguousarray(rest, dtype=np.float64)
@@ -90,7 +90,7 @@ class _HyperelasticStatics:
         self.fixed_displacement = np.zeros_like(self.rest)
         self._fixed_mask = fixed_mask
         self._fixed_dofs = np.flatnonzero(self._fixed_mask.ravel())
-        self._element_nodes = element_nodes
+        self.elements, self.gradients, self.weights = elements, gradients, weights
         self._rest_factor = rest_factor
         # Residual scale when neither loads nor reactions give one (a rigid motion of the supports): a force that
         # strains the body by 1e-3 over its size.
@@ -98,8 +98,8 @@ class _HyperelasticStatics:
         self._force_floor = 1e-3 * elastic.youngs_modulus * size * size
         self._x = np.empty_like(self.rest)
         self._forces = np.empty_like(self.rest)
-        width = 3 * element_nodes.shape[1]
-        self._tangents = np.empty((len(element_nodes), width, width))
+        width = 3 * elements.shape[1]
+        self._tangents = np.empty((len(elements), width, width))
         self._order = None        # the tangents' fill-reducing order: one sparsity pattern, computed once
         self._memory: list[tuple[np.ndarray, np.ndarray, float]] = []    # relax's curvature pairs (s, y, 1/yᵀs)
         self._last: tuple[np.ndarray, np.ndarray] | None = None           # relax's last (u_f, ∂W/∂u_f)
@@ -113,21 +113,22 @@ class _HyperelasticStatics:
     def energy(self, u: np.ndarray) -> float:
         """Stored energy W [J] at displacement ``u`` ``(n, 3)`` [m]."""
         np.add(self.rest, u, out=self._x)
-        return float(self._energy(self._x))
+        return float(element_energy(self._x, self.elements, self.gradients, self.weights, self.params))
 
     def internal_forces(self, u: np.ndarray) -> np.ndarray:
         """``(n, 3)`` ∂W/∂u [N] at displacement ``u`` [m] (at fixed dofs: minus the support reactions); the array
         is reused by the next call."""
         np.add(self.rest, u, out=self._x)
-        self._forces_into(self._x, self._forces)
+        internal_forces(self._x, self.elements, self.gradients, self.weights, self.params, self._forces)
         return self._forces
 
     def tangent(self, u: np.ndarray, *, project: bool = True):
         """``(3n, 3n)`` CSR tangent stiffness ∂²W/∂u² [N/m] at ``u``; element tangents projected to positive
         semi-definite when ``project``."""
         np.add(self.rest, u, out=self._x)
-        self._tangents_into(self._x, bool(project), self._tangents)
-        return scatter_elements(self.node_count, self._element_nodes, self._tangents)
+        element_tangents(self._x, self.elements, self.gradients, self.weights, self.params, bool(project),
+                         self._tangents)
+        return scatter_elements(self.node_count, self.elements, self._tangents)
 
     # --------------------------------------------------------------------------------------------- supports
     def set_fixed_displacement(self, displacement) -> None:
@@ -338,7 +339,8 @@ class NonlinearFEM(_HyperelasticStatics):
         linear: the small-strain model (K₀ and its factor).
         fixed_displacement: ``(n, 3) float64`` [m] the supports' displacement (zero until
             :meth:`set_fixed_displacement`); entries of free dofs are unused.
-        gradients: ``(m, 4, 3) float64`` rest shape-function gradients [1/m]; ``volumes`` ``(m,)`` [m³].
+        elements: ``(m, 4) int64`` the tets; ``gradients`` ``(m, 1, 4, 3) float64`` their rest shape-function
+            gradients [1/m]; ``weights`` ``(m, 1)`` their volumes [m³] (one point: F is constant in a linear tet).
     """
 
     def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
@@ -348,20 +350,10 @@ class NonlinearFEM(_HyperelasticStatics):
         self.linear = linear if linear is not None else LinearFEM(
             mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
         self.mesh = mesh
-        self.tets = np.ascontiguousarray(mesh.tets, dtype=np.int64)
-        self.gradients = shape_gradients(mesh)
-        self.volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)
-        self._setup(material, self.linear.material, mesh.points, self.linear.fixed_dofs, self.tets,
+        volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)[:, None]
+        self._setup(material, self.linear.material, mesh.points, self.linear.fixed_dofs,
+                    np.ascontiguousarray(mesh.tets, dtype=np.int64), shape_gradients(mesh)[:, None], volumes,
                     self.linear._lu)
-
-    def _energy(self, x):
-        return element_energy(x, self.tets, self.gradients, self.volumes, self.params)
-
-    def _forces_into(self, x, out):
-        internal_forces(x, self.tets, self.gradients, self.volumes, self.params, out)
-
-    def _tangents_into(self, x, project, out):
-        element_tangents(x, self.tets, self.gradients, self.volumes, self.params, project, out)
 
 
 class QuadraticNonlinearFEM(_HyperelasticStatics):
@@ -393,18 +385,8 @@ class QuadraticNonlinearFEM(_HyperelasticStatics):
         self.linear = linear if linear is not None else QuadraticFEM(
             mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
         self.mesh = mesh
-        self.elements = np.ascontiguousarray(self.linear.elements, dtype=np.int64)
-        self.gradients, self.weights = quadrature_gradients(mesh)
         fixed_mask = np.ones(3 * self.linear.node_count, dtype=bool)
         fixed_mask[self.linear.free_dofs] = False
-        self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3), self.elements,
+        self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3),
+                    np.ascontiguousarray(self.linear.elements, dtype=np.int64), *quadrature_gradients(mesh),
                     self.linear._factor)
-
-    def _energy(self, x):
-        return quadratic_energy(x, self.elements, self.gradients, self.weights, self.params)
-
-    def _forces_into(self, x, out):
-        quadratic_internal_forces(x, self.elements, self.gradients, self.weights, self.params, out)
-
-    def _tangents_into(self, x, project, out):
-        quadratic_element_tangents(x, self.elements, self.gradients, self.weights, self.params, project, out)
