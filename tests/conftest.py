@@ -70,6 +70,31 @@ def better_beyond_the_reference():
     return _assert_better_beyond_the_reference
 
 
+def _flipped_triangles(positions, triangles) -> int:
+    """How many surface triangles are turned inside out: whose normal points against the area-weighted mean normal
+    of the triangles sharing an edge with it (a local orientation reversal, whatever the rigid turn of the region;
+    written here, apart from the solvers' own inversion checks)."""
+    import numpy as np
+
+    p, t = np.asarray(positions, dtype=np.float64), np.asarray(triangles, dtype=np.int64)
+    normals = np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]])   # length = twice the area
+    edges = np.sort(t[:, [0, 1, 1, 2, 2, 0]].reshape(-1, 2), axis=1)
+    owner = np.repeat(np.arange(len(t)), 3)
+    _, edge_id = np.unique(edges, axis=0, return_inverse=True)
+    edge_id = edge_id.ravel()
+    edge_sum = np.zeros((edge_id.max() + 1, 3))
+    np.add.at(edge_sum, edge_id, normals[owner])
+    neighbours = np.zeros_like(normals)
+    np.add.at(neighbours, owner, edge_sum[edge_id] - normals[owner])    # the other triangle across each edge
+    return int(np.count_nonzero(np.einsum("ij,ij->i", normals, neighbours) < 0.0))
+
+
+@pytest.fixture(scope="session")
+def flipped_triangles():
+    """The check of :func:`_flipped_triangles`: ``(positions (n, 3), triangles (t, 3)) -> count``."""
+    return _flipped_triangles
+
+
 @pytest.fixture(scope="session")
 def meshes_dir() -> Path:
     if not MESHES.is_dir():

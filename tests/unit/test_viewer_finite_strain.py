@@ -29,7 +29,7 @@ def _drag(controller, distance, frames=40):
     return controller.pin.node, top
 
 
-def test_a_5_cm_drag_on_the_liver_stays_finite_and_turns_no_element_inside_out(liver):
+def test_a_5_cm_drag_on_the_liver_stays_finite_and_turns_no_element_or_triangle_inside_out(liver, flipped_triangles):
     c = Controller(liver, settings=Settings(material="neo-hookean", stiffness=20.0))
     assert c.solver.material == "neo-hookean"
     node, top = _drag(c, 0.05)
@@ -37,6 +37,7 @@ def test_a_5_cm_drag_on_the_liver_stays_finite_and_turns_no_element_inside_out(l
     assert np.all(np.isfinite(solver.positions))
     volumes = tet_signed_volumes(solver.finite.rest + solver.volume_displacement, solver.finite.elements)
     assert volumes.min() > 0.0
+    assert flipped_triangles(solver.positions, liver.surface.triangles) == 0
     moved = solver.positions[node] - top
     assert 0.0 < moved[0] < 0.05 and abs(moved[1]) < moved[0]     # toward the pin-head, never past it
 

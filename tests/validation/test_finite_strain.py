@@ -236,13 +236,28 @@ def test_a_dead_load_press_beyond_the_stable_range_is_refused_and_changes_nothin
 
 
 @pytest.mark.parametrize("method", ["hybrid", "fem"])
-def test_a_20_newton_pull_inverts_no_element(cube_case, method):
+def test_a_20_newton_pull_inverts_no_element_and_flips_no_triangle(cube_case, method, flipped_triangles):
     hybrid, node = cube_case
     solver = make_solver(method, hybrid, material="neo-hookean")
-    solver.solve_static(node, (0, 0, 20.0), radius=0.008)     # the 8 mm tip of the finite-strain reference
+    positions = solver.solve_static(node, (0, 0, 20.0), radius=0.008)  # the 8 mm tip of the finite-strain reference
     fem = solver.finite
     volumes = tet_signed_volumes(fem.rest + solver.volume_displacement, fem.elements)
     assert volumes.min() > 0.0
+    assert np.linalg.norm(positions[node] - hybrid.surface.vertices[node]) > 0.02   # a large pull, not a nudge
+    assert flipped_triangles(positions, hybrid.surface.triangles) == 0
+
+
+def test_the_flipped_triangle_check_sees_a_triangle_turned_inside_out(cube_case, flipped_triangles):
+    hybrid, node = cube_case
+    rest, triangles = hybrid.surface.vertices, hybrid.surface.triangles
+    assert flipped_triangles(rest, triangles) == 0
+    a, b, c = triangles[np.flatnonzero(np.any(triangles == node, axis=1))[0]]
+    apex = [v for v in (a, b, c) if v == node][0]
+    base = [v for v in (a, b, c) if v != node]
+    folded = rest.copy()    # the apex carried across its opposite edge, in the face's plane: that triangle flips
+    foot = 0.5 * (rest[base[0]] + rest[base[1]])
+    folded[apex] = foot + 0.1 * (foot - rest[apex])
+    assert flipped_triangles(folded, triangles) >= 1
 
 
 def test_where_the_layers_newton_fails_the_static_solve_steps_to_the_same_equilibrium(cube_case, monkeypatch):
