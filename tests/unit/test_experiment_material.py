@@ -1,11 +1,14 @@
-"""The paper protocol with a finite-strain material: the reference is finite-strain too, presses beyond the stable
+"""Both protocols with a finite-strain material: the reference is finite-strain too, presses beyond the stable
 dead-load range are listed instead of run, and the report states the finite-strain run's own validity."""
 
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.errors import MaterialError
+from tissuesim.errors import MaterialError, SolverError
+from tissuesim.experiments import contact
+from tissuesim.experiments.contact_report import contact_report_markdown
 from tissuesim.experiments.report import report_markdown
+from tissuesim.experiments.reference import RefinementSettings
 from tissuesim.experiments.run import ExperimentConfig, run_experiment
 
 
@@ -49,9 +52,48 @@ def test_an_unknown_material_is_refused_up_front(tmp_path, capsys):
     assert not (tmp_path / "out").exists()
 
 
-def test_the_contact_protocol_refuses_a_finite_strain_material_it_has_no_references_for(tmp_path, capsys):
-    assert main(["experiment", "--protocol", "contact", "--material", "neo-hookean", "--output",
-                 str(tmp_path / "out")]) != 0
+@pytest.fixture(scope="module")
+def finite_contact_run():
+    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), radii_mm=(8.0,),
+                                   material="neo-hookean", settings=RefinementSettings(max_levels=0))
+    return contact.run_contact(config, progress=False)
+
+
+def test_the_contact_protocol_runs_the_methods_that_have_the_material_against_a_finite_reference(
+        finite_contact_run):
+    meta = finite_contact_run["metadata"]
+    assert meta["material"] == "neo-hookean"
+    assert set(meta["methods"]) == {"hybrid", "fem", "embedded", "hybrid-near"}     # pbd, mass-spring: linear only
+    records = finite_contact_run["records"]
+    assert {(r["method"], r["load"]) for r in records} == {(m, "tension") for m in meta["methods"]}
+    assert all(r["inverted_elements"] == 0 and r["relative_rmse"] is not None for r in records)
+    beyond = meta["models"]["cube"]["beyond_stable_press"]
+    assert [(b["load"], b["force_N"], b["radius_mm"]) for b in beyond] == [("pressure", 1.0, 8.0)]
+    # the fine FEM of the same material is the method nearest the finite-strain reference, as it is for linear
+    errors = {r["method"]: r["relative_rmse"] for r in records}
+    assert errors["fem"] == min(errors.values())
+
+
+def test_the_contact_report_names_the_material_and_the_presses_it_did_not_run(finite_contact_run):
+    report = contact_report_markdown(finite_contact_run)
+    assert "Material: neo-hookean (finite strain)" in report
+    assert "## Validity of the neo-hookean runs" in report and "1 N at R = 8 mm" in report
+    assert "per newton of the largest stable load" in report
+
+
+def test_a_contact_method_without_the_material_is_refused_up_front(tmp_path, capsys):
+    with pytest.raises(SolverError, match="pbd has no neo-hookean material; choose among hybrid"):
+        contact.ContactConfig(methods=("hybrid", "pbd"), material="neo-hookean")
+    assert main(["experiment", "--protocol", "contact", "--material", "neo-hookean", "--methods", "mass-spring",
+                 "--output", str(tmp_path / "out")]) != 0
     error = capsys.readouterr().err.strip()
-    assert "\n" not in error and "paper protocol only" in error
+    assert "\n" not in error and "mass-spring has no neo-hookean material" in error
     assert not (tmp_path / "out").exists()
+
+
+def test_the_contact_command_runs_with_a_finite_strain_material(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["experiment", "--protocol", "contact", "--quick", "--material", "corotated", "--levels", "1",
+                 "--methods", "fem", "--forces", "1", "--quiet", "--no-cache", "--output", str(out)]) == 0
+    report = (out / "report.md").read_text()
+    assert "Material: corotated (finite strain)" in report and "beyond the stable dead-load range" in report

@@ -23,7 +23,8 @@ def add_arguments(parser) -> None:
                         "(default: $TISSUESIM_CACHE or the user cache folder)")
     parser.add_argument("--no-cache", action="store_true", help="contact protocol: recompute every reference")
     parser.add_argument("--levels", metavar="COUNT",
-                        help="contact protocol: last refinement level of the reference (default: 4; quick: 2)")
+                        help="contact protocol: last refinement level of the reference (default: 4; quick: 2; with a "
+                             "finite-strain --material: 2)")
     parser.add_argument("--output", "-o", default="results", metavar="DIR",
                         help="results folder, created if absent (default: results)")
     parser.add_argument("--quick", action="store_true",
@@ -43,7 +44,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--steps", metavar="COUNT", help="timed steps per case and method (default: 30; quick: 5)")
     parser.add_argument("--material", default="linear", metavar="NAME",
                         help="linear (the paper's, default), corotated or neo-hookean: finite strain for every method "
-                             "that has it, the fem reference included")
+                             "that has it, the fem reference (paper protocol) or the refined reference (contact "
+                             "protocol) included")
     parser.add_argument("--no-plots", action="store_true", help="skip the radar plots")
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
 
@@ -61,10 +63,6 @@ def run(args) -> int:
     if args.protocol not in PROTOCOLS:
         raise SolverError(f"unknown protocol {args.protocol!r}; choose one of {', '.join(PROTOCOLS)}")
     if args.protocol == "contact":
-        if check_material(args.material) != "linear":
-            raise SolverError(f"--material {args.material} runs with the paper protocol only: the contact protocol's "
-                              "references are linear; the finite-strain methods against the shipped finite-strain "
-                              "reference are in benchmarks/finite_strain_errors.py (docs/finite-strain.md)")
         return _run_contact(args, output)
     models = tuple(args.models) or tuple(MODELS)
     check_model_specs(models)
@@ -110,6 +108,7 @@ def _run_contact(args, output) -> int:
     from ..experiments.reference import default_cache_dir
     from ..experiments.reference_cache import check_cache_dir
     from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
+    from ..fem.hyperelastic import check_material
     from ..mesh.models import MODELS
 
     check_model_specs(args.models)
@@ -136,10 +135,13 @@ def _run_contact(args, output) -> int:
         options["methods"] = tuple(dict.fromkeys(args.methods))
     if args.resolution is not None:
         options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
+    options["material"] = check_material(args.material)
+    settings = options.get("settings", contact.ContactConfig().settings)
     if args.levels is not None:
-        settings = options.get("settings", contact.ContactConfig().settings)
         options["settings"] = replace(settings, max_levels=int(_number(args.levels, "--levels", "levels",
                                                                        integer=True)))
+    elif options["material"] != "linear":
+        options["settings"] = replace(settings, max_levels=min(settings.max_levels, contact.FINITE_MAX_LEVELS))
     options["cache_dir"] = None if args.no_cache else str(check_cache_dir(default_cache_dir() if args.cache is None
                                                                           else args.cache))
     start = time.perf_counter()

@@ -18,6 +18,11 @@ Metrics, each absolute [mm] and relative to the reference's RMS displacement ove
 
 The free scalars of hybrid, pbd and mass-spring are calibrated on one case, :data:`CALIBRATION_CASE` (cube, pressure,
 1 N, R = 4 mm); its row is labelled ``calibration`` and every other row ``held out``.
+
+With a finite-strain ``material`` every method that has it runs with it, against the finite-strain reference of the
+same levels (:mod:`.finite_contact`); a press beyond the stable dead-load range (mean pressure above μ over the
+patch, :func:`tissuesim.solvers.finite_strain.check_dead_press`) is not run and is listed under
+``beyond_stable_press`` with the largest stable load. Such presses need a rigid tip driven by displacement.
 """
 
 from __future__ import annotations
@@ -45,6 +50,9 @@ SHARED_LIVERS = (("sofa/liver2.obj", 0.01), ("softbodyliver/liver.obj", 0.01))
 CALIBRATION_CASE = ("cube", "pressure", 1.0, 4.0)
 SCHEMA = "tissuesim-contact/1"
 # The reduced run of --quick: the coarse cube, one R, two forces, two reference levels.
+#: The command line's refinement cap for a finite-strain reference (a Newton solve per load and level): the cube's
+#: levels 0–2 take 35, 64 and 117 s on one core for five pulls up to 5 N over R = 4 mm (level 3 stalls near 2 N).
+FINITE_MAX_LEVELS = 2
 QUICK = dict(models=("cube",), resolution=400, forces=(1.0, 10.0), radii_mm=(8.0,), max_steps=500,
              settings=RefinementSettings(max_levels=2))
 
@@ -67,6 +75,9 @@ class ContactConfig:
         max_steps: cap on one quasi-static solve's steps (unsettled solves are recorded, not fatal).
         settings: the reference's refinement settings.
         cache_dir: where converged references are cached (None: no cache).
+        material: ``"linear"`` or a finite-strain material; the default methods are then those that have it, and a
+            named method without it is refused. Each finite-strain load is a Newton solve per level, so the command
+            line caps its refinement at :data:`FINITE_MAX_LEVELS` unless ``--levels`` says otherwise.
     """
 
     models: tuple = tuple(builtin_models.MODELS)
@@ -79,9 +90,13 @@ class ContactConfig:
     max_steps: int = 1000
     settings: RefinementSettings = field(default_factory=RefinementSettings)
     cache_dir: str | None = None
+    material: str = "linear"
 
     def __post_init__(self):
+        from ..fem.hyperelastic import check_material
+
         protocol.load_cases(self.forces, self.loads)  # validates forces and loads
+        check_material(self.material)
         if not self.radii_mm or not all(np.isfinite(r) and r > 0 for r in self.radii_mm):
             raise SolverError(f"contact radii must be positive numbers of millimetres, got {self.radii_mm}")
         if self.methods is not None:
@@ -92,6 +107,10 @@ class ContactConfig:
             if unknown or not self.methods:
                 raise SolverError(f"unknown contact protocol method(s) {', '.join(map(repr, unknown)) or '(none)'}; "
                                   f"choose from {', '.join(known)}")
+            lacking = [m for m in self.methods if self.material not in _method_class(m).materials]
+            if lacking:
+                raise SolverError(f"{', '.join(lacking)} {'has' if len(lacking) == 1 else 'have'} no {self.material} "
+                                  f"material; choose among {', '.join(methods_with(self.material))}")
 
 
 def shared_livers(folder=None) -> dict:
@@ -103,13 +122,12 @@ def shared_livers(folder=None) -> dict:
 
 def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
     """Run the contact protocol; return its results document (JSON-ready)."""
-    from ..solvers import available_solvers
     from .inputs import check_free_node, model_name
     from .run import ExperimentConfig, load_model
 
     config = config or ContactConfig()
     start = time.perf_counter()
-    methods = tuple(config.methods or (*available_solvers(), *VARIANTS))
+    methods = tuple(config.methods or methods_with(config.material))
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
     for spec, name in zip(config.models, _names(config.models, model_name)):
@@ -117,7 +135,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
                                                    scale=config.scales.get(spec, 1.0)))
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
         node = protocol.load_node(rest, hybrid.surface.triangles)
-        solvers = {m: _make_method(m, hybrid) for m in methods}
+        solvers = {m: _make_method(m, hybrid, config.material) for m in methods}
         check_free_node(solvers[methods[0]], node, name, role="the contact load at its top centre")
         patches, skipped = {}, {}
         for radius_mm in config.radii_mm:
@@ -128,16 +146,25 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
                 say(f"{name}: R = {radius_mm:g} mm skipped: {error}")
         kept = list(patches)    # a skipped radius costs no reference
         say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in kept) or 'none'} mm")
-        refs = contact_references(hybrid, node, [1e-3 * r for r in kept], settings=config.settings,
-                                  cache_dir=config.cache_dir,
-                                  progress=lambda line: say(f"  {name} {line}")) if kept else []
+        cases = {r: _stable_cases(solvers[methods[0]], node, r, protocol.load_cases(config.forces, config.loads))
+                 for r in kept}
+        refs = _references(hybrid, node, kept, cases, config, lambda line: say(f"  {name} {line}"))
         info[name] = _model_info(spec, hybrid, node, refs, kept, config.settings)
         if skipped:
             info[name]["skipped"] = skipped
+        beyond = [entry for r in kept for entry in cases[r][1]]
+        if beyond:
+            info[name]["beyond_stable_press"] = beyond
         for radius_mm, ref in zip(kept, refs):
             patch = patches[radius_mm]
-            for case in protocol.load_cases(config.forces, config.loads):
-                reference = rest + ref.displacements(case.vector)
+            for case in cases[radius_mm][0]:
+                try:
+                    reference = rest + ref.displacements(case.vector)
+                except SolverError as error:   # no stable finite-strain equilibrium on the reference's mesh
+                    info[name].setdefault("unstable_reference", []).append(
+                        {"load": case.load, "force_N": float(case.force_N), "radius_mm": float(radius_mm),
+                         "reason": str(error)})
+                    continue
                 for method in methods:
                     record = {"model": name, "load": case.load, "force_N": case.force_N,
                               "radius_mm": float(radius_mm), "method": method,
@@ -156,11 +183,55 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
             "records": records}
 
 
-def _make_method(method: str, hybrid):
+def methods_with(material: str) -> tuple:
+    """The registered methods and :data:`VARIANTS` that have ``material``."""
+    from ..solvers import available_solvers
+
+    return tuple(m for m in (*available_solvers(), *VARIANTS) if material in _method_class(m).materials)
+
+
+def _method_class(method: str):
+    from ..solvers import solver_class
+
+    return solver_class(VARIANTS.get(method, (method, {}))[0])
+
+
+def _make_method(method: str, hybrid, material: str):
     from ..solvers import make_solver
 
     solver, options = VARIANTS.get(method, (method, {}))
-    return make_solver(solver, hybrid, **options)
+    return make_solver(solver, hybrid, **options, **({} if material == "linear" else {"material": material}))
+
+
+def _stable_cases(solver, node: int, radius_mm: float, cases: list) -> tuple[list, list]:
+    """``(kept, beyond)``: the ``cases`` ``solver``'s material can carry as dead loads over the patch of radius
+    ``radius_mm``, and the others (one entry each, with the reason naming the largest stable load)."""
+    from ..solvers.finite_strain import check_dead_press
+
+    kept, beyond = [], []
+    for case in cases:
+        try:
+            check_dead_press(solver, node, case.vector, 1e-3 * radius_mm)
+        except SolverError as error:
+            beyond.append({"load": case.load, "force_N": float(case.force_N), "radius_mm": float(radius_mm),
+                           "reason": str(error).split(";")[0]})
+            continue
+        kept.append(case)
+    return kept, beyond
+
+
+def _references(hybrid, node: int, radii_mm: list, cases: dict, config: ContactConfig, say) -> list:
+    """One reference per radius: the linear response, or the finite-strain fields of that radius's stable cases."""
+    if not radii_mm:
+        return []
+    if config.material == "linear":
+        return contact_references(hybrid, node, [1e-3 * r for r in radii_mm], settings=config.settings,
+                                  cache_dir=config.cache_dir, progress=say)
+    from .finite_contact import finite_contact_reference
+
+    return [finite_contact_reference(hybrid, node, 1e-3 * r, [case.vector for case in cases[r][0]] or [(0, 0, 1.0)],
+                                     material=config.material, settings=config.settings, cache_dir=config.cache_dir,
+                                     progress=say) for r in radii_mm]
 
 
 def _names(specs, model_name) -> list[str]:
@@ -225,8 +296,12 @@ def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, di
         positions = np.array(solver.positions)
     elapsed = 1e3 * (time.perf_counter() - start)
     report = solver.last_solve
+    from .run import inverted_elements
+
+    inverted = inverted_elements(solver)
     solver.reset()
-    return positions, {"equilibrium_ms": elapsed, "converged": True if report is None else bool(report.converged)}
+    return positions, {"equilibrium_ms": elapsed, "converged": True if report is None else bool(report.converged),
+                       **inverted}
 
 
 def _model_info(spec, hybrid, node, refs, radii_mm, settings) -> dict:
@@ -237,7 +312,7 @@ def _model_info(spec, hybrid, node, refs, radii_mm, settings) -> dict:
         "samples": [int(i) for i in samples],
         "sample_radius_mm": float(1e3 * np.linalg.norm(rest[samples] - rest[node], axis=1).max()),
         "references": {f"{r:g}": {"converged": ref.converged, "levels": [asdict(row) for row in ref.levels],
-                                   "load_rule_floor": ref.load_rule_floor}
+                                   "load_rule_floor": getattr(ref, "load_rule_floor", None)}
                        for r, ref in zip(radii_mm, refs)},
     }
 
@@ -249,4 +324,5 @@ def _metadata(config, methods, info, wall_s) -> dict:
             "cpus": os.cpu_count(), "wall_s": round(wall_s, 1), "methods": list(methods),
             "forces_N": [float(f) for f in config.forces], "loads": list(config.loads),
             "radii_mm": [float(r) for r in config.radii_mm], "calibration_case": list(CALIBRATION_CASE),
+            "material": config.material,
             "refinement": asdict(config.settings), "models": info}

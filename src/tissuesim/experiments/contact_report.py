@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .tables import LABELS, fmt, markdown_table
+from .tables import LABELS, finite_validity, fmt, markdown_table
 
 METRIC_LABELS = {"rmse": "RMSE (all samples)", "rmse_outside": "RMSE (outside patch)",
                  "contact_error": "error at contact"}
@@ -107,6 +107,7 @@ def contact_report_markdown(data: dict) -> str:
     meta = data["metadata"]
     settings = meta["refinement"]
     calibration = meta["calibration_case"]
+    material = meta.get("material", "linear")
     parts = [
         "# Contact protocol report",
         "",
@@ -115,6 +116,9 @@ def contact_report_markdown(data: dict) -> str:
         f"{', '.join(f'{r:g}' for r in meta['radii_mm'])} mm. Methods: "
         f"{', '.join(LABELS.get(m, m) for m in meta['methods'])}. {meta['wall_s']:.0f} s on {meta['cpus']} CPUs, "
         f"{meta['date']}.",
+        "",
+        "Material: linear elasticity (small strain), for the methods and the reference." if material == "linear"
+        else f"Material: {material} (finite strain), for every method that has it and for the reference.",
         "",
         f"Calibration row: {calibration[0]}, {calibration[1]}, {calibration[2]:g} N, R = {calibration[3]:g} mm; "
         "every other row is held out. Errors are relative to the reference's RMS displacement over the "
@@ -132,9 +136,14 @@ def contact_report_markdown(data: dict) -> str:
                   "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, "", *_floor_lines(meta)]
     if any(r["role"] == "calibration" for r in data["records"]):
         parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
+    if material != "linear":
+        parts += [f"## Validity of the {material} runs", ""] + [f"- {line}" for line in finite_validity(data)] + [""]
+    per = ("per unit force along −z" if material == "linear" else
+           f"{material} quadratic-tet FEM (Newton) under each load; the table's displacements are per newton of the "
+           "largest stable load (the response is not linear in the force), its change the largest over the loads")
     parts += ["## References", "",
               f"Refined until the sample displacements change by less than {100 * settings['tolerance']:g} % "
-              f"between levels (at most level {settings['max_levels']}); per unit force along −z.", ""]
+              f"between levels (at most level {settings['max_levels']}); {per}.", ""]
     for model, info in meta["models"].items():
         for radius, ref in info["references"].items():
             status = "converged" if ref["converged"] else (

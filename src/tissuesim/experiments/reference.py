@@ -338,12 +338,7 @@ def _level_solver(volume, refined, surface, parents, centre, height, youngs_modu
         def weights(node, radius):
             if radius is None:
                 return np.eye(1, fem.node_count, node).ravel()
-            triangles = refined.triangles[np.linalg.norm(refined.vertices[refined.triangles].mean(axis=1) - centre,
-                                                         axis=1) <= radius]
-            if len(triangles) == 0:
-                triangles = refined.triangles[np.any(refined.triangles == node, axis=1)]
-            areas = triangle_areas(refined.vertices, triangles)
-            return fem.traction_weights(triangles, areas / areas.sum())
+            return patch_traction(fem, refined, centre, node, radius)
 
         def nodal_weights(node, radius):
             density = _nodal_density(surface, parents, node, radius)
@@ -367,6 +362,18 @@ def _level_solver(volume, refined, surface, parents, centre, height, youngs_modu
         return None if nodal_weights is None else respond(nodal_weights(node, radius))
 
     return solve, solve_nodal
+
+
+def patch_traction(fem, refined, centre, node: int, radius: float) -> np.ndarray:
+    """``(N,) float64`` nodal weights on a quadratic-tet model ``fem`` (:class:`~tissuesim.fem.quadratic.QuadraticFEM`)
+    of a unit force spread as a uniform traction over the ``refined`` surface's triangles whose centroid lies within
+    ``radius`` [m] of ``centre`` (those around ``node`` where none does)."""
+    triangles = refined.triangles[np.linalg.norm(refined.vertices[refined.triangles].mean(axis=1) - centre,
+                                                 axis=1) <= radius]
+    if len(triangles) == 0:
+        triangles = refined.triangles[np.any(refined.triangles == node, axis=1)]
+    areas = triangle_areas(refined.vertices, triangles)
+    return fem.traction_weights(triangles, areas / areas.sum())
 
 
 def _nodal_density(surface, parents, node, radius) -> np.ndarray:

@@ -55,6 +55,21 @@ def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
     """The reference cached under ``key`` in ``cache_dir``, or None where there is none or it is damaged."""
     from .reference import ContactReference, LevelRow
 
+    entry = read_arrays(cache_dir, key)
+    if entry is None:
+        return None
+    meta, data = entry
+    try:
+        return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
+                                tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
+                                meta["E"], meta["nu"], settings, data.get("nodal_response"))
+    except (KeyError, TypeError):
+        return None
+
+
+def read_arrays(cache_dir, key: str) -> tuple[dict, dict] | None:
+    """``(meta, {name: array})`` of the entry ``key`` in ``cache_dir``, or None where there is none or it is
+    damaged (truncated, foreign): such an entry is recomputed, never trusted."""
     if cache_dir is None:
         return None
     path = Path(cache_dir) / f"{key}.npz"
@@ -62,28 +77,30 @@ def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
         return None
     try:
         with np.load(path, allow_pickle=False) as data:
-            meta = json.loads(str(data["meta"]))
-            return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
-                                    tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
-                                    meta["E"], meta["nu"], settings,
-                                    data["nodal_response"] if "nodal_response" in data else None)
+            return json.loads(str(data["meta"])), {name: data[name] for name in data.files if name != "meta"}
     except (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error):
-        return None  # a damaged entry (truncated, foreign) is recomputed, never trusted
+        return None
 
 
 def save_entry(cache_dir, key: str, reference: ContactReference) -> None:
     """Cache ``reference`` under ``key`` in ``cache_dir``, whole or not at all (CacheError naming the folder)."""
-    if cache_dir is None:
-        return
-    folder = Path(cache_dir)
     meta = {"node": reference.node, "radius": reference.radius, "converged": reference.converged,
             "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
             "levels": [asdict(row) for row in reference.levels]}
-    partial = folder / f".{key}.{os.getpid()}.npz"
     nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
+    write_arrays(cache_dir, key, meta, response=reference.response, samples=reference.samples, **nodal)
+
+
+def write_arrays(cache_dir, key: str, meta: dict, **arrays) -> None:
+    """Store ``meta`` (JSON-ready) and ``arrays`` under ``key`` in ``cache_dir`` (nothing where it is None), whole
+    or not at all (CacheError naming the folder)."""
+    if cache_dir is None:
+        return
+    folder = Path(cache_dir)
+    partial = folder / f".{key}.{os.getpid()}.npz"
     try:
         folder.mkdir(parents=True, exist_ok=True)
-        np.savez(partial, response=reference.response, samples=reference.samples, meta=json.dumps(meta), **nodal)
+        np.savez(partial, meta=json.dumps(meta), **arrays)
         os.replace(partial, folder / f"{key}.npz")  # atomic: a reader never sees half an entry
     except OSError as error:
         partial.unlink(missing_ok=True)

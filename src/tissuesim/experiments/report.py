@@ -10,7 +10,8 @@ import math
 
 from . import paper
 from .protocol import REFERENCE
-from .tables import LABELS, RATIOS, cases_of, fmt, index, markdown_table, methods_of, models_of, ratio_summary
+from .tables import (LABELS, RATIOS, cases_of, finite_validity, fmt, index, markdown_table, methods_of, models_of,
+                     ratio_summary)
 
 STRUCTURAL_DIFFERENCES = (
     "**Models.** The paper's four meshes (turbosquid.com) are not public. Ours are procedural stand-ins of the "
@@ -93,7 +94,7 @@ def report_markdown(data: dict) -> str:
     if material == "linear":
         parts += ["", "## Validity of linear elasticity", ""] + [f"- {line}" for line in _validity(data)]
     else:
-        parts += ["", f"## Validity of the {material} runs", ""] + [f"- {line}" for line in _finite_validity(data)]
+        parts += ["", f"## Validity of the {material} runs", ""] + [f"- {line}" for line in finite_validity(data)]
     parts += ["", "## Defects of the published tables", ""] + [f"- {note}" for note in paper.NOTES]
     parts += ["", "Full tables: `tables.md`; radar plots: `radar_<model>.png`; raw figures: `results.json`.", ""]
     return "\n".join(parts)
@@ -232,28 +233,6 @@ def _validity(data: dict) -> list[str]:
                      f"({size_mm:.0f} mm): {onset} (worst: {worst[2] / size_mm:.2g} sizes, {worst[0]} "
                      f"{worst[1]:g} N). There the methods are compared with a linear reference, not with what "
                      "tissue would do.")
-    return lines
-
-
-def _finite_validity(data: dict) -> list[str]:
-    """Per model: inverted elements of the finite-strain solves, and the presses beyond the stable dead-load range
-    that were not run."""
-    lines = []
-    for model in models_of(data):
-        records = [r for r in data["records"] if r["model"] == model and "inverted_elements" in r]
-        inverted = [r for r in records if r["inverted_elements"]]
-        if records:
-            lines.append(f"{model}: no finite-strain solve inverted an element ({len(records)} solves)" if not inverted
-                         else f"{model}: {len(inverted)} of {len(records)} finite-strain solves inverted elements "
-                         "(worst: " + ", ".join(f"{r['method']} {r['load']} {r['force_N']:g} N: "
-                                                f"{r['inverted_elements']}" for r in inverted[:3]) + ")")
-        beyond = data["metadata"]["models"].get(model, {}).get("beyond_stable_press", [])
-        if beyond:
-            lines.append(f"{model}: {len(beyond)} pressure cases not run, beyond the stable dead-load range: "
-                         + ", ".join(f"{b['force_N']:g} N" for b in beyond) + f" ({beyond[0]['reason']}); a press "
-                         "that large is a contact driven by displacement (a rigid tip), not by a fixed force")
-    lines.append("Finite strain holds at any strain; contact of the surface with itself is not detected, so a fold "
-                 "that would touch passes through itself.")
     return lines
 
 

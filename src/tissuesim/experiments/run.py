@@ -214,7 +214,7 @@ def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = T
                         "displacements_mm": [float(d) for d in 1e3 * protocol.displacements(positions, rest,
                                                                                             plot_nodes)],
                         "max_displacement_mm": float(1e3 * np.linalg.norm(positions - rest, axis=1).max()),
-                        **_inverted_elements(solver),
+                        **inverted_elements(solver),
                     })
                     bar.update(1)
                 model_info[name].setdefault("solver_parameters", {})[method] = _solver_parameters(method, solver)
@@ -238,15 +238,12 @@ def _options(method: str, config: ExperimentConfig) -> dict:
     return options
 
 
-def _inverted_elements(solver) -> dict:
+def inverted_elements(solver) -> dict:
     """``{"inverted_elements": count}`` of a finite-strain solver's volume after its solve (none for linear)."""
-    finite = getattr(solver, "finite", None)
-    if finite is None:
-        return {}
-    from ..mesh.tetmesh import tet_signed_volumes
+    from ..solvers.finite_strain import inverted_element_count
 
-    volumes = tet_signed_volumes(finite.rest + solver.volume_displacement, finite.elements)
-    return {"inverted_elements": int(np.count_nonzero(volumes <= 0.0))}
+    count = inverted_element_count(solver)
+    return {} if count is None else {"inverted_elements": count}
 
 
 def _stable_cases(reference, cases: list, node: int, info: dict) -> list:

@@ -199,3 +199,30 @@ def tables_markdown(data: dict) -> str:
 
 def _div(a, b):
     return a / b if a is not None and b not in (None, 0) else None
+
+
+def finite_validity(data: dict) -> list[str]:
+    """Per model: inverted elements of the finite-strain solves, and the presses beyond the stable dead-load range
+    that were not run."""
+    lines = []
+    for model in dict.fromkeys([*models_of(data), *data["metadata"]["models"]]):   # a model may have no solve left
+        records = [r for r in data["records"] if r["model"] == model and "inverted_elements" in r]
+        inverted = [r for r in records if r["inverted_elements"]]
+        if records:
+            lines.append(f"{model}: no finite-strain solve inverted an element ({len(records)} solves)" if not inverted
+                         else f"{model}: {len(inverted)} of {len(records)} finite-strain solves inverted elements "
+                         "(worst: " + ", ".join(f"{r['method']} {r['load']} {r['force_N']:g} N: "
+                                                f"{r['inverted_elements']}" for r in inverted[:3]) + ")")
+        beyond = data["metadata"]["models"].get(model, {}).get("beyond_stable_press", [])
+        if beyond:
+            lines.append(f"{model}: {len(beyond)} pressure cases not run, beyond the stable dead-load range: "
+                         + ", ".join(f"{b['force_N']:g} N" + (f" at R = {b['radius_mm']:g} mm" if "radius_mm" in b
+                                                               else "") for b in beyond)
+                         + f" ({beyond[0]['reason']}); a press that large is a contact driven by displacement (a "
+                         "rigid tip), not by a fixed force")
+        for entry in data["metadata"]["models"].get(model, {}).get("unstable_reference", []):
+            lines.append(f"{model}: {entry['load']} {entry['force_N']:g} N at R = {entry['radius_mm']:g} mm not "
+                         f"compared: {entry['reason']}")
+    lines.append("Finite strain holds at any strain; contact of the surface with itself is not detected, so a fold "
+                 "that would touch passes through itself.")
+    return lines

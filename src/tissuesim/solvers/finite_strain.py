@@ -100,6 +100,16 @@ def unstable_load_error(solver, error) -> SolverError:
         "press that deep needs a rigid tip driven by displacement)")
 
 
+def inverted_element_count(solver) -> int | None:
+    """How many of a finite-strain solver's volume elements are turned inside out now (None for linear)."""
+    finite = getattr(solver, "finite", None)
+    if finite is None:
+        return None
+    from ..mesh.tetmesh import tet_signed_volumes
+
+    return int(np.count_nonzero(tet_signed_volumes(finite.rest + solver.volume_displacement, finite.elements) <= 0.0))
+
+
 def finite_volume(solver, mesh, linear):
     """The :class:`~tissuesim.fem.nonlinear.NonlinearFEM` of ``mesh`` for ``solver``'s finite-strain material (sharing
     the factor of its LinearFEM ``linear``), or None for the linear material."""
