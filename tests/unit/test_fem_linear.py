@@ -53,6 +53,36 @@ def test_fast_path_equals_full_solve(fem, box):
     assert again is buffer and np.array_equal(buffer, fast)  # exact: the same buffer
 
 
+def test_a_patch_response_equals_the_full_solve_and_costs_one_solve_per_new_patch(box, monkeypatch):
+    from tissuesim.fem import linear
+
+    fem = LinearFEM(box, fixed=bottom_nodes(box.points))
+    top = np.flatnonzero(box.points[:, 2] > 0.0199)
+    fixed = int(np.flatnonzero(fem.fixed_dofs.all(axis=1))[0])
+    nodes = np.concatenate([top[:6], top[:2], [fixed]])        # repeats add up; a held node's share moves nothing
+    weights = RNG.uniform(0.05, 0.3, size=nodes.size)
+    force = np.array([0.3, -0.2, 1.1])
+    forces = np.zeros((box.node_count, 3))
+    np.add.at(forces, nodes, weights[:, None] * force)
+    forces[fem.fixed_dofs] = 0.0
+    full = fem.solve(forces)
+    out_nodes = RNG.permutation(box.node_count)[:40]
+    out = np.full((out_nodes.size, 3), np.nan)
+    assert fem.patch_response(nodes, weights, force, output_nodes=out_nodes, out=out) is out
+    assert np.abs(out - full[out_nodes]).max() <= 1e-12 * np.abs(full).max()
+    solves = []
+    solve = fem._lu.solve
+    monkeypatch.setattr(fem._lu, "solve", lambda rhs: solves.append(rhs.shape) or solve(rhs))
+    fem.patch_response(nodes, weights, 2.0 * force, output_nodes=out_nodes, out=out)    # a drag: no solve
+    np.testing.assert_allclose(out, 2.0 * full[out_nodes], rtol=1e-12, atol=1e-14 * np.abs(full).max())
+    for k in range(linear.PATCH_CACHE):                        # other patches push the first one out
+        fem.patch_response(top[k:k + 3], np.ones(3), force, output_nodes=out_nodes, out=out)
+    fem.patch_response(nodes, weights, force, output_nodes=out_nodes, out=out)
+    assert solves == [(fem.free_dofs.size, 3)] * (linear.PATCH_CACHE + 1)     # one 3-column solve per new patch
+    with pytest.raises(SolverError, match="weights must be"):
+        fem.patch_response(nodes, weights[:-1], force, output_nodes=out_nodes, out=out)
+
+
 def test_load_on_a_fixed_node_moves_nothing(fem, box):
     fixed = int(np.flatnonzero(fem.fixed_dofs.all(axis=1))[0])
     u = fem.point_load_response([fixed], [[1.0, 2.0, 3.0]], output_nodes=np.arange(box.node_count))

@@ -31,6 +31,8 @@ from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 # A piece of the mesh keeps a rigid mode free when the Gram matrix of the rigid modes restricted to its fixed
 # dofs has an eigenvalue below this fraction of its largest (collinear fixed nodes give ~1e-16).
 RIGID_MODE_TOLERANCE = 1e-10
+#: Contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps (72 n bytes each).
+PATCH_CACHE = 8
 
 
 @njit(cache=True)
@@ -93,6 +95,7 @@ class LinearFEM:
         self.reduced_stiffness = self.stiffness[self.free_dofs][:, self.free_dofs].tocsc()
         self._lu = factorise_spd(self.reduced_stiffness, self.free_dofs // 3)
         self._columns: dict[int, np.ndarray] = {}
+        self._patches: dict[tuple[bytes, bytes], np.ndarray] = {}     # insertion order = least recently used first
 
     @property
     def node_count(self) -> int:
@@ -193,14 +196,50 @@ class LinearFEM:
             _accumulate_point_load(columns, load_forces[j], output_nodes, out)
         return out
 
+    def patch_response(self, nodes, weights, force, *, output_nodes, out) -> np.ndarray:
+        """Displacements [m] of ``output_nodes`` ``(s,) int`` into ``out`` ``(s, 3) float64`` (C-contiguous) under
+        ``force`` ``(3,)`` [N] spread over ``nodes`` ``(k,) int`` with ``weights`` ``(k,)`` (node j carries w_j F;
+        nodes may repeat): u_out = (Σ_j w_j G_j[out]) F, :meth:`point_load_response` with forces w_j F to round-off.
+
+        The patch's combined columns Σ_j w_j G_j are one 3-right-hand-side back-substitution on its first use,
+        whatever k (k separate columns would cost k of them: the first grab of a wide patch), and are kept for the
+        last :data:`PATCH_CACHE` patches, so a drag, which changes F on one patch, costs O(s) per call."""
+        nodes = np.ascontiguousarray(nodes, dtype=np.int64)
+        weights = np.ascontiguousarray(weights, dtype=np.float64)
+        key = (nodes.tobytes(), weights.tobytes())
+        columns = self._patches.pop(key, None)
+        if columns is None:
+            columns = self._patch_columns(nodes, weights)
+            if len(self._patches) >= PATCH_CACHE:
+                self._patches.pop(next(iter(self._patches)))    # the least recently used
+        self._patches[key] = columns
+        out[...] = 0.0
+        _accumulate_point_load(columns, np.asarray(force, dtype=np.float64), output_nodes, out)
+        return out
+
+    def _patch_columns(self, nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        nodes = self._check_nodes(nodes, "nodes")
+        if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
+            raise SolverError(f"weights must be ({nodes.size},) finite numbers, one per node, got {weights.shape}")
+        n = self.node_count
+        load = np.zeros((n, 3))
+        np.add.at(load, nodes, weights[:, None])
+        rhs = np.zeros((3 * n, 3))
+        for axis in range(3):
+            rhs[axis::3, axis] = load[:, axis]
+        solution = np.zeros((3 * n, 3))
+        solution[self.free_dofs] = self._lu.solve(np.ascontiguousarray(rhs[self.free_dofs]))
+        return np.ascontiguousarray(solution.reshape(n, 3, 3))
+
     @property
     def cached_nodes(self) -> np.ndarray:
         """``(k,) int64`` sorted nodes whose K⁻¹ columns are cached."""
         return np.array(sorted(self._columns), dtype=np.int64)
 
     def clear_cache(self) -> None:
-        """Drop the cached K⁻¹ columns (72 n bytes per node)."""
+        """Drop the cached K⁻¹ columns (72 n bytes per node and per patch)."""
         self._columns.clear()
+        self._patches.clear()
 
     # --- input checks -----------------------------------------------------------------------------------------
 

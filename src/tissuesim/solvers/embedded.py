@@ -85,7 +85,10 @@ class EmbeddedSolver(Solver):
         elif self._load_node < 0:
             self._u[:] = 0.0
         else:
-            self.fem.point_load_response(*self._tet_loads(), output_nodes=self.carrier_nodes, out=self._u)
+            patch = self.load_nodes
+            self.fem.patch_response(self._tets[self.tet_of[patch]].ravel(),
+                                    (self.weights[patch] * self.load_shares[:, None]).ravel(), self._load_force,
+                                    output_nodes=self.carrier_nodes, out=self._u)
 
     def _tet_loads(self) -> tuple[np.ndarray, np.ndarray]:
         """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's force split over its tet's nodes by its

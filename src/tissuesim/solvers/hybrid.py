@@ -221,7 +221,10 @@ class HybridSolver(SurfaceLayerSolver):
         elif node < 0:
             self._u[:] = 0.0
         else:
-            self.fem.point_load_response(*self._coarse_loads(), output_nodes=self.output_nodes, out=self._u)
+            patch = self.load_nodes
+            self.fem.patch_response(self.load_volume_nodes[patch].ravel(),
+                                    (self.load_weights[patch] * self.load_shares[:, None]).ravel(), self._load_force,
+                                    output_nodes=self.output_nodes, out=self._u)
         if self._near is not None:
             self._prescribe_window(node)
         c = self.control_count
