@@ -1,0 +1,95 @@
+"""The grabbed region's local response: x(f) ≈ x0 + C f at one M_S node, for a force f [N] spread over a contact
+patch, measured on the solver itself by its own static solves and the visual state put back afterwards.
+
+With the linear material the model is linear, so the affine map is exact (to round-off): four static solves (the
+current load and one step along x, y, z) give x0 and the three columns of C. With a finite-strain material C is the
+tangent compliance at the current load by forward differences of the same solves, and x0 + C f its linearisation
+there: exact at that load, good near it; :meth:`HapticLoop.sync <tissuesim.haptics.HapticLoop.sync>` refreshes it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else
+#: the mean M_S edge length): a force that strains the patch by about 1e-3, small against the nonlinearity and
+#: large against the Newton solves' tolerance (steps from 1e-2 to 1e-4 of it agree to 3 digits on the cube).
+TANGENT_STEP = 1e-3
+
+
+@dataclass(frozen=True)
+class LocalResponse:
+    """x(f) = x0 + C f at a grabbed node (see the module docstring).
+
+    Attributes:
+        node: the M_S vertex index.
+        radius: the contact radius R [m] of the patch the force is spread over, or None (the node alone).
+        origin: ``(3,) float64`` x0 [m]: where the node rests without the grabbing force.
+        compliance: ``(3, 3) float64`` C [m/N]: the node's displacement per unit force, column j for a force along
+            axis j (exact for the linear material, the tangent at ``around`` for a finite-strain one).
+        around: ``(3,) float64`` the force [N] it was measured at.
+    """
+
+    node: int
+    radius: float | None
+    origin: np.ndarray
+    compliance: np.ndarray
+    around: np.ndarray
+
+
+def local_response(solver, node: int, *, radius: float | None, around=(0.0, 0.0, 0.0)) -> LocalResponse:
+    """Measure :class:`LocalResponse` at ``node`` with contact ``radius`` [m] around force ``around`` ``(3,)`` [N].
+
+    Four :meth:`Solver.solve_static` calls on ``solver``; its positions, velocities and load are put back afterwards,
+    so the visual loop carries on from where it was. A load the solver refuses (a fixed node, a patch reaching the
+    support, a finite-strain press beyond the stable range) raises its error and changes nothing.
+    """
+    around = np.array(around, dtype=np.float64)
+    step = 1.0 if solver.material == "linear" else tangent_step(solver, radius)
+    snapshot = _Snapshot(solver)
+    try:
+        base = solver.solve_static(node, around, radius=radius)[node]
+        columns = [(solver.solve_static(node, around + step * axis, radius=radius)[node] - base) / step
+                   for axis in np.eye(3)]
+    finally:
+        snapshot.restore(solver)
+    compliance = np.column_stack(columns)
+    return LocalResponse(int(node), radius, base - compliance @ around, compliance, around)
+
+
+def tangent_step(solver, radius: float | None) -> float:
+    """The forward-difference step [N] of a finite-strain tangent: :data:`TANGENT_STEP` × E ℓ²."""
+    if radius is None:
+        surface = solver.hybrid.surface
+        ends = surface.vertices[surface.edges]
+        radius = float(np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1).mean())
+    return TANGENT_STEP * solver.youngs_modulus * radius ** 2
+
+
+class _Snapshot:
+    """A solver's visual state (positions, velocities, load, the hybrid's finite-strain volume), put back after
+    static solves."""
+
+    def __init__(self, solver):
+        self.positions = solver.positions.copy()
+        self.velocities = solver.velocities.copy()
+        self.load, self.radius = solver.load, solver.load_radius
+        volume = getattr(solver, "volume_displacement", None)
+        self.volume = None if volume is None else volume.copy()
+
+    def restore(self, solver) -> None:
+        solver.clear_load()
+        if self.load is not None:
+            solver.set_load(self.load[0], self.load[1], radius=self.radius)
+        if self.volume is not None:
+            solver.volume_displacement = self.volume
+        # The hybrid brings its prescribed nodes (and its warm start's record of the embedded field) up to date with
+        # the load when it next steps; doing it now, before the positions go back, keeps that step from moving
+        # them by the difference between the last static solve's load and this one.
+        prepare = getattr(solver, "_prepare_static", None)
+        if prepare is not None:
+            prepare()
+        solver.positions[:] = self.positions
+        solver.velocities[:] = self.velocities

@@ -1,0 +1,204 @@
+"""The haptic loop: a simulated hand (a mass on a spring pulled toward a target) holds the tissue through the loop's
+virtual coupling; once it settles, the force the loop exchanges and where it puts the node match the full solver's
+static answer. Refusals, the visual state left as it was, and the thread's bookkeeping (never its timing)."""
+
+import time
+
+import numpy as np
+import pytest
+
+from tissuesim import BoundaryConditionError, HybridMesh, SolverError, TissuesimError, make_solver
+from tissuesim.haptics import HapticLoop, local_response
+from tissuesim.mesh import models
+
+RADIUS = 0.004  # m: the pin-head's tip
+COUPLING = 200.0  # N/m: stiffer than the cube's top under this tip (about 25–70 N/m)
+TICK = 1e-3  # s: the hand is integrated at the loop's 1 kHz
+
+
+@pytest.fixture(scope="module")
+def cube():
+    return HybridMesh.build(models.cube(), fine_volume=False)
+
+
+def top_centre(hybrid, shift=(0.0, 0.0, 0.0)) -> int:
+    """The M_S node nearest the centre of the top face moved by ``shift`` [m]."""
+    x = hybrid.surface.vertices
+    centre = x.mean(axis=0)
+    centre[2] = x[:, 2].max()
+    return int(np.argmin(np.linalg.norm(x - centre - shift, axis=1)))
+
+
+class Hand:
+    """A hand of mass 0.1 kg pulled toward ``target`` by a 50 N/m spring (critically damped with the coupling),
+    holding the tool; semi-implicit Euler at 1 kHz."""
+
+    mass, stiffness, damping = 0.1, 50.0, 6.0
+
+    def __init__(self, start, target):
+        self.tool = np.array(start, dtype=float)
+        self.velocity = np.zeros(3)
+        self.target = np.array(target, dtype=float)
+        self.force = np.zeros(3)  # what the device renders [N]
+
+    def position(self):
+        return self.tool
+
+    def apply_force(self, force):
+        self.force[:] = force
+
+    def advance(self, dt):
+        pull = self.stiffness * (self.target - self.tool) - self.damping * self.velocity + self.force
+        self.velocity += pull / self.mass * dt
+        self.tool = self.tool + self.velocity * dt
+
+
+def settle(loop, hand, ticks=3000):
+    for _ in range(ticks):
+        loop.tick()
+        hand.advance(TICK)
+    assert np.linalg.norm(hand.velocity) < 1e-8  # settled: the comparison below is at equilibrium
+    return loop.tick().copy()
+
+
+def check_against_full_solver(loop, hand, reference, node):
+    """The settled force f and the node's place x = p − a − f / k_c against the full solver loaded with f."""
+    force = loop.tick().copy()
+    assert np.allclose(-hand.force, force, rtol=1e-12, atol=0)  # the device got −f
+    # the hand at rest: its spring balances the force it feels (to its settling residue, 1e-8 m/s above)
+    assert np.linalg.norm(hand.stiffness * (hand.target - hand.tool) - force) < 1e-6 * np.linalg.norm(force)
+    coupled = hand.tool - loop.offset - force / COUPLING
+    full = reference.solve_static(node, force, radius=RADIUS)[node]
+    moved = np.linalg.norm(coupled - reference.rest_positions[node])
+    assert moved > 1e-3  # a real pull, several millimetres
+    # the target's 2 %: where the full solver puts the node under f, and the force it needs to put it there
+    assert np.linalg.norm(full - coupled) < 0.02 * moved
+    needed = COUPLING * (hand.tool - loop.offset - full)
+    assert np.linalg.norm(needed - force) < 0.02 * np.linalg.norm(force)
+    return np.linalg.norm(full - coupled) / moved
+
+
+def test_linear_hand_settles_where_the_full_solver_does(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    start = cube.surface.vertices[node]
+    hand = Hand(start, start + [0.004, -0.003, 0.01])
+    loop = HapticLoop(solver, position=hand.position, apply_force=hand.apply_force, stiffness=COUPLING,
+                      radius=RADIUS)
+    assert loop.grab() == node
+    assert np.array_equal(loop.tick(), np.zeros(3))  # grabbing alone applies no force
+    settle(loop, hand)
+    error = check_against_full_solver(loop, hand, make_solver("hybrid", cube), node)
+    assert error < 1e-9  # the linear model is affine, so C is exact: round-off only
+
+
+def test_finite_strain_hand_settles_where_the_full_solver_does(cube):
+    solver = make_solver("hybrid", cube, material="neo-hookean")
+    node = top_centre(cube)
+    start = cube.surface.vertices[node]
+    hand = Hand(start, start + [0.003, 0.0, 0.008])
+    loop = HapticLoop(solver, position=hand.position, apply_force=hand.apply_force, stiffness=COUPLING,
+                      radius=RADIUS)
+    loop.grab(node)
+    for _ in range(2):  # the visual loop syncs and the tangent is taken again at the force reached
+        settle(loop, hand)
+        loop.sync()
+    settle(loop, hand)
+    check_against_full_solver(loop, hand, make_solver("hybrid", cube, material="neo-hookean"), node)
+
+
+def test_sync_makes_the_force_the_solver_load_and_steps_follow(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    hand = Hand(cube.surface.vertices[node], cube.surface.vertices[node] + [0.0, 0.0, 0.01])
+    loop = HapticLoop(solver, position=hand.position, apply_force=hand.apply_force, stiffness=COUPLING,
+                      radius=RADIUS)
+    loop.grab(node)
+    force = settle(loop, hand)
+    assert np.array_equal(loop.sync(), force)
+    loaded, applied = solver.load
+    assert loaded == node and np.array_equal(applied, force) and solver.load_radius == RADIUS
+    for _ in range(200):
+        solver.step()
+    coupled = hand.tool - loop.offset - force / COUPLING
+    # stepping rests where the static solve does (implicit steps, 200 × 10 ms); 1e-6 m against a ~5 mm pull
+    assert np.linalg.norm(solver.positions[node] - coupled) < 1e-6
+    loop.release()
+    assert solver.load is None and np.array_equal(loop.tick(), np.zeros(3))
+
+
+def test_grab_leaves_the_visual_state_as_it_was(cube):
+    node = top_centre(cube)
+    other = top_centre(cube, (0.01, 0.0, 0.0))
+    solvers = [make_solver("hybrid", cube) for _ in range(2)]
+    for solver in solvers:  # the same history: a load being dragged in, half settled
+        solver.set_load(other, [0.0, 0.05, 0.1], radius=RADIUS)
+        for _ in range(3):
+            solver.step()
+    local_response(solvers[0], node, radius=RADIUS)  # four static solves on the live solver
+    assert solvers[0].load[0] == other and np.array_equal(solvers[0].load[1], solvers[1].load[1])
+    for solver in solvers:
+        solver.step()
+    # the same arithmetic on the same state: equal to round-off (1e-15 m against the 0.08 m cube)
+    assert np.allclose(solvers[0].positions, solvers[1].positions, rtol=0, atol=1e-15)
+    assert np.allclose(solvers[0].velocities, solvers[1].velocities, rtol=0, atol=1e-12)
+
+
+def test_refusals(cube):
+    solver = make_solver("hybrid", cube)
+    tool = np.array(cube.surface.vertices[top_centre(cube)])
+    ok = dict(position=lambda: tool, apply_force=lambda force: None, stiffness=COUPLING, radius=RADIUS)
+    for bad in ({"stiffness": 0.0}, {"stiffness": -5.0}, {"stiffness": np.nan}, {"rate": 0.0}, {"rate": -1.0},
+                {"position": tool}, {"apply_force": None}, {"radius": 0.0}):
+        with pytest.raises(SolverError) as refused:
+            HapticLoop(solver, **{**ok, **bad})
+        assert str(refused.value)
+    with pytest.raises(SolverError, match="needs a solver"):
+        HapticLoop(object(), **ok)
+    loop = HapticLoop(solver, **ok)
+    before = solver.positions.copy()
+    fixed = int(solver.fixed[0])
+    for node, error in ((solver.node_count, SolverError), (-1, SolverError), (fixed, BoundaryConditionError)):
+        with pytest.raises(error):
+            loop.grab(node)
+        assert loop.response is None and solver.load is None  # a refused grab holds nothing
+        assert np.array_equal(solver.positions, before)
+    bad = HapticLoop(solver, **{**ok, "position": lambda: [0.0, 0.0]})
+    with pytest.raises(SolverError, match="3 coordinates"):
+        bad.tick()
+    assert issubclass(SolverError, TissuesimError)
+
+
+def test_thread_ticks_restarts_and_hands_back_its_error(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    tool = np.array(cube.surface.vertices[node])
+    received = []
+    loop = HapticLoop(solver, position=lambda: tool, apply_force=lambda force: received.append(force.copy()),
+                      stiffness=COUPLING, radius=RADIUS)
+    loop.grab(node)
+    tool += [0.0, 0.0, 0.002]
+    ticks = 0
+    for _ in range(2):  # a stopped loop starts again
+        with loop:
+            while loop.ticks < 20:
+                time.sleep(0.01)
+            assert loop.running
+        assert not loop.running
+        stats = loop.statistics()
+        assert stats.ticks == loop.ticks >= 20 and stats.rate > 0 and 0 < stats.median <= stats.p99 <= stats.longest
+        ticks += loop.ticks
+    assert len(received) == ticks  # one force handed to the device per tick
+    # the tool stood still: every tick handed over the same force, −f of a direct tick (the same arithmetic)
+    assert np.array_equal(np.ptp(received, axis=0), np.zeros(3))
+    assert np.array_equal(received[-1], -loop.tick())
+    assert loop.sync()[2] > 0  # pulled up
+    with pytest.raises(SolverError, match="already running"):
+        with loop:
+            loop.start()
+    broken = HapticLoop(solver, position=lambda: [0.0, 0.0], apply_force=lambda force: None, stiffness=COUPLING)
+    broken.start()
+    broken._thread.join()  # the thread ended on the bad position
+    with pytest.raises(SolverError, match="3 coordinates"):
+        broken.stop()
+    broken.stop()  # the error is handed over once
