@@ -29,6 +29,7 @@ _EXPORTS = {
     "Solver": "tissuesim.solvers",
     "PinHead": "tissuesim.interaction",
     "Scalpel": "tissuesim.scalpel",
+    "HapticLoop": "tissuesim.haptics",
     "TissuesimError": "tissuesim.errors",
     "MeshError": "tissuesim.errors",
     "MaterialError": "tissuesim.errors",
