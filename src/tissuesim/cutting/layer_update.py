@@ -123,8 +123,10 @@ class SurfaceLayerCut(SolverCut):
     def update(self, result, n, released, touched) -> None:
         s = self.solver
         keys, owners = self.touched_edges(result)
-        self.stretch.retire(self.stretch_row.pop(keys))
-        self.bend.retire(self.hinge_row.pop(keys))
+        retired = self.stretch_row.pop(keys), self.hinge_row.pop(keys)
+        removed = self._stiffness_of(*retired)
+        self.stretch.retire(retired[0])
+        self.bend.retire(retired[1])
         live = owners[:, 0] >= 0
         keys, owners = keys[live], owners[live]
         rest, area = new_edge_constraints(result, keys, owners)
@@ -147,10 +149,31 @@ class SurfaceLayerCut(SolverCut):
         self.local_masses(touched, self.mass_total)
         added = len(result.parents)
         s._predicted = self.spare.extend("predicted", s._predicted, np.zeros((added, 3)))
-        s._statics = None       # the layer changed: the static solve and implicit step factorise it again
+        statics, s._statics = s._statics, None
         self.prescribe(result, n, released)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
+        if removed is not None and statics is not None:
+            # the linear layer's step goes on with its factor and a correction (pbd/cut_statics.py); where that
+            # does not apply, the layer is factorised again when next needed
+            from ..pbd.cut_statics import after_cut
+
+            s._statics = after_cut(statics, change=self._stiffness_of(rows, hrows) - removed, mass=s.mass,
+                                   prescribed=s.prescribed)
+
+    def _stiffness_of(self, rows, hinge_rows):
+        """``(3n, 3n)`` the linear layer's stiffness [N/m] of these stretch and hinge rows (None where the layer
+        has no linear stiffness: the pbd form, a finite-strain material)."""
+        s = self.solver
+        if s.form != "xpbd" or s.material != "linear":
+            return None
+        from ..pbd.static import layer_stiffness
+
+        a, b = self.stretch.arrays, self.bend.arrays
+        rows, hinge_rows = np.asarray(rows, dtype=np.int64), np.asarray(hinge_rows, dtype=np.int64)
+        return layer_stiffness(s.rest_positions, edges=a["edges"][rows], stretch_compliance=a["compliance"][rows],
+                               hinges=b["bending"][hinge_rows], bend_compliance=b["compliance"][hinge_rows],
+                               signed_bending=s.signed_bending)
 
     def _compliance(self, rows, hrows) -> None:
         """XPBD compliance of the new rows from the material, with their own rest lengths and areas and the

@@ -403,6 +403,7 @@ class _Cholmod:
                 "check the mesh for inverted or degenerate tets"
             ) from None
         self._solve, self._matrix = cholmod.solve, matrix
+        self.order = order
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         x = self._matrix(np.ascontiguousarray(rhs, dtype=np.float64))

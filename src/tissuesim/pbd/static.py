@@ -141,6 +141,7 @@ class LayerStatics:
         free_dofs = (3 * self.free_nodes[:, None] + np.arange(3)).ravel()
         fixed_dofs = (3 * self.prescribed[:, None] + np.arange(3)).ravel()
         stiffness = stiffness.tocsr()
+        self.stiffness = stiffness
         self._coupling = stiffness[free_dofs][:, fixed_dofs].tocsr()
         self._free_stiffness = stiffness[free_dofs][:, free_dofs].tocsc()
         self._dof_node = free_dofs // 3

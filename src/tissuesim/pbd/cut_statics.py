@@ -1,0 +1,179 @@
+"""The linear layer's implicit step after cuts, on the factor of the layer before them: no refactorisation per move.
+
+A cutting move changes the layer's implicit matrix M/dt² + K_ff on a few dofs: the constraints it retires and
+makes, the lumped masses it moves, the vertices it adds and the control nodes it releases (now free). The step
+solves with the factor made before the first of a series of cuts and an exact low-rank correction
+(:mod:`tissuesim.fem.factor_update`), so the step after a move costs one ordinary solve plus work on the dofs the
+cuts touched. The answer equals a freshly built layer's to round-off. Once the cuts have touched more than
+:data:`MAX_MODIFIED` dofs (the correction's dense work grows as their square), or when dt changes, the layer is
+factorised again as it stands.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from .static import LayerStatics
+
+#: Modified dofs a corrected layer carries before it is factorised again.
+MAX_MODIFIED = 900
+
+
+class _Base:
+    """What every corrected layer of one series of cuts shares: the layer before the cuts and its explicit factor."""
+
+    def __init__(self, statics: LayerStatics):
+        from ..fem.factor_update import ExplicitFactor
+
+        dt, factor, inertia, _, _ = statics._dynamic
+        self.dt, self.inertia = dt, inertia
+        self.stiffness = statics.stiffness
+        self.free_nodes = statics.free_nodes
+        self.prescribed = statics.prescribed
+        self.factor = ExplicitFactor((statics._free_stiffness + sp.diags(inertia)).tocsc(), statics._dof_node,
+                                     factor=factor)
+        self.mass = inertia[::3] * dt * dt       # the free nodes' masses at the base [kg]
+        self.columns: dict = {}
+        # K_fp of the base, and the dof of each of its columns: kept for the columns still prescribed after a cut
+        self.coupling, self.coupling_dofs = statics._coupling.tocoo(), _dofs(statics.prescribed)
+
+
+def after_cut(statics, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
+    """The layer after a cut: ``statics`` (before it) corrected by ``change`` ``(3n, 3n)`` [N/m] (the stiffness the
+    cut added minus what it removed, n the vertices after it), the lumped ``mass`` ``(n,)`` [kg] and the
+    ``prescribed`` nodes after it. None where the correction does not apply (no step taken yet, a node that was free
+    is prescribed now, too many dofs touched): the layer is then built again when next needed."""
+    if isinstance(statics, CutLayerStatics):
+        base, total = statics.base, _padded(statics.change, change.shape[0]) + change
+    elif type(statics) is LayerStatics and statics._dynamic is not None:
+        base, total = _Base(statics), change
+    else:
+        return None
+    prescribed = np.asarray(prescribed, dtype=np.int64)
+    if np.isin(base.free_nodes, prescribed).any():
+        return None
+    corrected = CutLayerStatics(base, change=total.tocsr(), mass=mass, prescribed=prescribed)
+    return corrected if corrected.modified_count <= MAX_MODIFIED else None
+
+
+class CutLayerStatics(LayerStatics):
+    """A layer after cuts (module docstring); :attr:`free_nodes` are the base's, then the ones the cuts freed."""
+
+    def __init__(self, base: _Base, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
+        from ..fem.factor_update import CorrectedSolve
+
+        n = change.shape[0] // 3
+        self.base, self.change, self.prescribed = base, change, prescribed
+        original = _padded(base.stiffness, 3 * n)
+        free = np.ones(n, dtype=bool)
+        free[prescribed] = False
+        free[base.free_nodes] = False
+        extra = np.flatnonzero(free)
+        self.free_nodes = np.concatenate([base.free_nodes, extra])
+        dofs = _dofs(self.free_nodes)
+        self._inertia = np.repeat(mass[self.free_nodes], 3) / base.dt ** 2
+        self._coupling = self._coupling_after(n, extra, dofs)
+        modified = self._modified(n, extra, mass)
+        self.modified_count = modified.size
+        if self.modified_count > MAX_MODIFIED:
+            return
+        at = dofs[modified]
+        unchanged = original[at][:, at].toarray()
+        difference = unchanged + change[at][:, at].toarray() + np.diag(self._inertia[modified])
+        n0 = base.inertia.size
+        in_base = modified < n0
+        difference[np.ix_(in_base, in_base)] -= (unchanged[np.ix_(in_base, in_base)]
+                                                  + np.diag(base.inertia[modified[in_base]]))
+        extra = dofs[n0:]
+        extra_diagonal = _diagonal(original, extra) + _diagonal(change, extra) + self._inertia[n0:]
+        difference[~in_base, ~in_base] -= extra_diagonal[modified[~in_base] - n0]
+        self._solver = CorrectedSolve(base.factor, modified=modified, difference=difference,
+                                      extra_diagonal=extra_diagonal, columns=base.columns)
+        self._free_stiffness = None     # built only for a static solve (rare after a cut)
+        self._dof_node = dofs // 3
+        self._factor = None
+        self._dynamic = None
+
+    def _coupling_after(self, n: int, extra: np.ndarray, dofs: np.ndarray) -> sp.csr_matrix:
+        """K_fp over the current free rows and prescribed columns (in :attr:`prescribed` order): the base's
+        couplings whose columns are still prescribed, the freed nodes' rows of the base stiffness, and the change."""
+        column = np.full(3 * n, -1, dtype=np.int64)
+        column[_dofs(self.prescribed)] = np.arange(3 * self.prescribed.size)
+        base = self.base.coupling
+        freed = _padded(self.base.stiffness, 3 * n)[_dofs(extra)]
+        added = (sp.vstack([sp.csr_matrix((base.shape[0], 3 * n)), freed]) + self.change[dofs]).tocoo()
+        rows = np.concatenate([base.row, added.row])
+        columns = np.concatenate([column[self.base.coupling_dofs[base.col]], column[added.col]])
+        data = np.concatenate([base.data, added.data])
+        keep = columns >= 0
+        return sp.csr_matrix((data[keep], (rows[keep], columns[keep])), shape=(dofs.size, 3 * self.prescribed.size))
+
+    def _modified(self, n: int, extra: np.ndarray, mass: np.ndarray) -> np.ndarray:
+        """The free dofs (slots in :attr:`free_nodes` order) where the matrix differs from the base's extended by a
+        diagonal: the nodes of changed constraints, of changed masses, the freed ones and their neighbours."""
+        touched = np.zeros(n, dtype=bool)
+        touched[np.flatnonzero(np.diff(self.change.indptr)) // 3] = True
+        moved = ~np.isclose(mass[self.base.free_nodes], self.base.mass, rtol=1e-13, atol=0.0)
+        touched[self.base.free_nodes[moved]] = True
+        touched[extra] = True
+        neighbours = _padded(self.base.stiffness, 3 * n)[_dofs(extra)].indices // 3
+        touched[neighbours] = True
+        slot = np.full(n, -1, dtype=np.int64)
+        slot[self.free_nodes] = np.arange(self.free_nodes.size)
+        nodes = slot[np.flatnonzero(touched)]
+        nodes = np.sort(nodes[nodes >= 0])
+        return _dofs(nodes)
+
+    def implicit_step(self, positions, velocities, rest, forces, targets, mass, dt, damping) -> None:
+        """:meth:`LayerStatics.implicit_step` with the corrected solve (a changed dt factorises the layer anew)."""
+        from .static import implicit_rhs, implicit_update
+
+        if dt != self.base.dt:
+            self._fresh().implicit_step(positions, velocities, rest, forces, targets, mass, dt, damping)
+            return
+        coupling, rhs = self._coupling, np.empty(self._inertia.size)
+        implicit_rhs(positions, velocities, rest, self.free_nodes, self._inertia, 1.0 - damping, dt, forces,
+                     coupling.indptr, coupling.indices, coupling.data, self.prescribed, targets, rhs)
+        implicit_update(self._solver.solve(rhs), positions, velocities, rest, self.free_nodes, self.prescribed,
+                        targets, dt)
+
+    def displacement(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
+        """:meth:`LayerStatics.displacement`, in this layer's free-node order."""
+        fresh = self._fresh()
+        slot = np.searchsorted(fresh.free_nodes, self.free_nodes)
+        return fresh.displacement(forces, prescribed_displacement)[slot]
+
+    @property
+    def stiffness(self) -> sp.csr_matrix:
+        """``(3n, 3n)`` the layer's stiffness after the cuts [N/m] (built on first use)."""
+        if getattr(self, "_stiffness", None) is None:
+            self._stiffness = _padded(self.base.stiffness, self.change.shape[0]) + self.change
+        return self._stiffness
+
+    def _fresh(self) -> LayerStatics:
+        if getattr(self, "_built", None) is None:
+            self._built = LayerStatics(self.stiffness, prescribed=self.prescribed)
+        return self._built
+
+
+def _dofs(nodes: np.ndarray) -> np.ndarray:
+    return (3 * np.asarray(nodes, dtype=np.int64)[:, None] + np.arange(3)).ravel()
+
+
+def _diagonal(matrix: sp.csr_matrix, dofs: np.ndarray) -> np.ndarray:
+    """``(k,)`` the diagonal entries of ``matrix`` at ``dofs``."""
+    return np.asarray(matrix[dofs, dofs]).ravel() if dofs.size else np.zeros(0)
+
+
+def _padded(matrix: sp.csr_matrix, size: int) -> sp.csr_matrix:
+    """``matrix`` as ``(size, size)`` with zero rows and columns appended (new vertices)."""
+    rows = matrix.shape[0]
+    if rows == size:
+        return matrix
+    indptr = np.concatenate([matrix.indptr, np.full(size - rows, matrix.indptr[-1])])
+    return sp.csr_matrix((matrix.data, matrix.indices, indptr), shape=(size, size))
+
+
+def _padded_columns(matrix: sp.csr_matrix, size: int) -> sp.csr_matrix:
+    return sp.csr_matrix((matrix.data, matrix.indices, matrix.indptr), shape=(matrix.shape[0], size))

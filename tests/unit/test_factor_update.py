@@ -1,0 +1,104 @@
+"""Solves with a stale factor and an exact low-rank correction (fem/factor_update.py), and the layer's step after
+cutting moves on it (pbd/cut_statics.py): both equal a fresh factorisation's answer to round-off."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+import tissuesim
+from tissuesim.fem.factor_update import CorrectedSolve, ExplicitFactor
+from tissuesim.mesh import models
+from tissuesim.pbd.cut_statics import CutLayerStatics
+
+RNG = np.random.default_rng(7)
+
+
+def _grid_laplacian(side: int) -> sp.csc_matrix:
+    n = side * side
+    off = np.ones(n - 1)
+    off[side - 1::side] = 0.0      # no wrap-around between grid rows
+    lap = sp.diags([4.0 * np.ones(n), -off, -off, -np.ones(n - side), -np.ones(n - side)], [0, 1, -1, side, -side])
+    return (lap + 0.1 * sp.eye(n)).tocsc()
+
+
+def test_explicit_factor_solves_and_its_sparse_columns_are_the_dense_ones():
+    matrix = _grid_laplacian(20)
+    base = ExplicitFactor(matrix, np.arange(matrix.shape[0]))
+    b = RNG.normal(size=matrix.shape[0])
+    np.testing.assert_allclose(matrix @ base.backward(base.forward(b)), b, atol=1e-12)
+    for dof in (0, 137, 399):
+        rows, values = base.unit_column(dof)
+        dense = base.forward(np.eye(1, matrix.shape[0], dof).ravel())
+        assert np.count_nonzero(dense[np.setdiff1d(np.arange(dense.size), rows)]) == 0   # exact zeros off the path
+        np.testing.assert_allclose(values, dense[rows], rtol=1e-13, atol=1e-15)
+
+
+def test_a_corrected_solve_with_extra_dofs_and_an_indefinite_change_is_exact():
+    base_matrix = _grid_laplacian(20)
+    n0, extra = base_matrix.shape[0], 4
+    matrix = sp.lil_matrix((n0 + extra, n0 + extra))
+    matrix[:n0, :n0] = base_matrix
+    touched = [150, 151, 170, 171]
+    for i in touched:             # a softened patch (the change is negative definite there) ...
+        for j in touched:
+            matrix[i, j] -= 0.4 if i == j else 0.1
+    for k in range(extra):        # ... and new dofs tied to it
+        matrix[n0 + k, n0 + k] = 3.0
+        matrix[n0 + k, touched[k]] = matrix[touched[k], n0 + k] = -1.0
+    matrix = matrix.tocsc()
+    diagonal = matrix.diagonal()[n0:]
+    modified = np.array(touched + list(range(n0, n0 + extra)))
+    stale = sp.block_diag([base_matrix, sp.diags(diagonal)]).tocsc()
+    base = ExplicitFactor(base_matrix, np.arange(n0))
+    columns = {}
+    solve = CorrectedSolve(base, modified=modified, difference=(matrix - stale)[modified][:, modified].toarray(),
+                           extra_diagonal=diagonal, columns=columns)
+    b = RNG.normal(size=n0 + extra)
+    exact = spla.spsolve(matrix, b)
+    assert np.abs(solve.solve(b) - exact).max() <= 1e-12 * np.abs(exact).max()
+    assert set(columns) == set(touched)    # the base's columns are kept for the next correction
+
+
+def _cut_session(method: str, moves: int = 6):
+    """A hybrid or pbd solver on a small sphere under a load, cut progressively over its top; yields after each
+    move the solver with its load applied to the state (the step's own preparation done)."""
+    hybrid = tissuesim.HybridMesh.build(models.sphere(2000), fine_volume=False)
+    solver = tissuesim.make_solver(method, hybrid)
+    x = solver.positions
+    top = int(np.argmax(x[:, 2]))
+    solver.set_load(top, (0.1, 0.0, 0.3), radius=0.004)
+    for _ in range(3):
+        solver.step()
+    centre = x.mean(axis=0)
+    radius = np.linalg.norm(x[top] - centre)
+
+    def on(angle):
+        direction = np.array([np.sin(angle), 0.1, np.cos(angle)])
+        return centre + (radius + 0.001) * direction / np.linalg.norm(direction)
+
+    scalpel = tissuesim.Scalpel(solver, depth=0.01)
+    scalpel.press(on(-0.3), direction=[0, 0, -1])
+    for angle in np.linspace(-0.27, 0.3, moves):
+        scalpel.move(on(angle))
+        solver._prepare_static()
+        yield solver
+
+
+@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+def test_the_step_after_each_cutting_move_equals_a_freshly_factorised_layers(method):
+    corrected = 0
+    for solver in _cut_session(method):
+        state = solver.positions.copy(), solver.velocities.copy()
+        statics = solver._statics
+        solver.step()
+        stepped = solver.positions.copy()
+        solver.state.positions[:], solver.state.velocities[:] = state
+        solver._statics = None            # the layer factorised again as it stands
+        solver.step()
+        fresh = solver.positions - solver.rest_positions
+        assert np.abs(stepped - solver.positions).max() <= 1e-10 * np.abs(fresh).max()
+        corrected += isinstance(statics, CutLayerStatics)
+        solver._statics = statics
+        solver.state.positions[:] = stepped
+    assert corrected >= 4      # most moves went through the correction, not a refactorisation
