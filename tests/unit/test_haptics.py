@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from tissuesim import BoundaryConditionError, HybridMesh, SolverError, TissuesimError, make_solver
-from tissuesim.haptics import HapticLoop, local_response
+from tissuesim.haptics import HapticLoop, HapticProcess, local_response
 from tissuesim.mesh import models
 
 RADIUS = 0.004  # m: the pin-head's tip
@@ -202,3 +202,62 @@ def test_thread_ticks_restarts_and_hands_back_its_error(cube):
     with pytest.raises(SolverError, match="3 coordinates"):
         broken.stop()
     broken.stop()  # the error is handed over once
+
+
+class RisingDevice:
+    """A device for the servo process (picklable: it is opened there): the tool rests at ``start`` for its first
+    20 readings, then 2 mm above it."""
+
+    def __init__(self, start):
+        self.start = np.array(start, dtype=float)
+
+    def __call__(self):
+        readings = [0]
+
+        def position():
+            readings[0] += 1
+            return self.start + (0.0, 0.0, 0.002 * (readings[0] > 20))
+
+        return position, lambda force: None
+
+
+class BrokenDevice:
+    def __call__(self):
+        return (lambda: [0.0, 0.0]), (lambda force: None)
+
+
+class UnpluggedDevice:
+    def __call__(self):
+        raise OSError("no such device")
+
+
+def test_servo_process_exchanges_the_thread_loops_force(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    start = cube.surface.vertices[node]
+    loop = HapticProcess(solver, device=RisingDevice(start), stiffness=COUPLING, radius=RADIUS)
+    with pytest.raises(SolverError, match="start"):
+        loop.grab()  # the tool position lives in the servo process
+    for _ in range(2):  # a stopped process starts again
+        with loop:
+            assert loop.grab() == node  # snapped from the tool position the process reported
+            while loop.ticks < 60:
+                time.sleep(0.01)
+            force = loop.sync()
+        stats = loop.statistics()
+        assert stats.ticks == loop.ticks >= 60 and 0 < stats.median <= stats.p99 <= stats.longest
+    # the same coupling on the same tool in the thread loop: the same arithmetic, so the same force
+    twin = HapticLoop(solver, position=lambda: start + (0.0, 0.0, 0.002), apply_force=lambda force: None,
+                      stiffness=COUPLING, radius=RADIUS)
+    twin._hold(loop.response, loop.offset)
+    assert force[2] > 0 and np.array_equal(force, twin.tick())
+    assert solver.load[0] == node and np.array_equal(solver.load[1], force)
+    broken = HapticProcess(solver, device=BrokenDevice(), stiffness=COUPLING)
+    broken.start()
+    broken._process.join()  # the process ended on the bad position
+    with pytest.raises(SolverError, match="3 coordinates"):
+        broken.stop()
+    with pytest.raises(SolverError, match="no such device"):
+        HapticProcess(solver, device=UnpluggedDevice(), stiffness=COUPLING).start()
+    with pytest.raises(SolverError, match="device must be"):
+        HapticProcess(solver, device=None, stiffness=COUPLING)

@@ -10,7 +10,9 @@ at its own rate and syncs the force into it.
             solver.step()       # the visual loop, e.g. 60 Hz
 """
 
-from .loop import HapticLoop, HapticStatistics
+from .coupling import HapticStatistics
+from .loop import HapticLoop
+from .process import HapticProcess
 from .response import LocalResponse, local_response
 
-__all__ = ["HapticLoop", "HapticStatistics", "LocalResponse", "local_response"]
+__all__ = ["HapticLoop", "HapticProcess", "HapticStatistics", "LocalResponse", "local_response"]
