@@ -246,6 +246,8 @@ def test_servo_process_exchanges_the_thread_loops_force(cube):
             force = loop.sync()
         stats = loop.statistics()
         assert stats.ticks == loop.ticks >= 60 and 0 < stats.median <= stats.p99 <= stats.longest
+        with pytest.raises(SolverError, match="start"):
+            loop.grab()  # a stopped device reports no position
     # the same coupling on the same tool in the thread loop: the same arithmetic, so the same force
     twin = HapticLoop(solver, position=lambda: start + (0.0, 0.0, 0.002), apply_force=lambda force: None,
                       stiffness=COUPLING, radius=RADIUS)

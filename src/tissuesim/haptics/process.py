@@ -121,7 +121,7 @@ class HapticProcess(Coupler):
         return read_consistent(self._shared, FORCE_SEQUENCE, FORCE)
 
     def _tool_position(self) -> np.ndarray:
-        if self.ticks == 0:
+        if not self.running or self.ticks == 0:
             raise SolverError("the tool position comes from the haptic process's device: start() it first, or "
                               "grab a node by its index")
         return read_consistent(self._shared, FORCE_SEQUENCE, TOOL)
