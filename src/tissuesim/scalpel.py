@@ -96,6 +96,7 @@ class Scalpel:
         self.tip, self.direction = point, _unit(direction)
         self._anchor = -1
         self._pressed_on = self.solver.hybrid.surface.triangles[tri].astype(np.int64)
+        self._updater.prepare()
         return CutReport(seconds=time.perf_counter() - start)
 
     def _touch(self, point: np.ndarray) -> tuple[int, np.ndarray]:

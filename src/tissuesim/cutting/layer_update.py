@@ -161,6 +161,14 @@ class SurfaceLayerCut(SolverCut):
             s._statics = after_cut(statics, change=self._stiffness_of(rows, hrows) - removed, mass=s.mass,
                                    prescribed=s.prescribed)
 
+    def prepare(self) -> None:
+        """The linear layer's explicit factor for its first cut, built in the background from now."""
+        s = self.solver
+        if s.form == "xpbd" and s.material == "linear":
+            from ..pbd.cut_statics import prepare
+
+            prepare(s._statics)
+
     def _stiffness_of(self, rows, hinge_rows):
         """``(3n, 3n)`` the linear layer's stiffness [N/m] of these stretch and hinge rows (None where the layer
         has no linear stiffness: the pbd form, a finite-strain material)."""

@@ -108,6 +108,9 @@ class SolverCut:
         #: vertices in pieces that no prescribed node holds (only a method that :attr:`keeps_loose` has any)
         self.loose_total = 0
 
+    def prepare(self) -> None:
+        """Get ready for a cut that is about to come (the scalpel is pressed): by default, nothing."""
+
     def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
         the vertex where the cut stopped (−1 if nothing was cut).

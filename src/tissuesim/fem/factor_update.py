@@ -28,7 +28,7 @@ from numba import njit
 from ..errors import SolverError
 from .linear import factorise_spd
 
-__all__ = ["CorrectedSolve", "ExplicitFactor"]
+__all__ = ["CorrectedSolve", "ExplicitFactor", "SparseColumns"]
 
 
 @njit(cache=True)
@@ -103,8 +103,7 @@ class ExplicitFactor:
 
     def forward(self, b: np.ndarray) -> np.ndarray:
         """``(n₀,)`` L⁻¹ P b (in the factor's order)."""
-        w = self._dense(np.ascontiguousarray(b, dtype=np.float64).reshape(-1, 1))
-        self._cholmod.solve(self.factor._factor, w, sys=7)
+        w = self._dense(np.ascontiguousarray(b[self.order], dtype=np.float64).reshape(-1, 1))
         self._cholmod.solve(self.factor._factor, w, sys=4)
         return np.asarray(w).ravel()
 
@@ -112,24 +111,62 @@ class ExplicitFactor:
         """``(n₀,)`` Pᵀ L⁻ᵀ w (back in the matrix's order)."""
         x = self._dense(np.ascontiguousarray(w, dtype=np.float64).reshape(-1, 1))
         self._cholmod.solve(self.factor._factor, x, sys=5)
-        self._cholmod.solve(self.factor._factor, x, sys=8)
-        return np.asarray(x).ravel()
+        out = np.empty(self.size)
+        out[self.order] = np.asarray(x).ravel()
+        return out
+
+
+class SparseColumns:
+    """G = L⁻¹ P [e_d ...] for a growing set of base dofs d, held dense on the union of their elimination-tree
+    paths, with its Gram matrix GᵀG: a new dof costs its own path and its Gram row, not the others' again."""
+
+    def __init__(self, base: ExplicitFactor):
+        self.base = base
+        self._index: dict[int, int] = {}
+        self.rows = np.zeros(0, dtype=np.int64)
+        self._g, self._gram = np.zeros((0, 0)), np.zeros((0, 0))
+
+    def take(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(rows, g, gram)`` of base ``dofs`` ``(k,)``: the path rows (the factor's order), G's columns there
+        ``(r, k)`` and GᵀG ``(k, k)``."""
+        dofs = np.asarray(dofs, dtype=np.int64).tolist()
+        new = [d for d in dict.fromkeys(dofs) if d not in self._index]
+        if new:
+            self._add(new)
+        at = np.array([self._index[d] for d in dofs], dtype=np.int64)
+        return self.rows, self._g[:, at], self._gram[np.ix_(at, at)]
+
+    def _add(self, dofs: list) -> None:
+        paths = [self.base.unit_column(d) for d in dofs]
+        rows = np.union1d(self.rows, np.concatenate([path for path, _ in paths]))
+        old = self._g.shape[1]
+        g = np.zeros((rows.size, old + len(dofs)))
+        g[np.searchsorted(rows, self.rows), :old] = self._g
+        for k, (path, values) in enumerate(paths):
+            g[np.searchsorted(rows, path), old + k] = values
+        cross = g.T @ g[:, old:]
+        gram = np.empty((g.shape[1], g.shape[1]))
+        gram[:old, :old] = self._gram
+        gram[:, old:] = cross
+        gram[old:, :old] = cross[:old].T
+        self.rows, self._g, self._gram = rows, g, gram
+        self._index.update((d, old + k) for k, d in enumerate(dofs))
 
 
 class CorrectedSolve:
     """Exact solves with A, given the base's :class:`ExplicitFactor` (module docstring).
 
     Args:
-        base: the factor of A₀ (its dofs are A's first n₀).
+        columns: the base's :class:`SparseColumns` (they depend on the base alone, so every correction of one
+            base shares them).
         modified: ``(p,) int64`` the dofs P of A where A − B may be nonzero, every extra dof among them.
-        difference: ``(p, p) float64`` S = (A − B)_PP (symmetric).
+        difference: ``(p, p)`` S = (A − B)_PP (symmetric; sparse or dense).
         extra_diagonal: ``(e,) float64`` d > 0, B's diagonal on the extra dofs.
-        columns: a cache ``{dof: (rows, values)}`` of :meth:`ExplicitFactor.unit_column` to reuse and fill (they
-            depend on the base alone).
     """
 
-    def __init__(self, base: ExplicitFactor, *, modified: np.ndarray, difference: np.ndarray,
-                 extra_diagonal: np.ndarray, columns: dict):
+    def __init__(self, columns: SparseColumns, *, modified: np.ndarray, difference: np.ndarray,
+                 extra_diagonal: np.ndarray):
+        base = columns.base
         n0 = base.size
         self.base, self.size = base, n0 + extra_diagonal.size
         self._scale = np.sqrt(extra_diagonal)
@@ -137,19 +174,12 @@ class CorrectedSolve:
         in_base = modified < n0
         self._base_slots, self._extra_slots = np.flatnonzero(in_base), np.flatnonzero(~in_base)
         self._extra_dofs = modified[~in_base] - n0
-        paths = [columns[dof] if dof in columns else columns.setdefault(dof, base.unit_column(dof))
-                 for dof in modified[in_base].tolist()]
-        rows = np.unique(np.concatenate([path for path, _ in paths])) if paths else np.zeros(0, dtype=np.int64)
-        self._rows = rows
-        g = np.zeros((rows.size, len(paths)))      # G's base block, on the union of the paths
-        for k, (path, values) in enumerate(paths):
-            g[np.searchsorted(rows, path), k] = values
-        self._g = g
+        self._rows, self._g, base_gram = columns.take(modified[in_base])
         gram = np.zeros((modified.size, modified.size))
-        gram[np.ix_(self._base_slots, self._base_slots)] = g.T @ g
+        gram[np.ix_(self._base_slots, self._base_slots)] = base_gram
         gram[self._extra_slots, self._extra_slots] = 1.0 / extra_diagonal[self._extra_dofs]
-        self._difference = difference
-        capacitance = np.eye(modified.size) + gram @ difference
+        self._difference = sp.csr_matrix(difference)
+        capacitance = np.eye(modified.size) + (self._difference.T @ gram.T).T      # I + GᵀG S, S sparse
         try:
             self._capacitance = la.lu_factor(capacitance, check_finite=True)
         except (ValueError, la.LinAlgError) as error:

@@ -11,6 +11,8 @@ factorised again as it stands.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -24,7 +26,7 @@ class _Base:
     """What every corrected layer of one series of cuts shares: the layer before the cuts and its explicit factor."""
 
     def __init__(self, statics: LayerStatics):
-        from ..fem.factor_update import ExplicitFactor
+        from ..fem.factor_update import ExplicitFactor, SparseColumns
 
         dt, factor, inertia, _, _ = statics._dynamic
         self.dt, self.inertia = dt, inertia
@@ -34,9 +36,39 @@ class _Base:
         self.factor = ExplicitFactor((statics._free_stiffness + sp.diags(inertia)).tocsc(), statics._dof_node,
                                      factor=factor)
         self.mass = inertia[::3] * dt * dt       # the free nodes' masses at the base [kg]
-        self.columns: dict = {}
+        self.columns = SparseColumns(self.factor)
         # K_fp of the base, and the dof of each of its columns: kept for the columns still prescribed after a cut
         self.coupling, self.coupling_dofs = statics._coupling.tocoo(), _dofs(statics.prescribed)
+
+
+class _Pending:
+    """A :class:`_Base` being built on a thread of its own (CHOLMOD releases the interpreter while it factorises,
+    so the caller's loop goes on meanwhile)."""
+
+    def __init__(self, statics: LayerStatics):
+        self._result = self._error = None
+        self._thread = threading.Thread(target=self._build, args=(statics,), daemon=True)
+        self._thread.start()
+
+    def _build(self, statics: LayerStatics) -> None:
+        try:
+            self._result = _Base(statics)
+        except Exception as error:     # handed to the caller of result()
+            self._error = error
+
+    def result(self) -> _Base:
+        self._thread.join()
+        if self._error is not None:
+            raise self._error
+        return self._result
+
+
+def prepare(statics) -> None:
+    """Start building, in the background, what the first cut of a layer ``statics`` needs (its explicit factor:
+    a second factorisation), so that the first move does not wait for it; a layer not stepped yet has nothing to
+    prepare."""
+    if type(statics) is LayerStatics and statics._dynamic is not None and getattr(statics, "_cut_base", None) is None:
+        statics._cut_base = _Pending(statics)
 
 
 def after_cut(statics, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
@@ -47,7 +79,8 @@ def after_cut(statics, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: n
     if isinstance(statics, CutLayerStatics):
         base, total = statics.base, _padded(statics.change, change.shape[0]) + change
     elif type(statics) is LayerStatics and statics._dynamic is not None:
-        base, total = _Base(statics), change
+        prepare(statics)
+        base, total = statics._cut_base.result(), change
     else:
         return None
     prescribed = np.asarray(prescribed, dtype=np.int64)
@@ -88,8 +121,8 @@ class CutLayerStatics(LayerStatics):
         extra = dofs[n0:]
         extra_diagonal = _diagonal(original, extra) + _diagonal(change, extra) + self._inertia[n0:]
         difference[~in_base, ~in_base] -= extra_diagonal[modified[~in_base] - n0]
-        self._solver = CorrectedSolve(base.factor, modified=modified, difference=difference,
-                                      extra_diagonal=extra_diagonal, columns=base.columns)
+        self._solver = CorrectedSolve(base.columns, modified=modified, difference=difference,
+                                      extra_diagonal=extra_diagonal)
         self._free_stiffness = None     # built only for a static solve (rare after a cut)
         self._dof_node = dofs // 3
         self._factor = None
