@@ -53,7 +53,7 @@ def test_fast_path_equals_full_solve(fem, box):
     assert again is buffer and np.array_equal(buffer, fast)  # exact: the same buffer
 
 
-def test_a_patch_response_equals_the_full_solve_and_costs_one_solve_per_new_patch(box, monkeypatch):
+def test_a_patch_response_is_exact_from_its_first_call_and_learns_a_direction_per_call(box, monkeypatch):
     from tissuesim.fem import linear
 
     fem = LinearFEM(box, fixed=bottom_nodes(box.points))
@@ -61,26 +61,33 @@ def test_a_patch_response_equals_the_full_solve_and_costs_one_solve_per_new_patc
     fixed = int(np.flatnonzero(fem.fixed_dofs.all(axis=1))[0])
     nodes = np.concatenate([top[:6], top[:2], [fixed]])        # repeats add up; a held node's share moves nothing
     weights = RNG.uniform(0.05, 0.3, size=nodes.size)
-    force = np.array([0.3, -0.2, 1.1])
-    forces = np.zeros((box.node_count, 3))
-    np.add.at(forces, nodes, weights[:, None] * force)
-    forces[fem.fixed_dofs] = 0.0
-    full = fem.solve(forces)
     out_nodes = RNG.permutation(box.node_count)[:40]
     out = np.full((out_nodes.size, 3), np.nan)
-    assert fem.patch_response(nodes, weights, force, output_nodes=out_nodes, out=out) is out
-    assert np.abs(out - full[out_nodes]).max() <= 1e-12 * np.abs(full).max()
     solves = []
     solve = fem._lu.solve
     monkeypatch.setattr(fem._lu, "solve", lambda rhs: solves.append(rhs.shape) or solve(rhs))
-    fem.patch_response(nodes, weights, 2.0 * force, output_nodes=out_nodes, out=out)    # a drag: no solve
-    np.testing.assert_allclose(out, 2.0 * full[out_nodes], rtol=1e-12, atol=1e-14 * np.abs(full).max())
+
+    def full(force):
+        forces = np.zeros((box.node_count, 3))
+        np.add.at(forces, nodes, weights[:, None] * force)
+        forces[fem.fixed_dofs] = 0.0
+        return fem.solve(forces)[out_nodes]
+
+    drag = [np.array([0.3, -0.2, 1.1]), np.array([0.3, -0.2, 1.1]), np.array([-0.5, 0.4, 0.2]), RNG.normal(size=3)]
+    for k, force in enumerate(drag):
+        assert fem.patch_response(nodes, weights, force, output_nodes=out_nodes, out=out) is out
+        expected = full(force)
+        assert np.abs(out - expected).max() <= 1e-12 * np.abs(expected).max()
+        # one single-column solve per call until three directions are known, then none (the fem.solve above
+        # is the check's own, counted too)
+        assert solves.count((fem.free_dofs.size,)) == 2 * (k + 1) - (k == 3)
     for k in range(linear.PATCH_CACHE):                        # other patches push the first one out
-        fem.patch_response(top[k:k + 3], np.ones(3), force, output_nodes=out_nodes, out=out)
-    fem.patch_response(nodes, weights, force, output_nodes=out_nodes, out=out)
-    assert solves == [(fem.free_dofs.size, 3)] * (linear.PATCH_CACHE + 1)     # one 3-column solve per new patch
+        fem.patch_response(top[k:k + 3], np.ones(3), drag[0], output_nodes=out_nodes, out=out)
+    before = len(solves)
+    fem.patch_response(nodes, weights, drag[0], output_nodes=out_nodes, out=out)
+    assert len(solves) == before + 1
     with pytest.raises(SolverError, match="weights must be"):
-        fem.patch_response(nodes, weights[:-1], force, output_nodes=out_nodes, out=out)
+        fem.patch_response(nodes[:3], weights[:2], drag[0], output_nodes=out_nodes, out=out)
 
 
 def test_load_on_a_fixed_node_moves_nothing(fem, box):

@@ -201,35 +201,30 @@ class LinearFEM:
         ``force`` ``(3,)`` [N] spread over ``nodes`` ``(k,) int`` with ``weights`` ``(k,)`` (node j carries w_j F;
         nodes may repeat): u_out = (Σ_j w_j G_j[out]) F, :meth:`point_load_response` with forces w_j F to round-off.
 
-        The patch's combined columns Σ_j w_j G_j are one 3-right-hand-side back-substitution on its first use,
-        whatever k (k separate columns would cost k of them: the first grab of a wide patch), and are kept for the
-        last :data:`PATCH_CACHE` patches, so a drag, which changes F on one patch, costs O(s) per call."""
+        A patch's response is learnt one direction of force per call (:class:`_PatchResponse`): its first use
+        costs one single back-substitution, whatever k (k separate columns would cost k of them: the first grab
+        of a wide patch), as do its second and third, after which a drag, which changes F on one patch, costs
+        O(s) per call. The last :data:`PATCH_CACHE` patches are kept."""
         nodes = np.ascontiguousarray(nodes, dtype=np.int64)
         weights = np.ascontiguousarray(weights, dtype=np.float64)
         key = (nodes.tobytes(), weights.tobytes())
-        columns = self._patches.pop(key, None)
-        if columns is None:
-            columns = self._patch_columns(nodes, weights)
+        patch = self._patches.pop(key, None)
+        if patch is None:
+            patch = _PatchResponse(self, self._check_nodes(nodes, "nodes"), weights)
             if len(self._patches) >= PATCH_CACHE:
                 self._patches.pop(next(iter(self._patches)))    # the least recently used
-        self._patches[key] = columns
+        self._patches[key] = patch
+        force = np.asarray(force, dtype=np.float64)
         out[...] = 0.0
-        _accumulate_point_load(columns, np.asarray(force, dtype=np.float64), output_nodes, out)
+        _accumulate_point_load(patch.columns(force), force, output_nodes, out)
         return out
 
-    def _patch_columns(self, nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        nodes = self._check_nodes(nodes, "nodes")
-        if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
-            raise SolverError(f"weights must be ({nodes.size},) finite numbers, one per node, got {weights.shape}")
-        n = self.node_count
-        load = np.zeros((n, 3))
-        np.add.at(load, nodes, weights[:, None])
-        rhs = np.zeros((3 * n, 3))
-        for axis in range(3):
-            rhs[axis::3, axis] = load[:, axis]
-        solution = np.zeros((3 * n, 3))
-        solution[self.free_dofs] = self._lu.solve(np.ascontiguousarray(rhs[self.free_dofs]))
-        return np.ascontiguousarray(solution.reshape(n, 3, 3))
+    def _unit_response(self, load: np.ndarray, direction: np.ndarray) -> np.ndarray:
+        """``(n, 3)`` displacements [m] under ``load`` ``(n,)`` (the share of each node) times ``direction``."""
+        forces = load[:, None] * direction[None, :]
+        u = np.zeros(3 * self.node_count)
+        u[self.free_dofs] = self._lu.solve(np.ascontiguousarray(forces.ravel()[self.free_dofs]))
+        return u.reshape(-1, 3)
 
     @property
     def cached_nodes(self) -> np.ndarray:
@@ -266,6 +261,42 @@ class LinearFEM:
 
 
 # --- construction helpers -------------------------------------------------------------------------------------
+
+
+class _PatchResponse:
+    """The response of a :class:`LinearFEM` to a force spread over a patch, learnt one force direction at a time.
+
+    The response is linear in the force: it is known for every force in the span of the orthonormal directions
+    solved so far. A force outside the span adds its orthogonal part as a direction; a force inside it still adds
+    one direction orthogonal to the span, so the third call completes the basis and every later one is free. Each
+    call costs at most one single-column back-substitution: a new grab acts at once, and the rest of the patch's
+    response follows over the next two frames."""
+
+    def __init__(self, fem: LinearFEM, nodes: np.ndarray, weights: np.ndarray):
+        if weights.shape != nodes.shape or not np.all(np.isfinite(weights)):
+            raise SolverError(f"weights must be ({nodes.size},) finite numbers, one per node, got {weights.shape}")
+        self._fem = fem
+        self._load = np.zeros(fem.node_count)
+        np.add.at(self._load, nodes, weights)
+        self._directions = np.zeros((0, 3))
+        self._responses: list[np.ndarray] = []      # (n, 3) per direction
+        self._columns: np.ndarray | None = None
+
+    def columns(self, force: np.ndarray) -> np.ndarray:
+        """``(n, 3, 3)`` the patch's columns, exact at least on ``force``'s direction (everywhere once complete)."""
+        if self._columns is not None:
+            return self._columns
+        direction = force - self._directions.T @ (self._directions @ force)
+        if np.linalg.norm(direction) <= 1e-12 * np.linalg.norm(force) or not np.any(direction):
+            residual = np.eye(3) - self._directions.T @ self._directions   # F is known: add a missing direction
+            direction = residual[np.argmax(np.linalg.norm(residual, axis=1))]
+        direction = direction / np.linalg.norm(direction)
+        self._directions = np.vstack([self._directions, direction])
+        self._responses.append(self._fem._unit_response(self._load, direction))
+        columns = np.ascontiguousarray(np.stack(self._responses, axis=2) @ self._directions)
+        if len(self._responses) == 3:
+            self._columns = columns
+        return columns
 
 
 def _fixed_mask(fixed, n: int) -> np.ndarray:
