@@ -126,14 +126,24 @@ class SparseColumns:
         self.rows = np.zeros(0, dtype=np.int64)
         self._g, self._gram = np.zeros((0, 0)), np.zeros((0, 0))
 
+    def arranged(self, dofs: np.ndarray) -> np.ndarray:
+        """``dofs`` ``(k,)`` reordered as they are (or will be) held: those held first, in their order, then the
+        others. :meth:`take` of arranged dofs that are all the held ones copies nothing."""
+        dofs = np.asarray(dofs, dtype=np.int64)
+        held = np.array([self._index.get(d, -1) for d in dofs.tolist()], dtype=np.int64)
+        known = held >= 0
+        return np.concatenate([dofs[known][np.argsort(held[known], kind="stable")], dofs[~known]])
+
     def take(self, dofs: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(rows, g, gram)`` of base ``dofs`` ``(k,)``: the path rows (the factor's order), G's columns there
-        ``(r, k)`` and GᵀG ``(k, k)``."""
+        ``(r, k)`` and GᵀG ``(k, k)`` (views of the held arrays where ``dofs`` are all of them, in order)."""
         dofs = np.asarray(dofs, dtype=np.int64).tolist()
         new = [d for d in dict.fromkeys(dofs) if d not in self._index]
         if new:
             self._add(new)
         at = np.array([self._index[d] for d in dofs], dtype=np.int64)
+        if at.size == self._g.shape[1] and np.array_equal(at, np.arange(at.size)):
+            return self.rows, self._g, self._gram
         return self.rows, self._g[:, at], self._gram[np.ix_(at, at)]
 
     def _add(self, dofs: list) -> None:

@@ -38,7 +38,23 @@ class _Base:
         self.mass = inertia[::3] * dt * dt       # the free nodes' masses at the base [kg]
         self.columns = SparseColumns(self.factor)
         # K_fp of the base, and the dof of each of its columns: kept for the columns still prescribed after a cut
-        self.coupling, self.coupling_dofs = statics._coupling.tocoo(), _dofs(statics.prescribed)
+        self._coupling, self._coupling_dofs = statics._coupling.tocsr(), _dofs(statics.prescribed)
+        self._remapped = (statics.prescribed.tobytes(), self._coupling)
+
+    def coupling(self, prescribed: np.ndarray, n: int) -> sp.csr_matrix:
+        """The base's K_fp with its columns in the order of ``prescribed`` ``(k,)`` (a column no longer prescribed
+        dropped; n vertices now), kept while the prescribed nodes stay the same (most moves)."""
+        key, remapped = self._remapped
+        if key != prescribed.tobytes():
+            column = np.full(3 * n, -1, dtype=np.int64)
+            column[_dofs(prescribed)] = np.arange(3 * prescribed.size)
+            coo = self._coupling.tocoo()
+            columns = column[self._coupling_dofs[coo.col]]
+            keep = columns >= 0
+            remapped = sp.csr_matrix((coo.data[keep], (coo.row[keep], columns[keep])),
+                                     shape=(coo.shape[0], 3 * prescribed.size))
+            self._remapped = (prescribed.tobytes(), remapped)
+        return remapped
 
 
 class _Pending:
@@ -106,8 +122,11 @@ class CutLayerStatics(LayerStatics):
         self.free_nodes = np.concatenate([base.free_nodes, extra])
         dofs = _dofs(self.free_nodes)
         self._inertia = np.repeat(mass[self.free_nodes], 3) / base.dt ** 2
-        self._coupling = self._coupling_after(n, extra, dofs)
+        self._coupling = _padded_rows(base.coupling(prescribed, n), dofs.size)
+        self._coupling_change = self._coupling_change_of(n, extra, dofs)
         modified = self._modified(n, extra, mass)
+        in_base = modified < base.inertia.size
+        modified = np.concatenate([base.columns.arranged(modified[in_base]), modified[~in_base]])
         self.modified_count = modified.size
         if self.modified_count > MAX_MODIFIED:
             return
@@ -128,19 +147,17 @@ class CutLayerStatics(LayerStatics):
         self._factor = None
         self._dynamic = None
 
-    def _coupling_after(self, n: int, extra: np.ndarray, dofs: np.ndarray) -> sp.csr_matrix:
-        """K_fp over the current free rows and prescribed columns (in :attr:`prescribed` order): the base's
-        couplings whose columns are still prescribed, the freed nodes' rows of the base stiffness, and the change."""
+    def _coupling_change_of(self, n: int, extra: np.ndarray, dofs: np.ndarray) -> sp.csr_matrix:
+        """What K_fp has beyond the base's (rows: the current free dofs; columns: the prescribed ones in order): the
+        freed nodes' rows of the base stiffness and the cuts' change. Small: a step applies it on its own."""
         column = np.full(3 * n, -1, dtype=np.int64)
         column[_dofs(self.prescribed)] = np.arange(3 * self.prescribed.size)
-        base = self.base.coupling
         freed = _padded(self.base.stiffness, 3 * n)[_dofs(extra)]
-        added = (sp.vstack([sp.csr_matrix((base.shape[0], 3 * n)), freed]) + self.change[dofs]).tocoo()
-        rows = np.concatenate([base.row, added.row])
-        columns = np.concatenate([column[self.base.coupling_dofs[base.col]], column[added.col]])
-        data = np.concatenate([base.data, added.data])
+        added = (sp.vstack([sp.csr_matrix((self.base.inertia.size, 3 * n)), freed]) + self.change[dofs]).tocoo()
+        columns = column[added.col]
         keep = columns >= 0
-        return sp.csr_matrix((data[keep], (rows[keep], columns[keep])), shape=(dofs.size, 3 * self.prescribed.size))
+        return sp.csr_matrix((added.data[keep], (added.row[keep], columns[keep])),
+                             shape=(dofs.size, 3 * self.prescribed.size))
 
     def _modified(self, n: int, extra: np.ndarray, mass: np.ndarray) -> np.ndarray:
         """The free dofs (slots in :attr:`free_nodes` order) where the matrix differs from the base's extended by a
@@ -168,6 +185,7 @@ class CutLayerStatics(LayerStatics):
         coupling, rhs = self._coupling, np.empty(self._inertia.size)
         implicit_rhs(positions, velocities, rest, self.free_nodes, self._inertia, 1.0 - damping, dt, forces,
                      coupling.indptr, coupling.indices, coupling.data, self.prescribed, targets, rhs)
+        rhs -= self._coupling_change @ (targets - rest[self.prescribed]).ravel()
         implicit_update(self._solver.solve(rhs), positions, velocities, rest, self.free_nodes, self.prescribed,
                         targets, dt)
 
@@ -208,5 +226,7 @@ def _padded(matrix: sp.csr_matrix, size: int) -> sp.csr_matrix:
     return sp.csr_matrix((matrix.data, matrix.indices, indptr), shape=(size, size))
 
 
-def _padded_columns(matrix: sp.csr_matrix, size: int) -> sp.csr_matrix:
-    return sp.csr_matrix((matrix.data, matrix.indices, matrix.indptr), shape=(matrix.shape[0], size))
+def _padded_rows(matrix: sp.csr_matrix, rows: int) -> sp.csr_matrix:
+    """``matrix`` with empty rows appended up to ``rows``."""
+    indptr = np.concatenate([matrix.indptr, np.full(rows - matrix.shape[0], matrix.indptr[-1])])
+    return sp.csr_matrix((matrix.data, matrix.indices, indptr), shape=(rows, matrix.shape[1]))
