@@ -127,14 +127,18 @@ def test_sync_makes_the_force_the_solver_load_and_steps_follow(cube):
     assert solver.load is None and np.array_equal(loop.tick(), np.zeros(3))
 
 
-def test_grab_leaves_the_visual_state_as_it_was(cube):
+@pytest.mark.parametrize("material", ["linear", "neo-hookean"])
+@pytest.mark.parametrize("pending", [False, True], ids=["stepped", "load not stepped yet"])
+def test_grab_leaves_the_visual_state_as_it_was(cube, material, pending):
     node = top_centre(cube)
     other = top_centre(cube, (0.01, 0.0, 0.0))
-    solvers = [make_solver("hybrid", cube) for _ in range(2)]
+    solvers = [make_solver("hybrid", cube, material=material) for _ in range(2)]
     for solver in solvers:  # the same history: a load being dragged in, half settled
         solver.set_load(other, [0.0, 0.05, 0.1], radius=RADIUS)
         for _ in range(3):
             solver.step()
+        if pending:   # a new load the next step brings the warm start and prescribed nodes to
+            solver.set_load(other, [0.0, 0.08, 0.2], radius=RADIUS)
     local_response(solvers[0], node, radius=RADIUS)  # four static solves on the live solver
     assert solvers[0].load[0] == other and np.array_equal(solvers[0].load[1], solvers[1].load[1])
     for solver in solvers:

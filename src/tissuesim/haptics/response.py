@@ -69,9 +69,16 @@ def tangent_step(solver, radius: float | None) -> float:
     return TANGENT_STEP * solver.youngs_modulus * radius ** 2
 
 
+#: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
+#: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
+#: would have without it (a pending warm-start move included).
+_WARM_ARRAYS = ("_u", "targets", "_embedded", "_embedded_new")
+_WARM_FLAGS = ("_dirty", "_volume_settled")
+
+
 class _Snapshot:
-    """A solver's visual state (positions, velocities, load, the hybrid's finite-strain volume), put back after
-    static solves."""
+    """A solver's visual state (positions, velocities, load, the hybrid's warm start and finite-strain volume), put
+    back after static solves."""
 
     def __init__(self, solver):
         self.positions = solver.positions.copy()
@@ -79,6 +86,8 @@ class _Snapshot:
         self.load, self.radius = solver.load, solver.load_radius
         volume = getattr(solver, "volume_displacement", None)
         self.volume = None if volume is None else volume.copy()
+        self.arrays = {name: getattr(solver, name).copy() for name in _WARM_ARRAYS if hasattr(solver, name)}
+        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS if hasattr(solver, name)}
 
     def restore(self, solver) -> None:
         solver.clear_load()
@@ -86,11 +95,9 @@ class _Snapshot:
             solver.set_load(self.load[0], self.load[1], radius=self.radius)
         if self.volume is not None:
             solver.volume_displacement = self.volume
-        # The hybrid brings its prescribed nodes (and its warm start's record of the embedded field) up to date with
-        # the load when it next steps; doing it now, before the positions go back, keeps that step from moving
-        # them by the difference between the last static solve's load and this one.
-        prepare = getattr(solver, "_prepare_static", None)
-        if prepare is not None:
-            prepare()
+        for name, values in self.arrays.items():
+            getattr(solver, name)[...] = values      # in place: other arrays are views of them
+        for name, value in self.flags.items():
+            setattr(solver, name, value)
         solver.positions[:] = self.positions
         solver.velocities[:] = self.velocities
