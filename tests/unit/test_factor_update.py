@@ -104,3 +104,72 @@ def test_the_step_after_each_cutting_move_equals_a_freshly_factorised_layers(met
         solver._statics = statics
         solver.state.positions[:] = stepped
     assert corrected >= 4      # most moves went through the correction, not a refactorisation
+
+
+def _step_against_fresh(solver) -> float:
+    """One step with the solver's layer as it is, against one with the layer factorised afresh from the same
+    state: the largest difference over the fresh step's largest displacement."""
+    state = solver.positions.copy(), solver.velocities.copy()
+    statics = solver._statics
+    solver.step()
+    stepped = solver.positions.copy()
+    solver.state.positions[:], solver.state.velocities[:] = state
+    solver._statics = None
+    solver.step()
+    error = np.abs(stepped - solver.positions).max() / np.abs(solver.positions - solver.rest_positions).max()
+    solver._statics = statics
+    solver.state.positions[:] = stepped
+    return error
+
+
+def test_past_the_limit_of_touched_dofs_the_layer_is_factorised_again_and_corrected_on(monkeypatch):
+    from tissuesim.pbd import cut_statics
+
+    monkeypatch.setattr(cut_statics, "MAX_MODIFIED", 60)
+    kinds = []
+    for solver in _cut_session("hybrid", moves=8):
+        kinds.append(type(solver._statics).__name__)
+        assert _step_against_fresh(solver) <= 1e-10
+    assert "LayerStatics" in kinds[1:] and kinds[-1] == "CutLayerStatics"    # refactorised, then corrected again
+
+
+def test_a_new_dt_between_cuts_is_factorised_once_and_stays_exact(monkeypatch):
+    from tissuesim.pbd.static import LayerStatics
+
+    factorisations = []
+    factorise = LayerStatics._dynamic_factor
+    monkeypatch.setattr(LayerStatics, "_dynamic_factor",
+                        lambda self, mass, dt: factorisations.append(dt) or factorise(self, mass, dt))
+    for k, solver in enumerate(_cut_session("pbd", moves=6)):
+        if k == 2:
+            solver.dt = 0.5 * solver.dt
+        assert _step_against_fresh(solver) <= 1e-10
+    # besides the fresh layers of the check: the first steps, and one for the new dt
+    assert factorisations.count(factorisations[-1]) - 4 == 1
+
+
+def test_without_an_explicit_factor_each_cut_refactorises_the_layer_as_before(monkeypatch):
+    from tissuesim.pbd import cut_statics
+
+    def unavailable(self, statics):
+        raise ImportError("cvxopt")
+
+    monkeypatch.setattr(cut_statics._Base, "__init__", unavailable)
+    for solver in _cut_session("hybrid", moves=3):
+        assert not isinstance(solver._statics, CutLayerStatics)
+        assert _step_against_fresh(solver) <= 1e-10
+
+
+def test_a_long_cut_moves_over_to_a_base_built_in_the_background_and_stays_exact(monkeypatch):
+    from tissuesim.pbd import cut_statics
+
+    monkeypatch.setattr(cut_statics, "RENEW_MODIFIED", 30)
+    bases = []
+    for solver in _cut_session("hybrid", moves=8):
+        statics = solver._statics
+        if isinstance(statics, CutLayerStatics):
+            bases.append(statics.base)
+            if statics.base.successor is not None:
+                statics.base.successor.result()      # as if the moves came slower than its factorisation
+        assert _step_against_fresh(solver) <= 1e-10
+    assert len(set(map(id, bases))) >= 2       # went on from a new base without a refactorisation in a move

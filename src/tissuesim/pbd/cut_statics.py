@@ -6,7 +6,7 @@ solves with the factor made before the first of a series of cuts and an exact lo
 (:mod:`tissuesim.fem.factor_update`), so the step after a move costs one ordinary solve plus work on the dofs the
 cuts touched. The answer equals a freshly built layer's to round-off. Once the cuts have touched more than
 :data:`MAX_MODIFIED` dofs (the correction's dense work grows as their square), or when dt changes, the layer is
-factorised again as it stands.
+factorised again as it stands (its explicit factor for the next cuts built in the background).
 """
 
 from __future__ import annotations
@@ -20,6 +20,10 @@ from .static import LayerStatics
 
 #: Modified dofs a corrected layer carries before it is factorised again.
 MAX_MODIFIED = 900
+#: Modified dofs past which the next base (the layer as it stands, factorised) is built in the background while the
+#: current one carries on; the series moves over to it as soon as it is ready, so most series never reach
+#: :data:`MAX_MODIFIED` and never wait for a factorisation.
+RENEW_MODIFIED = 450
 
 
 class _Base:
@@ -40,6 +44,8 @@ class _Base:
         # K_fp of the base, and the dof of each of its columns: kept for the columns still prescribed after a cut
         self._coupling, self._coupling_dofs = statics._coupling.tocsr(), _dofs(statics.prescribed)
         self._remapped = (statics.prescribed.tobytes(), self._coupling)
+        #: the next base being built, from a corrected layer of this series (:data:`RENEW_MODIFIED`), or None
+        self.successor: _Successor | None = None
 
     def coupling(self, prescribed: np.ndarray, n: int) -> sp.csr_matrix:
         """The base's K_fp with its columns in the order of ``prescribed`` ``(k,)`` (a column no longer prescribed
@@ -58,52 +64,103 @@ class _Base:
 
 
 class _Pending:
-    """A :class:`_Base` being built on a thread of its own (CHOLMOD releases the interpreter while it factorises,
-    so the caller's loop goes on meanwhile)."""
+    """A :class:`_Base` being built on a thread of its own, so that the press of a scalpel does not wait for it.
+    cvxopt's CHOLMOD holds the interpreter lock while it factorises (measured: the main thread's longest pause
+    94 ms at 10k), so this moves the work off the cutting move, not out of the process's time."""
 
-    def __init__(self, statics: LayerStatics):
+    def __init__(self, build):
         self._result = self._error = None
-        self._thread = threading.Thread(target=self._build, args=(statics,), daemon=True)
+        self._thread = threading.Thread(target=self._build, args=(build,), daemon=True)
         self._thread.start()
 
-    def _build(self, statics: LayerStatics) -> None:
+    def _build(self, build) -> None:
         try:
-            self._result = _Base(statics)
+            self._result = build()
         except Exception as error:     # handed to the caller of result()
             self._error = error
 
-    def result(self) -> _Base:
+    @property
+    def ready(self) -> bool:
+        return not self._thread.is_alive()
+
+    def result(self) -> _Base | None:
+        """The base, or None where it cannot be built (then the layer is refactorised after each cut)."""
         self._thread.join()
-        if self._error is not None:
-            raise self._error
-        return self._result
+        return None if self._error is not None else self._result
 
 
 def prepare(statics) -> None:
     """Start building, in the background, what the first cut of a layer ``statics`` needs (its explicit factor:
-    a second factorisation), so that the first move does not wait for it; a layer not stepped yet has nothing to
-    prepare."""
-    if type(statics) is LayerStatics and statics._dynamic is not None and getattr(statics, "_cut_base", None) is None:
-        statics._cut_base = _Pending(statics)
+    a second factorisation), so that the first move does not wait for it. Nothing to prepare for a layer not
+    stepped yet, or factorised without CHOLMOD (then each cut refactorises the layer, as without this module)."""
+    if (type(statics) is LayerStatics and statics._dynamic is not None and hasattr(statics._dynamic[1], "workspace")
+            and getattr(statics, "_cut_base", None) is None):
+        statics._cut_base = _Pending(lambda: _Base(statics))
+
+
+class _Successor(_Pending):
+    """The next base of a series, built in the background from the corrected layer ``corrected`` as it stands
+    (its stiffness, prescribed nodes, the lumped ``mass`` (n,) [kg] and ``dt`` [s], all copied now)."""
+
+    def __init__(self, corrected, mass: np.ndarray, dt: float):
+        self.change, self.vertex_count = corrected.change, corrected.change.shape[0] // 3
+        prescribed, mass = corrected.prescribed.copy(), mass.copy()
+        super().__init__(lambda: _Base(_factorised(LayerStatics(corrected.stiffness, prescribed=prescribed), mass,
+                                                   dt, explicit=False)))
+
+    def rebased(self, total: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
+        """The layer with ``total`` change since the old base, corrected from this new base (waiting for it);
+        None where it does not apply (a move taken back since, a node it had free is prescribed)."""
+        base = self.result()
+        n = total.shape[0] // 3
+        if base is None or self.vertex_count > n or np.isin(base.free_nodes, prescribed).any():
+            return None
+        since = (total - _padded(self.change, 3 * n)).tocsr()
+        corrected = CutLayerStatics(base, change=since, mass=mass, prescribed=prescribed)
+        return corrected if corrected.modified_count <= MAX_MODIFIED else None
 
 
 def after_cut(statics, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
     """The layer after a cut: ``statics`` (before it) corrected by ``change`` ``(3n, 3n)`` [N/m] (the stiffness the
     cut added minus what it removed, n the vertices after it), the lumped ``mass`` ``(n,)`` [kg] and the
-    ``prescribed`` nodes after it. None where the correction does not apply (no step taken yet, a node that was free
-    is prescribed now, too many dofs touched): the layer is then built again when next needed."""
+    ``prescribed`` nodes after it. Past :data:`MAX_MODIFIED` touched dofs the layer is factorised again here, its
+    explicit factor for the next cuts built in the background. None where nothing of the layer can be reused (no
+    step taken yet, no CHOLMOD, a node that was free is prescribed now): it is then built when next needed."""
+    prescribed = np.asarray(prescribed, dtype=np.int64)
     if isinstance(statics, CutLayerStatics):
+        if statics.refactorised is not None:     # dt changed since the base: go on from the layer factorised anew
+            return after_cut(statics.refactorised, change=change, mass=mass, prescribed=prescribed)
         base, total = statics.base, _padded(statics.change, change.shape[0]) + change
     elif type(statics) is LayerStatics and statics._dynamic is not None:
         prepare(statics)
-        base, total = statics._cut_base.result(), change
+        pending = getattr(statics, "_cut_base", None)
+        base, total = (None if pending is None else pending.result()), change
     else:
         return None
-    prescribed = np.asarray(prescribed, dtype=np.int64)
-    if np.isin(base.free_nodes, prescribed).any():
+    if base is None or np.isin(base.free_nodes, prescribed).any():
         return None
-    corrected = CutLayerStatics(base, change=total.tocsr(), mass=mass, prescribed=prescribed)
-    return corrected if corrected.modified_count <= MAX_MODIFIED else None
+    total = total.tocsr()
+    corrected = CutLayerStatics(base, change=total, mass=mass, prescribed=prescribed)
+    successor = base.successor
+    if successor is not None and (successor.ready or corrected.modified_count > MAX_MODIFIED):
+        rebased = successor.rebased(total, mass, prescribed)
+        if rebased is not None:
+            return rebased
+        base.successor = None
+    if corrected.modified_count > MAX_MODIFIED:
+        return _factorised(LayerStatics(corrected.stiffness, prescribed=prescribed), mass, base.dt)
+    if corrected.modified_count > RENEW_MODIFIED and base.successor is None:
+        base.successor = _Successor(corrected, mass, base.dt)
+    return corrected
+
+
+def _factorised(statics: LayerStatics, mass: np.ndarray, dt: float, *, explicit: bool = True) -> LayerStatics:
+    """``statics`` with its implicit step's factor for ``dt`` made now, and (``explicit``) its explicit factor
+    started in the background."""
+    statics._dynamic = (dt, *statics._dynamic_factor(mass, dt))
+    if explicit:
+        prepare(statics)
+    return statics
 
 
 class CutLayerStatics(LayerStatics):
@@ -124,17 +181,19 @@ class CutLayerStatics(LayerStatics):
         self._inertia = np.repeat(mass[self.free_nodes], 3) / base.dt ** 2
         self._coupling = _padded_rows(base.coupling(prescribed, n), dofs.size)
         self._coupling_change = self._coupling_change_of(n, extra, dofs)
+        #: the layer factorised anew for a new dt (:meth:`implicit_step`), which the next cut goes on from
+        self.refactorised: LayerStatics | None = None
+        n0 = base.inertia.size
         modified = self._modified(n, extra, mass)
-        in_base = modified < base.inertia.size
+        in_base = modified < n0
         modified = np.concatenate([base.columns.arranged(modified[in_base]), modified[~in_base]])
+        in_base = modified < n0
         self.modified_count = modified.size
         if self.modified_count > MAX_MODIFIED:
             return
         at = dofs[modified]
         unchanged = original[at][:, at].toarray()
         difference = unchanged + change[at][:, at].toarray() + np.diag(self._inertia[modified])
-        n0 = base.inertia.size
-        in_base = modified < n0
         difference[np.ix_(in_base, in_base)] -= (unchanged[np.ix_(in_base, in_base)]
                                                   + np.diag(base.inertia[modified[in_base]]))
         extra = dofs[n0:]
@@ -142,10 +201,6 @@ class CutLayerStatics(LayerStatics):
         difference[~in_base, ~in_base] -= extra_diagonal[modified[~in_base] - n0]
         self._solver = CorrectedSolve(base.columns, modified=modified, difference=difference,
                                       extra_diagonal=extra_diagonal)
-        self._free_stiffness = None     # built only for a static solve (rare after a cut)
-        self._dof_node = dofs // 3
-        self._factor = None
-        self._dynamic = None
 
     def _coupling_change_of(self, n: int, extra: np.ndarray, dofs: np.ndarray) -> sp.csr_matrix:
         """What K_fp has beyond the base's (rows: the current free dofs; columns: the prescribed ones in order): the
@@ -180,7 +235,9 @@ class CutLayerStatics(LayerStatics):
         from .static import implicit_rhs, implicit_update
 
         if dt != self.base.dt:
-            self._fresh().implicit_step(positions, velocities, rest, forces, targets, mass, dt, damping)
+            if self.refactorised is None:
+                self.refactorised = _factorised(self._fresh(), mass, dt)
+            self.refactorised.implicit_step(positions, velocities, rest, forces, targets, mass, dt, damping)
             return
         coupling, rhs = self._coupling, np.empty(self._inertia.size)
         implicit_rhs(positions, velocities, rest, self.free_nodes, self._inertia, 1.0 - damping, dt, forces,
