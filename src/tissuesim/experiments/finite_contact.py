@@ -33,7 +33,7 @@ from ..mesh.regions import bottom_height, nodes_below
 from ..mesh.tetrahedralize import FINE_SWITCHES
 from . import protocol
 from .reference import (CACHE_FORMAT, LevelRow, RefinementSettings, _edge_length_at, _level_volume,
-                        format_row, patch_traction)
+                        format_row, level_row, patch_traction)
 from .reference_cache import read_arrays, write_arrays
 
 __all__ = ["FiniteContactReference", "finite_contact_reference"]
@@ -211,13 +211,7 @@ def _row(level, volume, h0, settings, samples, fields, forces, node, change) -> 
     else:
         k = stable[np.argmax(np.linalg.norm(forces[stable], axis=1))]
         secant = fields[k] / np.linalg.norm(forces[k])
-    return LevelRow(
-        level=level, tets=int(len(volume.tets)), nodes=int(volume.node_count),
-        contact_size_mm=1e3 * h0 * 0.5 ** level,
-        grading=None if level == 0 else settings.grading * settings.grading_ratio ** level,
-        sample_rms_mm=1e3 * float(np.sqrt(np.mean(np.sum(secant[samples] ** 2, axis=1)))),
-        contact_mm=1e3 * float(np.linalg.norm(secant[node])),
-        others_rms_mm=1e3 * float(np.sqrt(np.mean(np.sum(secant[samples[1:]] ** 2, axis=1)))), change=change)
+    return level_row(level, volume, h0, settings, samples, secant, node, change)
 
 
 def _load(cache_dir, key) -> FiniteContactReference | None:

@@ -293,7 +293,7 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
             response = solve(node, radius)     # M_S's vertices are the volume's first nodes (TetGen's Y)
             change = None if previous[k] is None else _relative_change(response, previous[k], samples)
             previous[k] = response
-            row = _row(level, volume, h0, settings, samples, response, node, change)
+            row = level_row(level, volume, h0, settings, samples, -response[:, :, 2], node, change)  # 1 N, −z
             tables[k].append(row)
             if progress is not None:
                 progress(f"R = {_radius_text(radius)}: " + format_row(row))
@@ -431,8 +431,8 @@ def _relative_change(response, previous, samples) -> float:
     return change
 
 
-def _row(level, volume, h0, settings, samples, response, node, change) -> LevelRow:
-    down = -response[:, :, 2]  # 1 N along −z
+def level_row(level, volume, h0, settings, samples, down, node, change) -> LevelRow:
+    """The :class:`LevelRow` of a level whose M_S displacement per newton [m/N] is ``down`` ``(n, 3)``."""
     return LevelRow(
         level=level, tets=int(len(volume.tets)), nodes=int(volume.node_count),
         contact_size_mm=1e3 * h0 * 0.5 ** level,
