@@ -6,8 +6,8 @@ target of issue 20 is no frame over 50 ms.
 OMP_NUM_THREADS=1 is the default here (set it to 2 to see what two cores give). Drives the real window layer
 (:class:`tissuesim.viewer.app.ViewerApp`) in polyscope's offscreen EGL context (on a machine without GPU, Mesa's
 software renderer), or the :class:`~tissuesim.viewer.controller.Controller` alone with ``--no-draw`` or where that
-context cannot start (the output says so), with the default hybrid and the pin-head on a 4 mm patch, through a scripted session paced at
-60 frames/s like a window with vsync (a frame that ends early sleeps out the rest of its 1/60 s):
+context cannot start (the output says so), with the default hybrid and the pin-head on a 4 mm patch, through a
+scripted session paced at 60 frames/s like a window with vsync (a frame that ends early sleeps out its 1/60 s):
 
 1. start: the first frames (the mesh registered, shaders), then the model settles;
 2. drag: grab a node 35° down the side, drag it 2 cm in the camera plane (the camera looks straight down), release;
@@ -17,8 +17,8 @@ context cannot start (the output says so), with the default hybrid and the pin-h
 
 A frame's wall time is the pointer event plus ``ViewerApp.tick`` (the controller's steps, the upload of the new
 positions, the panel, the render). Per phase: median, p95 and the longest frame, with its event and where its time
-went; then every frame over 50 ms. The 100k sphere takes about 20 s to build, so it runs only when asked. Asserts
-nothing.
+went; then the frames over 50 ms by phase and event. The 100k sphere takes about 20 s to build, so it runs only when
+asked. Asserts nothing.
 """
 
 from __future__ import annotations
@@ -50,7 +50,8 @@ INTERACTION = ("drag", "cut", "drag again")
 
 class Session:
     """Scripted frames over ``controller`` (and ``app``, or None: the controller alone); ``frames`` holds one dict per
-    frame: phase, event, and seconds of the event, the callback (steps, upload, panel), the render, the whole."""
+    frame: phase, event, steps run, the mean step [s], and seconds of the event, of the callback (steps, upload,
+    panel), of the render and of the whole frame."""
 
     def __init__(self, controller: Controller, app: ViewerApp | None):
         self.controller, self.app, self.frames, self.notices = controller, app, [], []
@@ -63,13 +64,14 @@ class Session:
         handled = time.perf_counter()
         if self.app is not None:
             self.app.tick()
-            steps, callback = self.app.stats.steps, self.app.callback_seconds
+            stats, callback = self.app.stats, self.app.callback_seconds
         else:  # the window's callback hands the controller the wall time since the last frame
-            steps = self.controller.advance(0.0 if self._last is None else start - self._last).steps
+            stats = self.controller.advance(0.0 if self._last is None else start - self._last)
             callback = time.perf_counter() - handled
         self._last, end = start, time.perf_counter()
-        self.frames.append({"phase": phase, "event": event, "steps": steps, "event_s": handled - start,
-                            "callback_s": callback, "render_s": end - handled - callback, "s": end - start})
+        self.frames.append({"phase": phase, "event": event, "steps": stats.steps, "step_s": stats.step_seconds,
+                            "event_s": handled - start, "callback_s": callback,
+                            "render_s": None if self.app is None else end - handled - callback, "s": end - start})
         if self.controller.notice and self.controller.notice not in self.notices:
             self.notices.append(self.controller.notice)
         time.sleep(max(FRAME - (end - start), 0.0))
@@ -115,6 +117,7 @@ def on_sphere(rest: np.ndarray, point: np.ndarray) -> np.ndarray:
 
 
 def run(size: int, args, drawing: bool) -> tuple[Session, dict]:
+    """The scripted session on a sphere of ``size`` vertices, drawn or not; (the session, what the cut did)."""
     hybrid = HybridMesh.build(models.sphere(size), fine_volume=False)
     controller = Controller(hybrid)
     controller.configure(radius=RADIUS)
@@ -137,16 +140,20 @@ def run(size: int, args, drawing: bool) -> tuple[Session, dict]:
 
 
 def describe(i: int, f: dict) -> str:
-    return (f"#{i} {f['event']} {1e3 * f['s']:.1f} ms (event {1e3 * f['event_s']:.1f}, callback "
-            f"{1e3 * f['callback_s']:.1f} with {f['steps']} steps, render {1e3 * f['render_s']:.1f})")
+    """Frame ``i``: its event and where its time went [ms]."""
+    render = "" if f["render_s"] is None else f", render {1e3 * f['render_s']:.1f}"
+    return (f"#{i} {f['event']} {1e3 * f['s']:.1f} ms (pointer event {1e3 * f['event_s']:.1f}, callback "
+            f"{1e3 * f['callback_s']:.1f} with {f['steps']} steps{render})")
 
 
-def report(size: int, session: Session, cut: dict) -> float:
-    """Print the phases of ``session``; the longest frame of the interaction phases [s]."""
+def report(size: int, session: Session, cut: dict) -> dict:
+    """Print the phases of ``session``; the median and longest frame [s] of the interaction phases, the frames over
+    TARGET and all frames there."""
     frames = session.frames
     edge = 1e3 * session.controller.solver.hybrid.surface.mean_edge_length
-    print(f"\n## sphere of {size} vertices (mean edge {edge:.2f} mm): {len(frames)} frames, the cut {cut['moves']} moves "
-          f"splitting {cut['split']} triangles")
+    step = 1e3 * np.median([f["step_s"] for f in frames])
+    print(f"\n## sphere of {size} vertices (mean edge {edge:.2f} mm, a step {step:.1f} ms): {len(frames)} frames, "
+          f"the cut {cut['moves']} moves splitting {cut['split']} triangles")
     for phase in dict.fromkeys(f["phase"] for f in frames):
         index = [i for i, f in enumerate(frames) if f["phase"] == phase]
         ms = 1e3 * np.array([frames[i]["s"] for i in index])
@@ -189,8 +196,8 @@ def main(argv=None) -> int:
     args.sizes = [10000] if args.quick else args.sizes
     args.drag_frames, args.settle = (30, 10) if args.quick else (60, 30)
     drawing, renderer = (False, "none: the controller alone (--no-draw)") if args.no_draw else start_renderer()
-    print(f"renderer: {renderer}; OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}; hybrid, pin-head {1e3 * RADIUS:.0f} mm patch; "
-          f"frames paced at {1 / FRAME:.0f} Hz")
+    print(f"renderer: {renderer}; OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}; hybrid, pin-head "
+          f"{1e3 * RADIUS:.0f} mm patch; frames paced at {1 / FRAME:.0f} Hz")
     rows = {size: report(size, *run(size, args, drawing)) for size in args.sizes}
     print("\n| M_S vertices | while dragging and cutting: median frame ms | longest frame ms (target <= 50) "
           "| frames over 50 ms |\n|---:|---:|---:|---:|")
