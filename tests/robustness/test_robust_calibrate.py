@@ -28,7 +28,7 @@ def test_the_calibration_model_is_named(tmp_path, capsys, monkeypatch):
     def stop(*args, **kwargs):
         raise KeyboardInterrupt     # the notice comes before any calibration run
 
-    monkeypatch.setattr("tissuesim.solvers.calibration.calibrate", stop)
-    monkeypatch.setattr("tissuesim.solvers.calibration.calibration_case", stop)
+    monkeypatch.setattr("tissuesim.experiments.calibration.calibrate", stop)
+    monkeypatch.setattr("tissuesim.experiments.calibration.calibration_case", stop)
     assert cli.main(["calibrate", "--bundle", str(path), "--method", "mass-spring"]) == 130
     assert "calibrating on " + str(path) + ", NOT the built-in cube" in capsys.readouterr().err

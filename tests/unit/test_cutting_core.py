@@ -198,14 +198,14 @@ def test_the_walk_finds_the_connected_rows_in_the_box_through_a_wound(cube):
     from scipy.sparse.csgraph import connected_components
 
     from tissuesim.cutting.buffers import CutSurface
-    from tissuesim.cutting.wound import wound_pairs
+    from tissuesim.mesh.coincident import coincident_pairs
 
     rest, triangles = cube
     slit = _stroke(rest, triangles, np.linspace(-0.02, 0.02, 9))[-1]
     surface = CutSurface(slit.rest, slit.positions, slit.velocities, slit.triangles)
     tri, p = surface.triangles, surface.positions
     group = np.arange(len(p))
-    pairs = wound_pairs(surface.rest)
+    pairs = coincident_pairs(surface.rest)
     group[pairs[:, 1]] = pairs[:, 0]
     box_lo, box_hi = p[tri].min(axis=1), p[tri].max(axis=1)
     rng = np.random.default_rng(1)

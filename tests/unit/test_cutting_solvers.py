@@ -5,7 +5,8 @@ import pytest
 
 import tissuesim
 from tissuesim.cutting.invariants import check_cut_invariants
-from tissuesim.cutting.wound import incision_line, scripted_incision, wound_gap, wound_pairs
+from tissuesim.cutting.wound import incision_line, scripted_incision, wound_gap
+from tissuesim.mesh.coincident import coincident_pairs
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
 from tissuesim.pbd.compliance import relative_shell_compliance
@@ -139,7 +140,7 @@ def test_control_nodes_on_the_cut_are_released_on_both_sides(cube):
     released = sum(scalpel.move(target + [x, 1e-7, 0.0005]).control_released for x in (-0.002, 0.002, 0.006))
     assert released >= 1
     h = solver.hybrid
-    pairs = wound_pairs(h.surface.vertices)
+    pairs = coincident_pairs(h.surface.vertices)
     on_cut = np.unique(pairs)
     was_control = np.intersect1d(on_cut, cube.control)
     assert was_control.size >= 1
@@ -158,7 +159,7 @@ def test_embedded_surface_is_cut_but_cannot_open_while_the_hybrid_does(cube):
                                             axis=1)))
         solver.solve_static(node, [0.0, 0.1, 0.0], max_steps=500)
         gaps[method] = wound_gap(solver)
-    assert wound_pairs(solver.rest_positions).size > 0
+    assert coincident_pairs(solver.rest_positions).size > 0
     assert gaps["embedded"] < 1e-12
     assert gaps["hybrid"] > 1e-4
 

@@ -9,7 +9,7 @@ import pytest
 from tissuesim import HybridMesh
 from tissuesim.mesh import models
 from tissuesim.solvers import calibrated
-from tissuesim.solvers.calibration import CalibrationResult, calibration_case, evaluate, write_calibrated
+from tissuesim.experiments.calibration import CalibrationResult, calibration_case, evaluate, write_calibrated
 
 
 @pytest.fixture(scope="module")

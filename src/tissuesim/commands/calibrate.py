@@ -1,7 +1,7 @@
 """``tissuesim calibrate``: recompute the free scalar of hybrid, pbd and mass-spring against the fine FEM.
 
 The calibration case is fixed (cube model, 1 N pressure on the load node, RMSE over 50 nodes; see
-:mod:`tissuesim.solvers.calibration`). Prints one line per method and form; ``--write`` freezes the values in
+:mod:`tissuesim.experiments.calibration`). Prints one line per method and form; ``--write`` freezes the values in
 :mod:`tissuesim.solvers.calibrated`. ``--bundle`` reuses a hybrid mesh saved by ``tissuesim build -o``; a bundle of
 another model than the built-in cube is calibrated on with a notice saying so, and refused with ``--write``. An
 unknown ``--method`` or ``--form``, or a selection with nothing to calibrate, is refused.
@@ -34,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ..mesh import models
     from ..mesh.hybrid import HybridMesh
-    from ..solvers.calibration import CALIBRATION_MODEL, PARAMETERS, calibrate, calibration_case, write_calibrated
+    from ..experiments.calibration import CALIBRATION_MODEL, PARAMETERS, calibrate, calibration_case, write_calibrated
 
     jobs = _jobs(args.method, args.form, PARAMETERS)
     cube = models.model(CALIBRATION_MODEL)

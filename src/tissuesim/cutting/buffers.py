@@ -20,7 +20,7 @@ import numpy as np
 from .core import CutResult, plan_cut, CutPlan
 from .fans import VertexFans
 from .sweep import Sweep, candidate_triangles, check_snap
-from .wound import wound_pairs
+from ..mesh.coincident import coincident_pairs
 
 #: Capacity growth factor of a buffer that runs out of rows, and the spare rows a buffer starts with (a fraction of
 #: its length, at least :data:`MIN_SPARE`).
@@ -95,7 +95,7 @@ class CutSurface:
         self.fans = VertexFans(self.triangles, len(self.rest))
         # the duplicates of earlier cuts (this surface may have been cut before these buffers were made): the
         # vertices that share a rest position, so the walk crosses their wounds too
-        self.fans.record([], np.zeros((0, 3), dtype=np.int64), copies=wound_pairs(self.rest)[:, ::-1].tolist())
+        self.fans.record([], np.zeros((0, 3), dtype=np.int64), copies=coincident_pairs(self.rest)[:, ::-1].tolist())
 
     def sync(self, positions: np.ndarray, velocities: np.ndarray) -> None:
         """Use the solver's current ``positions`` and ``velocities`` (adopted by a copy if they are not ours)."""

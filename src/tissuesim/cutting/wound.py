@@ -15,6 +15,7 @@ import time
 import numpy as np
 
 from ..errors import SolverError
+from ..mesh.coincident import coincident_pairs
 from .core import DEFAULT_SNAP
 
 #: The incision of the experiment: 3 cm long, in 15 moves of 2 mm.
@@ -56,19 +57,9 @@ def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = I
     return {"moves": reports, "seconds": time.perf_counter() - clock, "line": (start, end)}
 
 
-def wound_pairs(rest: np.ndarray) -> np.ndarray:
-    """``(p, 2) int64`` vertex pairs with identical rest positions (the sides of a cut): (the lowest-numbered vertex
-    of the position, another one), in lexicographic order of the position."""
-    order = np.lexsort((rest[:, 2], rest[:, 1], rest[:, 0]))     # stable: a position's vertices stay in index order
-    ordered = rest[order]
-    repeat = np.concatenate([[False], np.all(ordered[1:] == ordered[:-1], axis=1)])
-    leader = order[np.maximum.accumulate(np.where(repeat, 0, np.arange(len(order))))]
-    return np.stack([leader[repeat], order[repeat]], axis=1).astype(np.int64)
-
-
 def wound_openings(solver) -> np.ndarray:
     """``(p,) float64`` the current distance [m] between the two sides at each vertex pair of the wound."""
-    pairs = wound_pairs(solver.rest_positions)
+    pairs = coincident_pairs(solver.rest_positions)     # the two sides of the cut start at one point
     x = solver.positions
     return np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
 

@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..loads import lumped_areas
+from ..mesh.coincident import coincident_pairs
 
 #: Largest prestrain accepted: beyond it the small-strain release is no longer a fair model of a retracting capsule.
 MAX_PRESTRAIN = 0.3
@@ -75,10 +76,8 @@ def copy_origin(rest: np.ndarray) -> np.ndarray:
     """``(n,) int64`` for each vertex of a cut surface, the vertex it is a copy of: the first of those sharing its rest
     position ``(n, 3)`` [m] (a cut duplicates a vertex in place), itself for the others. Read from the mesh alone,
     so a solver built on an already cut mesh knows its wound too."""
-    from ..cutting.wound import wound_pairs
-
     origin = np.arange(len(rest))
-    pairs = wound_pairs(rest)
+    pairs = coincident_pairs(rest)
     origin[pairs[:, 1]] = pairs[:, 0]
     return origin
 

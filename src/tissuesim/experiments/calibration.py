@@ -23,8 +23,8 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..errors import SolverError
-from ..experiments.protocol import RMSE_SAMPLES, load_node, rms_displacement, rmse, sample_nodes
-from .registry import make_solver
+from ..solvers.registry import make_solver
+from .protocol import RMSE_SAMPLES, load_node, rms_displacement, rmse, sample_nodes
 
 CALIBRATION_MODEL = "cube"
 CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure
@@ -65,7 +65,7 @@ def calibration_case(hybrid_mesh):
     surface = hybrid_mesh.surface
     node = load_node(surface.vertices, surface.triangles)
     samples = sample_nodes(surface.vertices, node, RMSE_SAMPLES)
-    from ..experiments.reference import contact_reference, default_cache_dir
+    from .reference import contact_reference, default_cache_dir
 
     reference = contact_reference(hybrid_mesh, node, CALIBRATION_RADIUS, cache_dir=default_cache_dir())
     return node, samples, surface.vertices + reference.displacements(CALIBRATION_FORCE)
@@ -127,7 +127,7 @@ def calibrate(method: str, hybrid_mesh, *, form: str | None = None, case=None, x
 def write_calibrated(results, path: Path | None = None) -> Path:
     """Rewrite :mod:`tissuesim.solvers.calibrated` with ``results`` (a list of :class:`CalibrationResult`) merged
     into the values already there; returns the file written."""
-    from . import calibrated
+    from ..solvers import calibrated
 
     table = {m: dict(forms) for m, forms in calibrated.CALIBRATED.items()}
     for r in results:
