@@ -30,7 +30,7 @@ import numpy as np
 import tissuesim
 from tissuesim.cutting import DEFAULT_SNAP, Sweep, cut_surface
 from tissuesim.cutting.buffers import CutSurface
-from tissuesim.cutting.wound import incision_line, scripted_incision
+from tissuesim.experiments.wound import incision_line, scripted_incision
 from tissuesim.mesh import models
 
 

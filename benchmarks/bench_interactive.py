@@ -36,7 +36,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np
 
 from tissuesim import HybridMesh, Scalpel, make_solver
-from tissuesim.cutting.wound import INCISION_DEPTH, PULL_FORCE, incision_line
+from tissuesim.experiments.wound import INCISION_DEPTH, PULL_FORCE, incision_line
 from tissuesim.mesh import models
 
 RADIUS = 0.004          # the pin-head's contact patch [m]

@@ -33,7 +33,7 @@ import numpy as np
 
 from bench_interactive import GRAB_POLAR, RADIUS, surface_node
 from tissuesim import HybridMesh
-from tissuesim.cutting.wound import incision_line
+from tissuesim.experiments.wound import incision_line
 from tissuesim.mesh import models
 from tissuesim.viewer.app import WINDOW_SIZE, ViewerApp
 from tissuesim.viewer.controller import Controller

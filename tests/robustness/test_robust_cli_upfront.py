@@ -9,7 +9,7 @@ import pytest
 
 from tissuesim import HybridMesh
 from tissuesim.cli import main
-from tissuesim.cutting.wound import scripted_incision
+from tissuesim.experiments.wound import scripted_incision
 from tissuesim.mesh import models
 from tissuesim.solvers import make_solver
 from tissuesim.viewer import figures

@@ -15,7 +15,7 @@ import pytest
 
 import tissuesim
 from tissuesim.errors import BundleError
-from tissuesim.cutting.wound import scripted_incision
+from tissuesim.experiments.wound import scripted_incision
 from tissuesim.mesh import models
 from tissuesim.mesh.hybrid import SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY
 

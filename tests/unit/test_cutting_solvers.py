@@ -5,7 +5,7 @@ import pytest
 
 import tissuesim
 from tissuesim.cutting.invariants import check_cut_invariants
-from tissuesim.cutting.wound import incision_line, scripted_incision, wound_gap
+from tissuesim.experiments.wound import incision_line, scripted_incision, wound_gap
 from tissuesim.mesh.coincident import coincident_pairs
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models

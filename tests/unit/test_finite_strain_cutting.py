@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import tissuesim
-from tissuesim.cutting.wound import incision_line
+from tissuesim.experiments.wound import incision_line
 
 
 @pytest.fixture(scope="module")

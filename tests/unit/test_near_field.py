@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import tissuesim
-from tissuesim.cutting.wound import scripted_incision
+from tissuesim.experiments.wound import scripted_incision
 from tissuesim.errors import SolverError, TissuesimWarning
 from tissuesim.experiments.protocol import load_node
 from tissuesim.fem.quadratic import QuadraticFEM

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import tissuesim
-from tissuesim.cutting.wound import scripted_incision, unloaded_openings, wound_gap
+from tissuesim.experiments.wound import scripted_incision, unloaded_openings, wound_gap
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
 from tissuesim.pbd.prestress import area_gradient, copy_origin, release_forces

@@ -250,7 +250,7 @@ def test_a_step_that_fails_is_reported_and_the_simulation_restarts_at_rest(hybri
 
 
 def test_prestrain_reaches_the_methods_that_take_one_and_a_cut_gapes_in_the_viewer(hybrid):
-    from tissuesim.cutting.wound import wound_gap
+    from tissuesim.experiments.wound import wound_gap
 
     c = Controller(hybrid, settings=Settings(prestrain=0.05))
     assert c.solver.prestrain == 0.05

@@ -74,7 +74,7 @@ def test_render_command_writes_the_figure_and_links_it_from_the_report(tmp_path,
 
 
 def test_the_incision_image_shows_the_gap(tmp_path):
-    from tissuesim.cutting.wound import open_wound, scripted_incision
+    from tissuesim.experiments.wound import open_wound, scripted_incision
     from tissuesim.viewer.figures import OPENING_FORCE, incision_figure, render_panels
 
     hybrid = HybridMesh.build(models.cube(600), fine_volume=False)

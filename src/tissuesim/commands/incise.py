@@ -1,6 +1,6 @@
 """``tissuesim incise [MODELS] --output DIR``: the paper's Fig 16 incision on every surface method.
 
-For each model and method: a scripted 3 cm incision across the top (:mod:`tissuesim.cutting.wound`), cut
+For each model and method: a scripted 3 cm incision across the top (:mod:`tissuesim.experiments.wound`), cut
 progressively in 15 moves, then a small force beside the cut, solved to equilibrium. Written to DIR:
 
 * ``<model>_<method>.obj``: the cut surface at its deformed positions;
@@ -140,7 +140,7 @@ def _check_inputs_kept(specs, output: Path, names: list[str]) -> None:
 def _check_fits(name: str, surface) -> None:
     """Refuse a model the scripted incision cannot start on, by the test :meth:`Scalpel.press` makes: the blade,
     pressed where the incision starts, must reach the surface."""
-    from ..cutting.wound import INCISION_DEPTH, INCISION_LENGTH, incision_line
+    from ..experiments.wound import INCISION_DEPTH, INCISION_LENGTH, incision_line
     from ..errors import SolverError
     from ..mesh.maps import closest_on_surface
 
@@ -168,7 +168,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
     from ..cutting.invariants import check_cut_invariants
     from ..cutting.solver_update import anchored_nodes, refusal
-    from ..cutting.wound import open_wound, pull_node, scripted_incision, unloaded_openings
+    from ..experiments.wound import open_wound, pull_node, scripted_incision, unloaded_openings
     from ..experiments.inputs import check_free_node
     from ..solvers import make_solver
     from ..solvers.registry import solver_options

@@ -6,7 +6,7 @@ bar [mm] shared by the panels, so colours compare across them.
 
 * ``deformation_<model>.png`` (Fig 11): at rest, under tension and under pressure, at the experiment's load node
   (:func:`tissuesim.experiments.protocol.load_node`) and a force of :data:`FIGURE_FORCE` [N], solved quasi-statically.
-* ``incision_<model>.png`` (Fig 16): the scripted incision of :mod:`tissuesim.cutting.wound` (a straight stroke
+* ``incision_<model>.png`` (Fig 16): the scripted incision of :mod:`tissuesim.experiments.wound` (a straight stroke
   across the top), closed, then opened by :data:`OPENING_FORCE` [N] sideways beside the cut's middle (that
   module's pull), seen close up, the cut edges drawn red. Needs ``tissuesim.Scalpel``.
 
@@ -134,9 +134,9 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
 
 
 def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
-    """Fig 16 for one model: the scripted incision (:mod:`tissuesim.cutting.wound`), closed, then pulled open by
+    """Fig 16 for one model: the scripted incision (:mod:`tissuesim.experiments.wound`), closed, then pulled open by
     ``force`` [N] beside its middle; the camera frames the wound."""
-    from ..cutting.wound import open_wound, pull_node, scripted_incision, wound_gap
+    from ..experiments.wound import open_wound, pull_node, scripted_incision, wound_gap
     from ..experiments.inputs import check_free_node
     from ..solvers.registry import make_solver
 

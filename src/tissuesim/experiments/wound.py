@@ -14,9 +14,10 @@ import time
 
 import numpy as np
 
+from ..cutting.core import DEFAULT_SNAP
 from ..errors import SolverError
 from ..mesh.coincident import coincident_pairs
-from .core import DEFAULT_SNAP
+from ..scalpel import Scalpel
 
 #: The incision of the experiment: 3 cm long, in 15 moves of 2 mm.
 INCISION_LENGTH = 0.03
@@ -45,8 +46,6 @@ def incision_line(rest: np.ndarray, *, length: float = INCISION_LENGTH) -> tuple
 def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = INCISION_MOVES,
                       depth: float = INCISION_DEPTH, snap: float = DEFAULT_SNAP) -> dict:
     """Cut the top of ``solver``'s model; ``{"moves": [CutReport...], "seconds": total, "line": (start, end)}``."""
-    from ..scalpel import Scalpel
-
     start, end = incision_line(solver.rest_positions, length=length)
     scalpel = Scalpel(solver, depth=depth, snap=snap)
     clock = time.perf_counter()
