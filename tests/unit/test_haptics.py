@@ -2,6 +2,7 @@
 virtual coupling; once it settles, the force the loop exchanges and where it puts the node match the full solver's
 static answer. Refusals, the visual state left as it was, and the thread's bookkeeping (never its timing)."""
 
+import threading
 import time
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 
 from tissuesim import BoundaryConditionError, HybridMesh, SolverError, TissuesimError, make_solver
 from tissuesim.haptics import HapticLoop, HapticProcess, local_response
+from tissuesim.haptics.process import REPORT
 from tissuesim.mesh import models
 
 RADIUS = 0.004  # m: the pin-head's tip
@@ -267,3 +269,94 @@ def test_servo_process_exchanges_the_thread_loops_force(cube):
         HapticProcess(solver, device=UnpluggedDevice(), stiffness=COUPLING).start()
     with pytest.raises(SolverError, match="device must be"):
         HapticProcess(solver, device=None, stiffness=COUPLING)
+
+
+def test_a_new_grab_starts_at_zero_force_and_a_relinearisation_keeps_it(cube):
+    solver = make_solver("hybrid", cube)
+    node, other = top_centre(cube), top_centre(cube, (0.01, 0.0, 0.0))
+    tool = np.array(cube.surface.vertices[node])
+    loop = HapticLoop(solver, position=lambda: tool, apply_force=lambda force: None, stiffness=COUPLING,
+                      radius=RADIUS)
+    loop.grab(node)
+    tool += [0.0, 0.0, 0.005]
+    loop.tick()
+    assert loop.sync()[2] > 0  # node pulled up
+    assert loop.grab(other) == other  # the tool where it is: the new coupling's force is zero
+    # before the next tick the latest force is the old grab's: the new node gets none of it
+    assert np.array_equal(loop.sync(), np.zeros(3))
+    assert solver.load[0] == other and np.array_equal(solver.load[1], np.zeros(3))
+    tool += [0.0, 0.0, 0.002]
+    pulled = loop.tick().copy()
+    assert pulled[2] > 0 and np.array_equal(loop.sync(), pulled)
+    # finite strain: a sync measures the tangent again, the same grab, so the next sync pushes the same force
+    solver = make_solver("hybrid", cube, material="neo-hookean")
+    tool[:] = cube.surface.vertices[node]
+    loop = HapticLoop(solver, position=lambda: tool, apply_force=lambda force: None, stiffness=COUPLING,
+                      radius=RADIUS)
+    loop.grab(node)
+    tool += [0.0, 0.0, 0.004]
+    pulled = loop.tick().copy()
+    assert pulled[2] > 0 and np.array_equal(loop.sync(), pulled)
+    assert np.array_equal(loop.sync(), pulled)
+
+
+def test_grab_takes_the_tool_position_the_servo_thread_read(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    tool = np.array(cube.surface.vertices[node])
+    readers = []
+
+    def position():
+        readers.append(threading.current_thread().name)
+        return tool
+
+    loop = HapticLoop(solver, position=position, apply_force=lambda force: None, stiffness=COUPLING,
+                      radius=RADIUS)
+    with loop:
+        assert loop.grab() == node and loop.grab(node) == node
+    assert set(readers) == {"tissuesim-haptics"}
+    assert np.array_equal(loop.offset, tool - loop.response.origin)
+    # no servo ticking (stopped): the grab reads the device once itself, on the caller's thread
+    readers.clear()
+    loop.grab(node)
+    assert readers == [threading.current_thread().name]
+
+
+def test_a_bad_position_is_quoted_as_it_was_read(cube):
+    readings = []
+
+    def flaky():  # returns two coordinates, then fails: the error must quote the first reading
+        readings.append(None)
+        if len(readings) > 1:
+            raise OSError("device read failed")
+        return [0.0, 0.0]
+
+    loop = HapticLoop(make_solver("hybrid", cube), position=flaky, apply_force=lambda force: None,
+                      stiffness=COUPLING)
+    with pytest.raises(SolverError, match=r"3 coordinates \[m\], got \[0.0, 0.0\]"):
+        loop.tick()
+    assert len(readings) == 1
+
+
+def test_servo_process_couples_a_node_grabbed_before_it_starts(cube):
+    solver = make_solver("hybrid", cube)
+    node = top_centre(cube)
+    start = cube.surface.vertices[node]
+    loop = HapticProcess(solver, device=RisingDevice(start), stiffness=COUPLING, radius=RADIUS)
+    assert loop.grab(node) == node  # by index: no tool position needed to choose it
+    assert loop.offset is None and np.array_equal(loop.sync(), np.zeros(3))  # nothing pulls yet
+    with loop:  # the first tick reads the tool at start: the coupling begins there, at zero force
+        assert np.array_equal(loop.offset, start - loop.response.origin)
+        while loop.ticks < 60:
+            time.sleep(0.01)
+        force, held = loop.sync(), loop.response
+        loop.grab(node)  # again: the force of the previous grab is not pushed
+        assert np.array_equal(loop.sync(), np.zeros(3))
+    twin = HapticLoop(solver, position=lambda: start + (0.0, 0.0, 0.002), apply_force=lambda force: None,
+                      stiffness=COUPLING, radius=RADIUS)
+    twin._hold(held, start - held.origin)
+    assert force[2] > 0 and np.array_equal(force, twin.tick())
+    # the servo process is the one writer of its report: a release leaves it alone
+    report = loop._shared[REPORT].copy()
+    loop.release()
+    assert np.array_equal(loop._shared[REPORT], report)

@@ -3,7 +3,7 @@ from the grabbed region's 3×3 compliance and a virtual coupling spring, while t
 at its own rate and syncs the force into it.
 
     loop = HapticLoop(solver, position=device.position, apply_force=device.set_force, stiffness=200.0, radius=0.004)
-    loop.grab()                 # the node nearest the tool; four static solves
+    loop.grab()                 # the node nearest the tool (read here: no tick yet); four static solves
     with loop:                  # the servo thread runs inside the block
         while running:
             loop.sync()         # the latest force becomes the solver's load

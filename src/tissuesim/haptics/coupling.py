@@ -33,11 +33,14 @@ SPIN = 2e-4
 
 @dataclass(frozen=True)
 class Coupling:
-    """What a tick needs: f = gain (p − anchor); never changed once published."""
+    """What a tick needs: f = gain (p − anchor); never changed once published. ``grab`` numbers the grab it
+    belongs to (a relinearisation keeps it): a tick reports it with its force, so a force computed for an earlier
+    grab never reaches the node grabbed since."""
 
     node: int
     anchor: np.ndarray  # (3,) a + x0 [m]
     gain: np.ndarray  # (3, 3) (I + k_c C)⁻¹ k_c [N/m]
+    grab: int
 
 
 @dataclass(frozen=True)
@@ -60,7 +63,8 @@ class Coupler(ABC):
 
     Attributes:
         response: the :class:`~.response.LocalResponse` of the grabbed node, or None.
-        offset: ``(3,) float64`` a [m]: the tool's offset from the grabbed node at the grab, or None.
+        offset: ``(3,) float64`` a [m]: the tool's offset from the grabbed node at the grab, or None (nothing
+            held, or a node grabbed by index before the servo loop read the tool: nothing pulls until it has).
     """
 
     def __init__(self, solver, *, stiffness: float, radius: float | None, rate: float):
@@ -74,19 +78,29 @@ class Coupler(ABC):
         self.response = None
         self.offset = None
         self._node = -1
+        self._grab = 0  # the number of the latest grab, published with its coupling
 
     def grab(self, node: int | None = None) -> int:
         """Hold M_S ``node``, or (None) the node a :class:`~tissuesim.PinHead` would snap to from the tool
         position; returns it. Measures the node's local response (four static solves; the solver's visual state
-        is put back), starts coupling at zero force and withdraws the solver's load. A refused node (out of range,
-        fixed, a patch reaching the support) raises the solver's error and changes nothing."""
+        is put back), starts coupling at zero force (a force the servo loop computed for an earlier grab is not
+        synced) and withdraws the solver's load. The tool position is the one the servo loop last read (see the
+        subclass for before its first tick). A refused node (out of range, fixed, a patch reaching the support)
+        raises the solver's error and changes nothing."""
         tool = self._tool_position()
+        if tool is not None and not np.all(np.isfinite(tool)):
+            raise SolverError(f"the position callback must return finite coordinates [m], got {tool.tolist()}")
         if node is None:
+            if tool is None:
+                raise SolverError(f"grab() snaps to the node nearest the tool, but the {type(self).__name__}'s "
+                                  "servo loop has not read the tool position: start() it first, or grab a node by "
+                                  "its index")
             from ..interaction import PinHead
 
             node = PinHead(self.solver, stiffness=self.stiffness, radius=self.radius).grab(tool)
         response = local_response(self.solver, node, radius=self.radius)
-        self._hold(response, tool - response.origin)
+        self._grab += 1
+        self._hold(response, None if tool is None else tool - response.origin)
         self.solver.clear_load()
         return response.node
 
@@ -113,10 +127,15 @@ class Coupler(ABC):
         self._node = -1
         self.solver.clear_load()
 
-    def _hold(self, response, offset: np.ndarray) -> None:
-        gain = np.linalg.solve(np.eye(3) + self.stiffness * response.compliance, self.stiffness * np.eye(3))
+    def _hold(self, response, offset: np.ndarray | None) -> None:
+        """Couple the latest grab with ``response`` and ``offset`` a ``(3,)`` [m] (None: not known yet, the
+        servo applies no force)."""
         self.response, self.offset, self._node = response, offset, response.node
-        self._publish(Coupling(response.node, response.origin + offset, gain))
+        if offset is None:
+            self._publish(None)
+            return
+        gain = np.linalg.solve(np.eye(3) + self.stiffness * response.compliance, self.stiffness * np.eye(3))
+        self._publish(Coupling(response.node, response.origin + offset, gain, self._grab))
 
     @abstractmethod
     def _publish(self, coupling: Coupling | None) -> None:
@@ -124,11 +143,12 @@ class Coupler(ABC):
 
     @abstractmethod
     def _latest_force(self) -> np.ndarray:
-        """``(3,) float64`` the servo loop's latest force on the tissue [N], a copy."""
+        """``(3,) float64`` the servo loop's latest force on the tissue [N], a copy; zero when it was computed for
+        an earlier grab than the latest (its coupling's :attr:`Coupling.grab`)."""
 
     @abstractmethod
-    def _tool_position(self) -> np.ndarray:
-        """``(3,) float64`` the tool position [m] now."""
+    def _tool_position(self) -> np.ndarray | None:
+        """``(3,) float64`` the tool position [m] the servo loop last read, or None where it is not known."""
 
     @abstractmethod
     def _raise_error(self) -> None:
@@ -150,10 +170,11 @@ def coupling_force(coupling: Coupling | None, tool: np.ndarray, pulled: np.ndarr
 
 def read_tool(position, tool: np.ndarray) -> None:
     """``position()`` into ``tool`` ``(3,)`` [m], or a SolverError naming what it returned."""
+    value = position()  # once: a second call may return something else, or fail
     try:
-        tool[:] = position()
+        tool[:] = value
     except (TypeError, ValueError):
-        raise SolverError(f"the position callback must return 3 coordinates [m], got {position()!r}") from None
+        raise SolverError(f"the position callback must return 3 coordinates [m], got {value!r}") from None
 
 
 def serve(tick, stamp, stopping, period: float) -> None:

@@ -5,19 +5,27 @@ region's local response, while the visual loop steps the full solver at its own 
 Threads: only the servo thread calls ``position`` and ``apply_force``; only the caller's thread (the visual loop)
 calls the solver (:meth:`~.coupling.Coupler.grab`, :meth:`~.coupling.Coupler.sync`,
 :meth:`~.coupling.Coupler.release`). They share an immutable coupling (swapped whole: an attribute store is atomic)
-and the latest force, copied under a lock. CPython's GIL lets one thread run Python at a time, so a solver step
-that holds it delays the ticks (docs/haptics.md measures by how much); :class:`~.process.HapticProcess` runs the
-servo loop in a process of its own instead.
+and what a tick computed (the force, the grab it was computed for, the tool position it read), copied under a lock;
+a grab snaps from that tool position. The one exception: with no tick since the loop was made or stopped (a grab
+before :meth:`HapticLoop.start`, as in the package's example), no thread reads the device, so the grab calls
+``position`` once on the caller's thread; a device that may be read only in its servo callback must tick first.
+CPython's GIL lets one thread run Python at a time, so a solver step that holds it delays the ticks
+(docs/haptics.md measures by how much); :class:`~.process.HapticProcess` runs the servo loop in a process of its
+own instead.
 """
 
 from __future__ import annotations
 
 import threading
+import time
 
 import numpy as np
 
 from ..errors import SolverError
 from .coupling import DEFAULT_RATE, HISTORY, Coupler, Coupling, coupling_force, read_tool, serve, statistics
+
+#: How long [s] a grab waits for a just started servo thread's first reading of the tool.
+FIRST_TICK_TIMEOUT = 5.0
 
 
 class HapticLoop(Coupler):
@@ -26,7 +34,8 @@ class HapticLoop(Coupler):
     Args:
         solver: a :class:`~tissuesim.solvers.base.Solver` with a static solve (any method; the FEM-based and the
             xpbd layer solve directly, and are the cheap ones to grab with).
-        position: callable returning the tool position ``(3,)`` [m], called once per tick on the servo thread.
+        position: callable returning the tool position ``(3,)`` [m], called once per tick on the servo thread (and
+            once by a grab before any tick, on the caller's thread).
         apply_force: callable receiving the force on the tool ``(3,) float64`` [N] (−f); the array is reused by the
             next tick: copy what you keep.
         stiffness: k_c, the virtual coupling's stiffness [N/m].
@@ -48,6 +57,9 @@ class HapticLoop(Coupler):
         self._coupling: Coupling | None = None
         self._lock = threading.Lock()
         self._latest = np.zeros(3)  # f on the tissue [N], written by ticks under the lock
+        self._latest_grab = 0  # the grab it was computed for (0: none)
+        self._latest_tool = np.zeros(3)  # the tool position it was computed from [m]
+        self._ticked = threading.Event()  # set by a tick: _latest_tool holds a reading; cleared by start and stop
         self._tool, self._pulled, self._force, self._device = (np.zeros(3) for _ in range(4))
         self._times = np.zeros(HISTORY)
         self.ticks = 0
@@ -65,6 +77,10 @@ class HapticLoop(Coupler):
         coupling_force(coupling, self._tool, self._pulled, self._force)
         with self._lock:
             self._latest[:] = self._force
+            self._latest_grab = 0 if coupling is None else coupling.grab
+            self._latest_tool[:] = self._tool
+        if not self._ticked.is_set():
+            self._ticked.set()
         np.negative(self._force, out=self._device)
         self._apply_force(self._device)
         return self._force
@@ -78,6 +94,7 @@ class HapticLoop(Coupler):
         if self.running:
             raise SolverError("the haptic loop is already running; stop() it before starting it again")
         self._stop.clear()
+        self._ticked.clear()
         self._error = None
         self.ticks, self._late = 0, 0
         self._thread = threading.Thread(target=self._serve, name="tissuesim-haptics", daemon=True)
@@ -89,6 +106,7 @@ class HapticLoop(Coupler):
         self._stop.set()
         if self._thread is not None:
             self._thread.join()
+        self._ticked.clear()  # the device is no longer read: a grab reads it afresh
         self._raise_error()
 
     def __enter__(self) -> HapticLoop:
@@ -114,19 +132,26 @@ class HapticLoop(Coupler):
 
     def _publish(self, coupling: Coupling | None) -> None:
         self._coupling = coupling
-        if coupling is None:
-            with self._lock:
-                self._latest[:] = 0.0
 
     def _latest_force(self) -> np.ndarray:
         with self._lock:
+            if self._latest_grab != self._grab:
+                return np.zeros(3)
             return self._latest.copy()
 
     def _tool_position(self) -> np.ndarray:
+        """The tool position the latest tick read; before any tick (none since the loop was made or stopped),
+        ``position()`` once on the caller's thread, no other thread reading the device then."""
+        deadline = time.monotonic() + FIRST_TICK_TIMEOUT
+        while self.running and not self._ticked.wait(0.01):
+            if time.monotonic() > deadline:
+                raise SolverError(f"the haptic loop's servo thread has not read the tool position within "
+                                  f"{FIRST_TICK_TIMEOUT:g} s; check that its position callback returns")
+        if self._ticked.is_set():
+            with self._lock:
+                return self._latest_tool.copy()
         tool = np.zeros(3)
         read_tool(self._position, tool)
-        if not np.all(np.isfinite(tool)):
-            raise SolverError(f"the position callback must return finite coordinates [m], got {tool.tolist()}")
         return tool
 
     def _raise_error(self) -> None:

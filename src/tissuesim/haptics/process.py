@@ -1,11 +1,16 @@
 """The servo loop in a process of its own: the visual loop's solver calls hold CPython's GIL for a whole step, which
 delays a servo thread in the same process (docs/haptics.md); a process has its own interpreter and GIL.
 
-The two processes share one block of float64 (a ``RawArray``): the coupling (anchor, 3×3 gain), written by the
-visual loop, and the latest force and tool position, written by the servo process, each behind a sequence counter
-(a seqlock: the writer makes it odd, writes, makes it even; a reader retries while it is odd or changed), and the
-tick times for the statistics. The device lives in the servo process: ``device`` is a picklable callable (a
-module-level function or class) that opens it there and returns its ``(position, apply_force)`` callbacks.
+The two processes share one block of float64 (a ``RawArray``): the coupling (anchor, 3×3 gain, the grab's
+number), written by the visual loop only, and the latest force, the tool position it came from and the grab it was
+computed for, written by the servo process only, each behind a sequence counter (a seqlock: its one writer makes
+it odd, writes, makes it even; a reader retries while it is odd or changed), and the tick times for the
+statistics. The device lives in the servo process: ``device`` is a picklable callable (a module-level function or
+class) that opens it there and returns its ``(position, apply_force)`` callbacks.
+
+The servo process is started with ``spawn``: a fresh interpreter that imports the caller's main module, so a script
+must start it under ``if __name__ == "__main__":`` (else its top-level code runs again in the servo process, and
+multiprocessing refuses to start a process from there).
 """
 
 from __future__ import annotations
@@ -18,12 +23,12 @@ import numpy as np
 from ..errors import SolverError
 from .coupling import DEFAULT_RATE, HISTORY, Coupler, Coupling, coupling_force, read_tool, serve, statistics
 
-# The shared block: [sequence, held, anchor (3), gain (9)] [sequence, force (3), tool (3)] [ticks, late, stop]
-# [tick start times (HISTORY)].
-SEQUENCE, HELD, ANCHOR, GAIN = 0, 1, slice(2, 5), slice(5, 14)
-FORCE_SEQUENCE, FORCE, TOOL, REPORT = 14, slice(15, 18), slice(18, 21), slice(15, 21)
-TICKS, LATE, STOP, TIMES = 21, 22, 23, slice(24, 24 + HISTORY)
-BLOCK = 24 + HISTORY
+# The shared block: [sequence, held, grab, anchor (3), gain (9)] [sequence, report: force (3), tool (3), grab]
+# [ticks, late, stop] [tick start times (HISTORY)].
+SEQUENCE, HELD, GRAB, ANCHOR, GAIN = 0, 1, 2, slice(3, 6), slice(6, 15)
+FORCE_SEQUENCE, REPORT, TOOL = 15, slice(16, 23), slice(19, 22)
+TICKS, LATE, STOP, TIMES = 23, 24, 25, slice(26, 26 + HISTORY)
+BLOCK = 26 + HISTORY
 #: How long [s] :meth:`HapticProcess.start` waits for the servo process's first tick (a fresh interpreter imports
 #: NumPy and this package, then opens the device).
 START_TIMEOUT = 60.0
@@ -32,7 +37,12 @@ START_TIMEOUT = 60.0
 class HapticProcess(Coupler):
     """A device-agnostic haptic loop on one solver, its servo loop in a process of its own (see the module
     docstring); the visual loop's side (:meth:`grab`, :meth:`sync`, :meth:`release`) is that of
-    :class:`~.loop.HapticLoop`.
+    :class:`~.loop.HapticLoop`. Start it under ``if __name__ == "__main__":`` in a script: the servo process
+    imports the main module afresh (``spawn``).
+
+    The tool position lives in the servo process: ``grab()`` (by position) needs it running; ``grab(node)`` before
+    :meth:`start` measures the node's response and couples it at the first tick (the offset a taken from the tool
+    position that tick reads: zero force).
 
     Args:
         solver: a :class:`~tissuesim.solvers.base.Solver` with a static solve.
@@ -77,12 +87,15 @@ class HapticProcess(Coupler):
                                         args=(self._block, self.device, self.period, self._errors))
         self._process.start()
         deadline = time.monotonic() + START_TIMEOUT
-        while self.ticks == 0 and self._process.is_alive() and time.monotonic() < deadline:
-            self._process.join(0.01)
+        while self._shared[FORCE_SEQUENCE] == 0.0 and self._process.is_alive() and time.monotonic() < deadline:
+            self._process.join(0.01)  # until the first tick's report (a tick that fails ends the process)
         if self.ticks == 0:
             self.stop()
             raise SolverError(f"the haptic process did not tick within {START_TIMEOUT:g} s; check that its device "
                               "opens and that its position callback returns")
+        if self.response is not None and self.offset is None and self._shared[FORCE_SEQUENCE] > 0.0:
+            # grabbed by index before the tool was known: couple from where the first tick found it
+            self._hold(self.response, self._reported_tool() - self.response.origin)
         return self
 
     def stop(self) -> None:
@@ -111,19 +124,20 @@ class HapticProcess(Coupler):
         shared[SEQUENCE] += 1.0
         shared[HELD] = coupling is not None
         if coupling is not None:
+            shared[GRAB] = coupling.grab
             shared[ANCHOR] = coupling.anchor
             shared[GAIN] = coupling.gain.ravel()
-        else:
-            shared[FORCE] = 0.0
         shared[SEQUENCE] += 1.0
 
     def _latest_force(self) -> np.ndarray:
-        return read_consistent(self._shared, FORCE_SEQUENCE, FORCE)
+        report = read_consistent(self._shared, FORCE_SEQUENCE, REPORT)
+        return report[:3] if report[6] == self._grab else np.zeros(3)
 
-    def _tool_position(self) -> np.ndarray:
-        if not self.running or self.ticks == 0:
-            raise SolverError("the tool position comes from the haptic process's device: start() it first, or "
-                              "grab a node by its index")
+    def _tool_position(self) -> np.ndarray | None:
+        """The tool position the servo process last reported, or None while it is not running."""
+        return self._reported_tool() if self.running else None
+
+    def _reported_tool(self) -> np.ndarray:
         return read_consistent(self._shared, FORCE_SEQUENCE, TOOL)
 
     def _raise_error(self) -> None:
@@ -143,23 +157,25 @@ def read_consistent(shared: np.ndarray, sequence: int, part: slice) -> np.ndarra
 
 def serve_device(block, device, period: float, errors) -> None:
     """The servo process: open ``device``, then tick every ``period`` [s] until the block's stop flag is set; an
-    error is put on ``errors`` as one line."""
+    error is put on ``errors`` as one line. Each tick reports its force, the tool position it read and the grab its
+    coupling belongs to (0: none held)."""
     try:
         position, apply_force = device()
         shared = np.frombuffer(block, dtype=np.float64)
         times = shared[TIMES]
-        tool, pulled, force, report = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(6)
+        tool, pulled, force, report = np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(7)
         held = [None, -1.0]  # the coupling in use, the sequence it was read at
 
         def tick() -> None:
             sequence = shared[SEQUENCE]
             if sequence != held[1] and sequence % 2.0 == 0.0:  # a new coupling, written whole: take it
                 anchor, gain, on = shared[ANCHOR].copy(), shared[GAIN].reshape(3, 3).copy(), shared[HELD]
+                grab = int(shared[GRAB])
                 if shared[SEQUENCE] == sequence:
-                    held[:] = Coupling(-1, anchor, gain) if on else None, sequence
+                    held[:] = Coupling(-1, anchor, gain, grab) if on else None, sequence
             read_tool(position, tool)
             coupling_force(held[0], tool, pulled, force)
-            report[:3], report[3:] = force, tool
+            report[:3], report[3:6], report[6] = force, tool, 0 if held[0] is None else held[0].grab
             shared[FORCE_SEQUENCE] += 1.0
             shared[REPORT] = report
             shared[FORCE_SEQUENCE] += 1.0
