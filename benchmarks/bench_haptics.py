@@ -18,8 +18,9 @@ for each case over ``--seconds``: the ticks per second, the interval between tic
 CPython's GIL lets one thread run Python at a time. A solver call on the main thread that holds the GIL (NumPy
 and Numba code, CHOLMOD through cvxopt) delays the servo thread until it returns or the interpreter switches
 threads (every 5 ms by default: case 3 lowers that), so the longest interval grows with the step's cost. Kernels
-that release the GIL (Numba ``nogil=True``, a solve outside the GIL) would remove the delay for the thread; case 4
-avoids it: the servo loop in a process of its own, reading the coupling from shared memory. Asserts nothing.
+that release the GIL (Numba ``nogil=True``, a sparse solver that releases it; cvxopt's CHOLMOD does not) would
+remove the delay for the thread; case 4 avoids it: the servo loop in a process of its own, reading the coupling
+from shared memory. Asserts nothing.
 """
 
 from __future__ import annotations

@@ -5,9 +5,10 @@ Physics (docs/haptics.md): the grabbed node sits at x = x0 + C f under the force
 compliance [m/N], :mod:`.response`); a virtual coupling spring of stiffness k_c [N/m] joins it to the tool point p,
 f = k_c (p − a − x), with a = the tool's offset from the node at the grab (grabbing applies no force). Both hold at
 once when f = (I + k_c C)⁻¹ k_c (p − a − x0): one 3×3 product per tick, its matrix computed at the grab. The device
-gets −f. The spring is passive (it stores energy, never makes it) and so is the tissue's compliance, so the
-coupled loop is stable; k_c bounds the stiffness the user feels (a stiffer spring than the device can render makes
-it buzz).
+gets −f. The spring is passive (it stores energy, never makes it) and so is the tissue's compliance, up to the
+hybrid's slight asymmetry (0.2–0.6 %: the coupled static model is slightly non-conservative, docs/haptics.md), so
+the coupled loop is stable; k_c bounds the stiffness the user feels (a stiffer spring than the device can render
+makes it buzz).
 """
 
 from __future__ import annotations
