@@ -5,6 +5,7 @@ import pytest
 
 from tissuesim.errors import SolverError
 from tissuesim.experiments import protocol, reference
+from tissuesim.experiments.reference_data import ELEMENTS
 from tissuesim.mesh import models
 from tissuesim.mesh.refine import refine_surface
 from tissuesim.mesh.validate import validate_surface
@@ -54,7 +55,7 @@ def test_linear_level_zero_is_the_default_fine_fem_with_the_solvers_forces(cube)
 def test_quadratic_levels_change_less_than_linear_ones(cube):
     surface, node = cube
     last = {}
-    for element in reference.ELEMENTS:
+    for element in ELEMENTS:
         ref = reference.refinement_levels(surface, node, 8e-3, levels=3,
                                           settings=reference.RefinementSettings(element=element))
         last[element] = ref.levels[-1]

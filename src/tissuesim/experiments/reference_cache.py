@@ -10,16 +10,12 @@ import zipfile
 import zlib
 from dataclasses import asdict
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import TissuesimError
 from ..io import process_running
-
-if TYPE_CHECKING:
-    from .reference import ContactReference
-
+from .reference_data import ContactReference, LevelRow
 
 class CacheError(TissuesimError, OSError):
     """The reference cache folder cannot be used where asked."""
@@ -53,8 +49,6 @@ def _remove_abandoned_partials(folder: Path) -> None:
 
 def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
     """The reference cached under ``key`` in ``cache_dir``, or None where there is none or it is damaged."""
-    from .reference import ContactReference, LevelRow
-
     entry = read_arrays(cache_dir, key)
     if entry is None:
         return None
