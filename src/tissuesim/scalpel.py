@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 from .cutting.core import DEFAULT_SNAP
-from .cutting.solver_update import CutReport, cut_updater
+from .cutting.solver_update import CutReport
+from .cutting.updaters import cut_updater
 from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
 from .interaction import checked_point

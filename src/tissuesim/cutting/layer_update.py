@@ -23,7 +23,7 @@ from ..loads import triangle_areas
 from ..pbd.rest_measures import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, _members, register_cut
+from .solver_update import SolverCut, _members
 
 
 class CutConstraints(SimpleNamespace):
@@ -82,7 +82,6 @@ def _in_corners(result, vertices, corners):
     return bary
 
 
-@register_cut("pbd")
 class SurfaceLayerCut(SolverCut):
     """Updater of :class:`~tissuesim.solvers.pbd.SurfaceLayerSolver` (the pbd and hybrid methods)."""
 
@@ -231,7 +230,6 @@ class SurfaceLayerCut(SolverCut):
         self.prescribe_more(_new_of(s.fixed, n))
 
 
-@register_cut("hybrid")
 class HybridCut(SurfaceLayerCut):
     """The hybrid's extra arrays: control nodes (released ones dropped), load map, embedding for warm start."""
 
@@ -286,7 +284,6 @@ class HybridCut(SurfaceLayerCut):
         mask[s.prescribed] = True
 
 
-@register_cut("embedded")
 class EmbeddedCut(SolverCut):
     """The embedded baseline: every new vertex rides on its tet, so both sides of a cut move together."""
 

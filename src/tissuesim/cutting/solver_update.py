@@ -1,7 +1,6 @@
 """Carry a solver over a cut: new mesh, state renumbered, masses, constraints edited locally (§7, second half).
 
-One updater per method, found through a registry (``@register_cut("name")``); the ``fem`` reference is
-registered as refusing, with the reason. After :meth:`SolverCut.apply` the solver holds the cut hybrid mesh
+One updater per method (:mod:`.updaters` finds it). After :meth:`SolverCut.apply` the solver holds the cut hybrid mesh
 (``solver.hybrid``), its positions and velocities follow the new numbering (old vertices keep their indices, so
 a held pin-head keeps its node), and stepping goes on without a reset.
 
@@ -33,7 +32,6 @@ from .invariants import unanchored_pieces
 from .remap import cut_hybrid
 from .rows import EdgeRows, Rows
 
-_REGISTRY: dict[str, type] = {}
 #: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
 #: question to the whole-surface count.
 LOCAL_SEARCH = 256
@@ -58,30 +56,6 @@ class CutReport:
     control_released: int = 0
     loose_vertices: int = 0
     seconds: float = 0.0
-
-
-def register_cut(name: str):
-    """Class decorator: the cut updater of solver method ``name``."""
-
-    def decorate(cls):
-        _REGISTRY[name] = cls
-        return cls
-
-    return decorate
-
-
-def cut_updater(solver) -> "SolverCut":
-    """The updater bound to ``solver`` (created on first use and kept on the solver)."""
-    updater = getattr(solver, "_cut_updater", None)
-    if updater is None:
-        _load_updaters()
-        name = getattr(solver, "name", type(solver).__name__)
-        if name not in _REGISTRY:
-            raise SolverError(f"the {name} method does not support cutting; cut a hybrid, pbd, mass-spring or "
-                              "embedded solver")
-        updater = _REGISTRY[name](solver)
-        solver._cut_updater = updater
-    return updater
 
 
 class SolverCut:
@@ -348,46 +322,9 @@ class _Undo:
             journal.commit()
 
 
-def anchored_nodes(solver) -> np.ndarray | None:
-    """``(a,) int64`` the vertices that hold ``solver``'s surface in place (fixed, and the hybrid's control nodes):
-    every piece of a cut surface must hold one (pass them to ``check_cut_invariants(anchored=...)``); None for a
-    method that holds every vertex by its embedding (embedded), or that cannot be cut."""
-    if refusal(getattr(solver, "name", "")) is not None:
-        return None
-    updater = cut_updater(solver)
-    if updater.keeps_loose:
-        return None
-    return updater.held_nodes()
-
-
 def _members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
     """``values.shape bool``: whether each value is in ``sorted_set`` (ascending), by binary search."""
     if len(sorted_set) == 0:
         return np.zeros(np.shape(values), dtype=bool)
     where = np.minimum(np.searchsorted(sorted_set, values), len(sorted_set) - 1)
     return sorted_set[where] == values
-
-
-@register_cut("fem")
-class RefuseFineFEM:
-    """The fine-FEM reference cannot be cut: its volume would need re-tetrahedralizing."""
-
-    reason = ("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing and "
-              "re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, mass-spring or embedded "
-              "solver")
-
-    def __init__(self, solver):
-        raise SolverError(self.reason)
-
-
-def refusal(name: str) -> str | None:
-    """Why solver method ``name`` cannot be cut, or None if it can."""
-    _load_updaters()
-    if name not in _REGISTRY:
-        return f"the {name} method does not support cutting"
-    return getattr(_REGISTRY[name], "reason", None)
-
-
-def _load_updaters() -> None:
-    """Import the modules that register the updaters of the built-in methods."""
-    from . import layer_update, spring_update  # noqa: F401

@@ -18,10 +18,9 @@ from ..solvers.mass_spring import gershgorin_rows
 from .fans import touched_edges
 from .layer_update import new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, _members, register_cut
+from .solver_update import SolverCut, _members
 
 
-@register_cut("mass-spring")
 class MassSpringCut(SolverCut):
     """Updater of :class:`~tissuesim.solvers.mass_spring.MassSpringSolver`."""
 
