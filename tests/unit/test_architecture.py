@@ -1,0 +1,49 @@
+"""The package's levels hold: the import-linter contract in pyproject.toml (each level imports only from itself and
+below), every top-level module placed in a level, and no import circle between any two modules."""
+
+try:
+    import tomllib
+except ModuleNotFoundError:     # Python 3.10: import-linter's own TOML reader
+    import tomli as tomllib
+from pathlib import Path
+
+import grimp
+import pytest
+
+PYPROJECT = Path(__file__).resolve().parents[2] / "pyproject.toml"
+
+
+@pytest.fixture(scope="module")
+def graph():
+    return grimp.build_graph("tissuesim")
+
+
+def test_the_levels_contract_is_kept():
+    from importlinter.cli import lint_imports
+
+    assert lint_imports(config_filename=str(PYPROJECT), no_cache=True) == 0
+
+
+def test_every_top_level_module_has_a_level(graph):
+    contract = tomllib.loads(PYPROJECT.read_text())["tool"]["importlinter"]["contracts"][0]
+    placed = {name.strip() for layer in contract["layers"] for name in layer.split("|")}
+    tops = {module.split(".")[1] for module in graph.modules if module.count(".") >= 1}
+    assert tops - placed == set(), "a module outside the levels escapes the contract: add it to pyproject.toml"
+    assert placed - tops == set()
+
+
+def _circles(graph) -> set:
+    """Each set of modules that import one another through some chain (a circle), as a sorted tuple."""
+    return {tuple(sorted({importer, *chain}))
+            for importer in graph.modules for imported in graph.find_modules_directly_imported_by(importer)
+            if (chain := graph.find_shortest_chain(importer=imported, imported=importer))}
+
+
+def test_no_two_modules_import_each_other_through_any_chain(graph):
+    assert _circles(graph) == set()
+
+
+def test_the_circle_check_sees_an_arrow_that_runs_back_up():
+    graph = grimp.build_graph("tissuesim")
+    graph.add_import(importer="tissuesim.errors", imported="tissuesim.cli")    # the lowest module, the highest
+    assert any({"tissuesim.errors", "tissuesim.cli"} <= set(circle) for circle in _circles(graph))
