@@ -12,7 +12,8 @@ import scipy.sparse.linalg as spla
 import tetgen
 
 from tissuesim.fem.assembly import assemble_stiffness
-from tissuesim.fem.linear import LinearFEM, factorise_spd
+from tissuesim.fem.factorise import factorise_spd
+from tissuesim.fem.linear import LinearFEM
 from tissuesim.fem.material import Material
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes

@@ -38,7 +38,7 @@ from tissuesim.experiments import protocol
 from tissuesim.experiments.finite_reference import DATA_FILE, FORCES_N, RADIUS_MM, SCHEMA
 from tissuesim.experiments.inputs import builtin_surface
 from tissuesim.experiments.reference import RefinementSettings, _edge_length_at, _level_volume
-from tissuesim.fem.linear import factorise_spd
+from tissuesim.fem.factorise import factorise_spd
 from tissuesim.mesh.regions import bottom_height, nodes_below
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests" / "validation"))

@@ -174,7 +174,7 @@ def test_every_factorisation_route_matches_a_plain_sparse_solve(box, route, monk
     optional package is missing: all give the plain sparse solve, multi-RHS included, and refuse a non-SPD K_ff."""
     import scipy.sparse.linalg as spla
 
-    from tissuesim.fem.linear import factorise_spd
+    from tissuesim.fem.factorise import factorise_spd
 
     solver, ordering = route.split("+")
     if solver == "cholmod":

@@ -26,7 +26,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from ..errors import SolverError
-from .linear import factorise_spd
+from .factorise import factorise_spd
 
 __all__ = ["CorrectedSolve", "ExplicitFactor", "SparseColumns"]
 
@@ -61,7 +61,7 @@ class ExplicitFactor:
 
     Args:
         matrix: the SPD matrix (CSC). dof_node: ``(n₀,)`` the node of each dof (the fill-reducing order's graph).
-        factor: its CHOLMOD factor from :func:`~.linear.factorise_spd`, if there is one already.
+        factor: its CHOLMOD factor from :func:`~.factorise.factorise_spd`, if there is one already.
     """
 
     def __init__(self, matrix: sp.csc_matrix, dof_node: np.ndarray, *, factor=None):

@@ -30,7 +30,8 @@ from .assembly import scatter_elements, shape_gradients
 from .hyperelastic import (check_material, element_energy, element_tangents, internal_forces,
                            material_parameters)
 from .hyperelastic_quadratic import quadrature_gradients
-from .linear import LinearFEM, factorise_spd, fill_reducing_order
+from .factorise import factorise_spd, fill_reducing_order
+from .linear import LinearFEM
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 from .quadratic import QuadraticFEM
 

@@ -23,7 +23,8 @@ from numba import njit
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
 from .assembly import add_bt_d_b, mirror_upper, scatter_elements, shape_gradients, strain_matrix
-from .linear import _check_rigid_modes, _fixed_mask, factorise_spd
+from .factorise import factorise_spd
+from .linear import _check_rigid_modes, _fixed_mask
 from .material import Material
 
 #: Local edges (a, b) of a tet, in the order of its six midside nodes 4..9.

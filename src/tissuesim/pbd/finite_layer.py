@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import SolverError, first_indices
-from ..fem.linear import factorise_spd
+from ..fem.factorise import factorise_spd
 from .finite_kernels import (layer_energy_gradient, layer_tangent, step_advance, step_descent, step_predict,
                              step_residual, step_velocities)
 from .static import LayerStatics, layer_stiffness

@@ -21,7 +21,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from ..errors import SolverError
-from ..fem.linear import factorise_spd
+from ..fem.factorise import factorise_spd
 from .kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
 
 
