@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
     try:
         app.run()
-    finally:  # also on Ctrl-C or SIGTERM, which keep what was recorded (see ViewerApp.close)
+    finally:  # also on Ctrl-C or SIGTERM, which keep what was recorded (see ViewerApp.run)
         if app.recorded is not None:  # the last recording (the panel may have started others)
             print(f"recorded {app.recorded}", file=sys.stderr)
     return 0

@@ -70,8 +70,14 @@ class ViewerApp:
 
     # ------------------------------------------------------------------------------------------------ running
     def run(self) -> None:
-        """Open the window and run until it is closed."""
-        show_window(self.ps, self.frame, self.close)
+        """Open the window and run until it is closed; then finish the recording and let go of the window. Also on
+        Ctrl-C or SIGTERM (:func:`show_window`): the session is the user's, so what was recorded is kept, unlike a
+        ``with Recorder(...)`` block, which an exception discards."""
+        show_window(self.ps, self.frame, self._end)
+
+    def _end(self) -> None:
+        self.stop_recording()
+        self.close()
 
     def tick(self) -> None:
         """One frame without a window: the callback, then polyscope's render (headless scripts)."""
@@ -87,17 +93,11 @@ class ViewerApp:
         return self.recorded
 
     def close(self) -> None:
-        """Finish the recording and let go of polyscope: its callback and every structure of this window. Also on
-        Ctrl-C or SIGTERM (:func:`show_window`): the session is the user's, so what was recorded is kept, unlike a
-        ``with Recorder(...)`` block, which an exception discards.
-
-        Python wrappers of removed polyscope structures must not outlive them: a new structure allocated at the
-        same address would then come back as the stale wrapper's type."""
-        self.stop_recording()
-        self.ps.clear_user_callback()
+        """Let go of polyscope: its callback and every structure of this window (a recording goes on until
+        :meth:`stop_recording`)."""
         self.mesh = self.cut = None
         self._shown, self._topology, self._home_view = {}, None, True
-        self.ps.remove_all_structures()
+        let_go(self.ps)
 
     def frame(self) -> None:
         """Polyscope's per-frame callback."""
@@ -373,13 +373,21 @@ def style_window(ps) -> None:
     ps.set_right_gui_pane_width(PANEL_WIDTH)
 
 
-def show_window(ps, frame, close) -> None:
-    """Run polyscope's window with ``frame`` as its per-frame callback until it is closed; then ``close()``."""
+def show_window(ps, frame, end) -> None:
+    """Run polyscope's window with ``frame`` as its per-frame callback until it is closed; then ``end()``."""
     ps.set_user_callback(frame)
     try:
         ps.show()
     finally:
-        close()
+        end()
+
+
+def let_go(ps) -> None:
+    """Drop polyscope's callback and every structure. The Python wrappers of removed structures must not outlive
+    them (the callers drop theirs first): a new structure allocated at the same address would then come back as the
+    stale wrapper's type."""
+    ps.clear_user_callback()
+    ps.remove_all_structures()
 
 
 class ReplayApp:
@@ -398,10 +406,9 @@ class ReplayApp:
         show_window(self.ps, self.frame, self.close)
 
     def close(self) -> None:
-        """Let go of polyscope (see :meth:`ViewerApp.close`)."""
-        self.ps.clear_user_callback()
+        """Let go of polyscope (:func:`let_go`)."""
         self.mesh, self._topology = None, None
-        self.ps.remove_all_structures()
+        let_go(self.ps)
 
     def frame(self) -> None:
         import polyscope.imgui as psim
