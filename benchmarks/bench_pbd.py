@@ -26,9 +26,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 import numpy as np
 
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import shell_compliance, shell_masses
-from tissuesim.pbd.kernels import pbd_step, xpbd_step
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer.compliance import shell_compliance, shell_masses
+from tissuesim.layer.kernels import pbd_step, xpbd_step
+from tissuesim.layer.topology import SurfaceConstraints
 
 
 def _perturbed(surface, seed=0):

@@ -98,7 +98,7 @@ def main(argv=None) -> int:
     precomputation(h, node)
     try:
         from bench_pbd import pypbd_stepper  # the PBD kernels' own pypbd set-up: same constraints, same order
-        from tissuesim.pbd.topology import SurfaceConstraints
+        from tissuesim.layer.topology import SurfaceConstraints
     except ImportError as error:
         print(f"pypbd comparison skipped: {error}")
         return 0

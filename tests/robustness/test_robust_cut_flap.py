@@ -12,7 +12,7 @@ import pytest
 
 import tissuesim
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import relative_shell_compliance
+from tissuesim.layer.compliance import relative_shell_compliance
 
 PULL = 1.07                 # N: the pin-head's force in the reproduction (k = 50 N/m, 21.4 mm of drag)
 RIM_NODE = 631              # a node of the cube's top rim (y = −40 mm)

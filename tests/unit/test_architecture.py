@@ -5,6 +5,8 @@ try:
     import tomllib
 except ModuleNotFoundError:     # Python 3.10: import-linter's own TOML reader
     import tomli as tomllib
+import subprocess
+import sys
 from pathlib import Path
 
 import grimp
@@ -19,9 +21,12 @@ def graph():
 
 
 def test_the_levels_contract_is_kept():
-    from importlinter.cli import lint_imports
-
-    assert lint_imports(config_filename=str(PYPROJECT), no_cache=True) == 0
+    # in a process of its own: import-linter sets up logging for a command line, which would silence the
+    # loggers of the tests after it
+    check = (f"from importlinter.cli import lint_imports; "
+             f"raise SystemExit(lint_imports(config_filename={str(PYPROJECT)!r}, no_cache=True))")
+    result = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-2000:]
 
 
 def test_every_top_level_module_has_a_level(graph):

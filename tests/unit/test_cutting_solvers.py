@@ -9,8 +9,8 @@ from tissuesim.experiments.wound import incision_line, scripted_incision, wound_
 from tissuesim.mesh.coincident import coincident_pairs
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import relative_shell_compliance
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer.compliance import relative_shell_compliance
+from tissuesim.layer.topology import SurfaceConstraints
 
 
 @pytest.fixture(scope="module")

@@ -1,5 +1,5 @@
 """Solves with a stale factor and an exact low-rank correction (fem/factor_update.py), and the layer's step after
-cutting moves on it (pbd/cut_statics.py): both equal a fresh factorisation's answer to round-off."""
+cutting moves on it (layer/cut_statics.py): both equal a fresh factorisation's answer to round-off."""
 
 import numpy as np
 import pytest
@@ -9,7 +9,7 @@ import scipy.sparse.linalg as spla
 import tissuesim
 from tissuesim.fem.factor_update import CorrectedSolve, ExplicitFactor, SparseColumns
 from tissuesim.mesh import models
-from tissuesim.pbd.cut_statics import CutLayerStatics
+from tissuesim.layer.cut_statics import CutLayerStatics
 
 RNG = np.random.default_rng(7)
 
@@ -123,7 +123,7 @@ def _step_against_fresh(solver) -> float:
 
 
 def test_past_the_limit_of_touched_dofs_the_layer_is_factorised_again_and_corrected_on(monkeypatch):
-    from tissuesim.pbd import cut_statics
+    from tissuesim.layer import cut_statics
 
     monkeypatch.setattr(cut_statics, "MAX_MODIFIED", 60)
     kinds = []
@@ -134,7 +134,7 @@ def test_past_the_limit_of_touched_dofs_the_layer_is_factorised_again_and_correc
 
 
 def test_a_new_dt_between_cuts_is_factorised_once_and_stays_exact(monkeypatch):
-    from tissuesim.pbd.static import LayerStatics
+    from tissuesim.layer.static import LayerStatics
 
     factorisations = []
     factorise = LayerStatics._dynamic_factor
@@ -149,7 +149,7 @@ def test_a_new_dt_between_cuts_is_factorised_once_and_stays_exact(monkeypatch):
 
 
 def test_without_an_explicit_factor_each_cut_refactorises_the_layer_as_before(monkeypatch):
-    from tissuesim.pbd import cut_statics
+    from tissuesim.layer import cut_statics
 
     def unavailable(self, statics):
         raise ImportError("cvxopt")
@@ -161,7 +161,7 @@ def test_without_an_explicit_factor_each_cut_refactorises_the_layer_as_before(mo
 
 
 def test_a_long_cut_moves_over_to_a_base_built_in_the_background_and_stays_exact(monkeypatch):
-    from tissuesim.pbd import cut_statics
+    from tissuesim.layer import cut_statics
 
     monkeypatch.setattr(cut_statics, "RENEW_MODIFIED", 30)
     bases = []

@@ -1,4 +1,4 @@
-"""The surface layer in finite strain (tissuesim.pbd.finite_layer, finite_kernels): energy, forces, tangent, static
+"""The surface layer in finite strain (tissuesim.layer.finite_layer, finite_kernels): energy, forces, tangent, static
 and implicit step."""
 
 import numpy as np
@@ -7,11 +7,11 @@ from scipy.spatial.transform import Rotation
 
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import relative_shell_compliance
-from tissuesim.pbd.finite_kernels import layer_energy_gradient
-from tissuesim.pbd.finite_layer import FiniteLayer
-from tissuesim.pbd.static import LayerStatics, layer_stiffness
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer.compliance import relative_shell_compliance
+from tissuesim.layer.finite_kernels import layer_energy_gradient
+from tissuesim.layer.finite_layer import FiniteLayer
+from tissuesim.layer.static import LayerStatics, layer_stiffness
+from tissuesim.layer.topology import SurfaceConstraints
 
 EDGE = models.CUBE_EDGE
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from tissuesim.pbd import constraints as C
+from tissuesim.layer import constraints as C
 
 
 def _random_hinge(rng):

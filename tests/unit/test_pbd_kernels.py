@@ -5,10 +5,10 @@ import pytest
 
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_height, nodes_below
-from tissuesim.pbd import constraints as C
-from tissuesim.pbd.compliance import shell_compliance, shell_masses
-from tissuesim.pbd.kernels import pbd_step, xpbd_step
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer import constraints as C
+from tissuesim.layer.compliance import shell_compliance, shell_masses
+from tissuesim.layer.kernels import pbd_step, xpbd_step
+from tissuesim.layer.topology import SurfaceConstraints
 
 
 @pytest.fixture(scope="module")
@@ -245,7 +245,7 @@ def test_xpbd_converges_to_the_compliance_equilibrium_independent_of_iterations_
 def test_a_tangled_hinge_moves_no_vertex_by_more_than_half_its_edge():
     """Eq 11 on a hinge folded almost shut against a flat rest angle asks for a huge correction; the kernel bounds
     it (BEND_MOVE_LIMIT), as a surface pushed through itself under a large load otherwise blows up."""
-    from tissuesim.pbd.kernels import BEND_MOVE_LIMIT
+    from tissuesim.layer.kernels import BEND_MOVE_LIMIT
 
     # P1, P2: the hinge edge (length 1); P3, P4 folded onto the same side, 1e-6 rad apart; rest angle π (flat).
     x = np.array([[0.0, 0, 0], [1.0, 0, 0], [0.5, 1.0, 0], [0.5, np.cos(1e-6), np.sin(1e-6)]])
@@ -262,7 +262,7 @@ def test_a_tangled_hinge_moves_no_vertex_by_more_than_half_its_edge():
 
 def test_kernel_dihedral_angle_matches_the_reference_formula():
     """The kernels take θ as atan2(|a| |det(a, b, c)|, (a×b)·(a×c)); the reference as atan2(|n1×n2|, n1·n2)."""
-    from tissuesim.pbd.rest_measures import dihedral_angles
+    from tissuesim.layer.rest_measures import dihedral_angles
 
     rng = np.random.default_rng(7)
     points = rng.normal(size=(300, 4, 3))

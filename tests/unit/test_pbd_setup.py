@@ -6,11 +6,11 @@ import pytest
 from tissuesim.errors import MaterialError, MeshError, SolverError
 from tissuesim.mesh import models
 from tissuesim.mesh.surface import SurfaceMesh
-from tissuesim.pbd import constraints as C
-from tissuesim.pbd.compliance import hinge_stiffness, membrane_stiffness, shell_compliance, shell_masses
-from tissuesim.pbd.kernels import pbd_step
-from tissuesim.pbd.stepper import SurfaceStepper
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer import constraints as C
+from tissuesim.layer.compliance import hinge_stiffness, membrane_stiffness, shell_compliance, shell_masses
+from tissuesim.layer.kernels import pbd_step
+from tissuesim.layer.stepper import SurfaceStepper
+from tissuesim.layer.topology import SurfaceConstraints
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +56,7 @@ def test_non_manifold_and_zero_length_edges_are_refused():
 
 
 def test_interleaved_order_is_a_permutation():
-    from tissuesim.pbd.topology import interleaved_order
+    from tissuesim.layer.topology import interleaved_order
 
     for count in (0, 1, 2, 7, 10):
         order = interleaved_order(count)

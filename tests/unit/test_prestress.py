@@ -1,4 +1,4 @@
-"""The prestressed surface (tissuesim.pbd.prestress): the area gradient, the release at a cut's lips, and a wound
+"""The prestressed surface (tissuesim.layer.prestress): the area gradient, the release at a cut's lips, and a wound
 that gapes without a load on the surface-layer methods, where stepping comes to rest for every dt and E."""
 
 import numpy as np
@@ -8,7 +8,7 @@ import tissuesim
 from tissuesim.experiments.wound import scripted_incision, unloaded_openings, wound_gap
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
-from tissuesim.pbd.prestress import area_gradient, copy_origin, release_forces
+from tissuesim.layer.prestress import area_gradient, copy_origin, release_forces
 from tissuesim.loads import triangle_areas
 
 

@@ -7,10 +7,10 @@ from scipy.optimize import minimize
 from scipy.spatial.transform import Rotation
 
 from tissuesim.mesh import models
-from tissuesim.pbd.compliance import relative_shell_compliance
-from tissuesim.pbd.finite_layer import FiniteLayer
-from tissuesim.pbd.static import LayerStatics, layer_stiffness
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer.compliance import relative_shell_compliance
+from tissuesim.layer.finite_layer import FiniteLayer
+from tissuesim.layer.static import LayerStatics, layer_stiffness
+from tissuesim.layer.topology import SurfaceConstraints
 
 EDGE = models.CUBE_EDGE
 
@@ -32,7 +32,7 @@ def _layer(rest, c, stretch, bend, bottom):
 
 def _reference_potential(c, stretch, bend, fixed, free, targets, forces):
     """Π = Σ C²/(2α) − fᵀx over the free coordinates, and its gradient, in vectorised NumPy from the definitions
-    of tissuesim.pbd.constraints (stretch_value and its gradient, signed_bend_angle by atan2 of the normals and
+    of tissuesim.layer.constraints (stretch_value and its gradient, signed_bend_angle by atan2 of the normals and
     signed_bend_gradient's closed form): no code shared with the Numba kernels."""
     i, j = c.edges.T
     p1, p2, p3, p4 = c.bending.T

@@ -261,7 +261,7 @@ def test_the_flipped_triangle_check_sees_a_triangle_turned_inside_out(cube_case,
 
 
 def test_where_the_layers_newton_fails_the_static_solve_steps_to_the_same_equilibrium(cube_case, monkeypatch):
-    from tissuesim.pbd.finite_layer import FiniteLayer
+    from tissuesim.layer.finite_layer import FiniteLayer
 
     hybrid, node = cube_case
     newton = make_solver("hybrid", hybrid, material="neo-hookean").solve_static(node, (0, 0, 1.0), radius=0.008)

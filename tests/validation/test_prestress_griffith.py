@@ -12,10 +12,10 @@ from scipy.spatial import Delaunay
 
 from tissuesim.cutting import Sweep, cut_surface
 from tissuesim.mesh.surface import SurfaceMesh
-from tissuesim.pbd.compliance import relative_shell_compliance
-from tissuesim.pbd.prestress import prestress_tension, release_forces
-from tissuesim.pbd.static import LayerStatics, layer_stiffness
-from tissuesim.pbd.topology import SurfaceConstraints
+from tissuesim.layer.compliance import relative_shell_compliance
+from tissuesim.layer.prestress import prestress_tension, release_forces
+from tissuesim.layer.static import LayerStatics, layer_stiffness
+from tissuesim.layer.topology import SurfaceConstraints
 
 E, NU, PRESTRAIN, HALF_SLIT, HALF_WIDTH = 5500.0, 0.3, 0.05, 0.015, 0.08
 

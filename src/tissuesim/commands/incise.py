@@ -16,7 +16,7 @@ of an earlier one (those its ``incision.json`` lists) as a whole and says in one
 touched.
 
 With ``--prestrain ε`` the surface-layer methods (hybrid, pbd) carry a prestressed capsule
-(:mod:`tissuesim.pbd.prestress`): the table gives the gap of the wound with no force first, then with the force.
+(:mod:`tissuesim.layer.prestress`): the table gives the gap of the wound with no force first, then with the force.
 
 The fem reference cannot be cut (its volume would need re-tetrahedralizing); it is listed as refusing.
 """
@@ -64,7 +64,7 @@ def run(args) -> int:
     from ..io import check_scale
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
-    from ..pbd.prestress import check_prestrain
+    from ..layer.prestress import check_prestrain
     from ..solvers.registry import available_solvers
 
     # every argument is checked, and every model read, before the first (minutes long) cut

@@ -6,11 +6,11 @@ triangle's rest lengths (eq 19–23, :func:`~tissuesim.cutting.lengths.barycentr
 and a hinge where the edge has two triangles. A hinge's rest angle is measured on the rest positions, which lie
 in the parent triangles' planes: sub-triangles of one hinge keep the original hinge's angle, and two pieces of one
 triangle are flat (§7). Edges that now border the cut have one triangle, so no hinge joins the two sides. The
-XPBD compliances come from :mod:`tissuesim.pbd.compliance` with the new lengths and areas, and the layer's thickness
+XPBD compliances come from :mod:`tissuesim.layer.compliance` with the new lengths and areas, and the layer's thickness
 as built (β × M_S's mean edge length at build) on every row with an end the cut made: a cut does not thin the
 tissue, and a thickness that followed the new, shorter edges would soften their hinges by the cube of the ratio (a
 flap beside a cut then swung metres away). A row between two of the body's own vertices keeps β × its own length,
-as built (:func:`~tissuesim.pbd.compliance.thickness_lengths`, the rule a solver built on the cut mesh reads too).
+as built (:func:`~tissuesim.layer.compliance.thickness_lengths`, the rule a solver built on the cut mesh reads too).
 """
 
 from __future__ import annotations
@@ -20,14 +20,14 @@ from types import SimpleNamespace
 import numpy as np
 
 from ..loads import triangle_areas
-from ..pbd.rest_measures import dihedral_angles, signed_bend_angles
+from ..layer.rest_measures import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, _members
 
 
 class CutConstraints(SimpleNamespace):
-    """The mutable stand-in of :class:`~tissuesim.pbd.topology.SurfaceConstraints` a cut solver steps with:
+    """The mutable stand-in of :class:`~tissuesim.layer.topology.SurfaceConstraints` a cut solver steps with:
     the same array names, with retired rows as no-ops (:mod:`.rows`)."""
 
     @property
@@ -83,7 +83,7 @@ def _in_corners(result, vertices, corners):
 
 
 class SurfaceLayerCut(SolverCut):
-    """Updater of :class:`~tissuesim.solvers.pbd.SurfaceLayerSolver` (the pbd and hybrid methods)."""
+    """Updater of :class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver` (the pbd and hybrid methods)."""
 
     def __init__(self, solver):
         super().__init__(solver)
@@ -153,9 +153,9 @@ class SurfaceLayerCut(SolverCut):
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
         if removed is not None and statics is not None:
-            # the linear layer's step goes on with its factor and a correction (pbd/cut_statics.py); where that
+            # the linear layer's step goes on with its factor and a correction (layer/cut_statics.py); where that
             # does not apply, the layer is factorised again when next needed
-            from ..pbd.cut_statics import after_cut
+            from ..layer.cut_statics import after_cut
 
             s._statics = after_cut(statics, change=self._stiffness_of(rows, hrows) - removed, mass=s.mass,
                                    prescribed=s.prescribed)
@@ -164,7 +164,7 @@ class SurfaceLayerCut(SolverCut):
         """The linear layer's explicit factor for its first cut, built in the background from now."""
         s = self.solver
         if s.form == "xpbd" and s.material == "linear":
-            from ..pbd.cut_statics import prepare
+            from ..layer.cut_statics import prepare
 
             prepare(s._statics)
 
@@ -174,7 +174,7 @@ class SurfaceLayerCut(SolverCut):
         s = self.solver
         if s.form != "xpbd" or s.material != "linear":
             return None
-        from ..pbd.static import layer_stiffness
+        from ..layer.static import layer_stiffness
 
         a, b = self.stretch.arrays, self.bend.arrays
         rows, hinge_rows = np.asarray(rows, dtype=np.int64), np.asarray(hinge_rows, dtype=np.int64)
@@ -184,9 +184,9 @@ class SurfaceLayerCut(SolverCut):
 
     def _compliance(self, rows, hrows) -> None:
         """XPBD compliance of the new rows from the material, with their own rest lengths and areas and the
-        body's thickness (:func:`~tissuesim.pbd.compliance.thickness_lengths`), not one that shrinks with the cut's
+        body's thickness (:func:`~tissuesim.layer.compliance.thickness_lengths`), not one that shrinks with the cut's
         shorter edges."""
-        from ..pbd.compliance import relative_shell_compliance, thickness_lengths
+        from ..layer.compliance import relative_shell_compliance, thickness_lengths
 
         s, a, b = self.solver, self.stretch.arrays, self.bend.arrays
         hinge_length = np.linalg.norm(s.rest_positions[b["bending"][hrows, 0]]

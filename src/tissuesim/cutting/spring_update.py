@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..pbd.compliance import thickness_lengths
+from ..layer.compliance import thickness_lengths
 from ..solvers.mass_spring import gershgorin_rows
 from .fans import touched_edges
 from .layer_update import new_edge_constraints, new_hinges

@@ -97,6 +97,6 @@ def open_wound(solver, line, *, force: float = PULL_FORCE, offset: float = PULL_
 
 def unloaded_openings(solver, line) -> np.ndarray:
     """``(p,) float64`` the wound's openings [m] (:func:`wound_openings`) at equilibrium with no force: a
-    prestrained capsule retracting (:mod:`tissuesim.pbd.prestress`); zeros without a prestrain."""
+    prestrained capsule retracting (:mod:`tissuesim.layer.prestress`); zeros without a prestrain."""
     solver.solve_static(pull_node(solver.rest_positions, line), [0.0, 0.0, 0.0], max_steps=OPEN_MAX_STEPS)
     return wound_openings(solver)

@@ -74,7 +74,7 @@ class HybridMesh:
         fine_surface_nodes: ``(n_s,) int32`` fine-volume node index of every M_S vertex (identical coordinates), or
             None with ``fine_volume``.
         info: build report (simplification rounds, collapses skipped, TetGen switches, timings, M_S's mean edge
-            and vertex count as built, which a cut keeps: :func:`tissuesim.pbd.compliance.thickness_lengths`).
+            and vertex count as built, which a cut keeps: :func:`tissuesim.layer.compliance.thickness_lengths`).
         coarse_volume: ``(c0,) int32`` M_V node of each M'_S vertex once a cut (§7) has released control nodes
             (then ``control``/``control_volume`` list only the control nodes still prescribed), else None: see
             :attr:`coarse_volume_nodes`.

@@ -272,7 +272,7 @@ class Solver(ContactPatches, ABC):
         """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``.
 
         ``radius`` spreads the force over a contact patch (:meth:`set_load`). Methods with a static solver of their
-        own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.pbd.static`) solve the equilibrium
+        own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.layer.static`) solve the equilibrium
         directly (a linear solve, exact to round-off). The others step (with the solver's
         damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
         ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load

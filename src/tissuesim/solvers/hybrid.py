@@ -13,10 +13,10 @@ Per time step (§6.5):
    projected by stretch (eq 9) and bending (eq 11) constraints, Gauss–Seidel (eq 17, second case);
 5. eq 18 updates velocities and positions.
 
-Steps 3–5 are the paper's projection (:mod:`tissuesim.pbd.kernels`, one Numba call) with ``integrator="xpbd"`` or
+Steps 3–5 are the paper's projection (:mod:`tissuesim.layer.kernels`, one Numba call) with ``integrator="xpbd"`` or
 ``form="pbd"``. By default the layer between the control nodes is the material-derived elastic layer of
-:class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`, stepped by implicit Euler and solved exactly in quasi-static
-solves (:mod:`tissuesim.pbd.static`); steps 1–2 are the same for every form.
+:class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver`, stepped by implicit Euler and solved exactly in quasi-static
+solves (:mod:`tissuesim.layer.static`); steps 1–2 are the same for every form.
 
 Option ``warm_start`` (beyond the paper): when the load changes, the free M_S nodes are moved by the change of
 the embedded FEM displacement (their barycentric embedding in M_V, as the ``embedded`` method), so PBD only relaxes
@@ -24,7 +24,7 @@ the local detail instead of propagating the whole motion from the control nodes 
 not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after a few steps).
 
 Option ``material`` (beyond the paper): ``"corotated"`` or ``"neo-hookean"`` make M_V finite-strain
-(:class:`~tissuesim.fem.nonlinear.NonlinearFEM`) and the layer nonlinear (:mod:`tissuesim.pbd.finite_layer`).
+(:class:`~tissuesim.fem.nonlinear.NonlinearFEM`) and the layer nonlinear (:mod:`tissuesim.layer.finite_layer`).
 ``solve_static`` then solves both to their converged equilibria (Newton); ``step`` relaxes M_V by
 :data:`VOLUME_ITERATIONS` L-BFGS iterations on the constant K₀ factor per step, warm-started, until it is at
 equilibrium, and the layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
@@ -44,7 +44,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
-from .pbd import SurfaceLayerSolver
+from .surface_layer import SurfaceLayerSolver
 
 DEFAULT_WARM_START = True
 #: Default per-step velocity damping: settles 1 N on the cube in 15 steps (0.2: 21; 0.1: 22), 20 N in 31 (0.2: 45),
@@ -59,7 +59,7 @@ VOLUME_ITERATIONS = 1
 class HybridSolver(SurfaceLayerSolver):
     """FEM on M_V + PBD/XPBD on M_S (paper §6; see the module docstring).
 
-    Options (besides those of :class:`~tissuesim.solvers.pbd.SurfaceLayerSolver`):
+    Options (besides those of :class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver`):
         warm_start: move free nodes with the embedded FEM displacement when the load changes.
         near_field: None (default, the paper's method) or a distance W [m]: M_S nodes within W of the contact node
             follow the fine volume's quadratic-tet response (:mod:`.near_field`).

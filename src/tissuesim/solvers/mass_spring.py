@@ -52,7 +52,7 @@ from numba import njit
 from ..errors import InversionError, SolverError
 from ..loads import lumped_areas
 from ..mesh.surface import SurfaceMesh
-from ..pbd.compliance import thickness_lengths
+from ..layer.compliance import thickness_lengths
 from .base import Solver
 from .checks import positive_number, time_step
 from .registry import register

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..fem.hyperelastic import check_material
-from ..pbd.prestress import check_prestrain
+from ..layer.prestress import check_prestrain
 from ..solvers.checks import is_integer, positive_number, time_step
 from ..solvers.registry import available_solvers
 
@@ -27,7 +27,7 @@ class Settings:
         radius: pin-head contact radius [m] (the force spread over the M_S nodes within it), or None: one node.
         iterations: PBD iterations per step, or None where the method has none (or keeps its default).
         dt: simulation time step [s].
-        prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.pbd.prestress`), on the methods that
+        prestrain: in-plane prestrain of the surface [-] (:mod:`tissuesim.layer.prestress`), on the methods that
             take one (hybrid, pbd): a cut then gapes by itself.
         near_field: W [m] of the hybrid's near field (:mod:`tissuesim.solvers.near_field`), or None (the paper's
             hybrid); not on a cut mesh (its fine volume is not cut).

@@ -9,7 +9,7 @@ Each step does, for the n surface nodes (arrays are the caller's, updated in pla
    is fixed, so damping rigid motion is harmless, and it makes quasi-static solves settle;
 2. eq 16: ``p_new = p + v dt`` into the ``predicted`` workspace;
 3. eq 17, first case: prescribed nodes (control nodes, pinned nodes) are set to their targets; they must carry
-   ``inv_mass = 0`` so no projection moves them (the :class:`~tissuesim.pbd.stepper.SurfaceStepper` wrapper
+   ``inv_mass = 0`` so no projection moves them (the :class:`~tissuesim.layer.stepper.SurfaceStepper` wrapper
    arranges this);
 4. ``iterations`` Gauss–Seidel sweeps: every stretch constraint (eq 9) in array order, then every bending constraint
    (eq 11) in array order;
@@ -23,9 +23,9 @@ Two forms share this flow:
 * :func:`xpbd_step`: XPBD (Macklin et al. 2016) with per-constraint compliance α (stretch [m/N], bending
   [1/(N·m)]), ``α̃ = α/dt²``, multipliers λ accumulated across sweeps and reset at the start of each step. Its
   resting state approaches the layer's static equilibrium as the sweeps converge; the exact equilibrium is
-  :mod:`tissuesim.pbd.static`'s.
+  :mod:`tissuesim.layer.static`'s.
 
-The constraints are the NumPy reference's (:mod:`tissuesim.pbd.constraints`: angles by atan2, degenerate
+The constraints are the NumPy reference's (:mod:`tissuesim.layer.constraints`: angles by atan2, degenerate
 constraints skipped, the same thresholds), equal to it up to round-off; the bending projection gets θ and its gradient
 from cheaper, equivalent expressions (see :func:`_project_bend`). Array loads are copied into
 locals before any write, so aliasing between positions does not force re-reads (DESIGN performance rules).
@@ -37,7 +37,7 @@ import math
 
 from numba import njit
 
-# Same thresholds as the reference (tissuesim.pbd.constraints).
+# Same thresholds as the reference (tissuesim.layer.constraints).
 TINY_LENGTH = 1e-300
 TINY_SINE = 1e-12
 # Safeguard beyond the paper: one bending projection may move a vertex by at most this fraction of the hinge edge's

@@ -1,7 +1,7 @@
 """Stretch and bending constraints of the fine surface M_S (paper §4, eq 7–12), in plain NumPy.
 
 These are the readable reference: one constraint at a time, no Numba. The hot loop in
-:mod:`tissuesim.pbd.kernels` does the same arithmetic in the same order and is tested against these functions.
+:mod:`tissuesim.layer.kernels` does the same arithmetic in the same order and is tested against these functions.
 
 Conventions (all positions ``(3,) float64`` [m], inverse masses ``w = 1/m`` [1/kg], ``w = 0`` = prescribed):
 

@@ -30,17 +30,17 @@ class SurfaceConstraints:
         edges: ``(e, 2) int32`` every surface edge ``(low, high)``, one stretch constraint each (eq 8).
         rest_length: ``(e,) float64`` l of eq 8 [m], the edge length in the rest surface.
         edge_area: ``(e,) float64`` total area of the (one or two) triangles adjacent to each edge [m²]; used by the
-            membrane stiffness of :mod:`tissuesim.pbd.compliance`.
+            membrane stiffness of :mod:`tissuesim.layer.compliance`.
         bending: ``(b, 4) int32`` one hinge per interior edge (exactly two adjacent triangles): P1, P2 the shared
             edge in the first triangle's winding, P3 the first triangle's opposite vertex, P4 the second's (eq 10–12;
             Müller et al. 2007 appendix).
         rest_angle: ``(b,) float64`` φ of eq 10 [rad], the hinge's dihedral angle in the rest surface, measured as
-            the kernels measure it (π for a flat hinge, see :mod:`tissuesim.pbd.constraints`).
+            the kernels measure it (π for a flat hinge, see :mod:`tissuesim.layer.constraints`).
         hinge_edge: ``(b,) int32`` index into ``edges`` of each hinge's shared edge.
         hinge_area: ``(b,) float64`` A1 + A2, the rest areas of the hinge's two triangles [m²].
         rest_signed_angle: ``(b,) float64`` β0 [rad], the rest value of the signed bending angle (0 when flat;
             beyond the paper, for the kernels' ``signed_bending=True``; see
-            :func:`tissuesim.pbd.constraints.signed_bend_angle`). ``None`` if not computed.
+            :func:`tissuesim.layer.constraints.signed_bend_angle`). ``None`` if not computed.
     """
 
     vertex_count: int

@@ -1,8 +1,8 @@
 """A validated binding of the step kernels to one surface: check everything once, then ``step(dt)`` is one call.
 
-Solvers (``solvers/hybrid.py``, ``solvers/pbd.py``) keep their state arrays and hand them to a
+Solvers (``solvers/hybrid.py``, ``solvers/surface_layer.py``) keep their state arrays and hand them to a
 :class:`SurfaceStepper`, which checks shapes, dtypes and ranges at setup and then calls
-:func:`~tissuesim.pbd.kernels.pbd_step` or :func:`~tissuesim.pbd.kernels.xpbd_step` on the same arrays each step,
+:func:`~tissuesim.layer.kernels.pbd_step` or :func:`~tissuesim.layer.kernels.xpbd_step` on the same arrays each step,
 in place. Write into the bound arrays (``positions[:] = ...``), never rebind them, or call :meth:`bind` again.
 """
 
@@ -37,10 +37,10 @@ class SurfaceStepper:
             prescribed nodes' entries are zeroed in the copy.
         form: ``"pbd"`` (stiffness coefficients, the paper) or ``"xpbd"`` (compliance, Macklin et al. 2016).
         iterations: Gauss–Seidel sweeps per step, ≥ 1.
-        damping: velocity damping factor per step in [0, 1) (see :mod:`tissuesim.pbd.kernels`).
+        damping: velocity damping factor per step in [0, 1) (see :mod:`tissuesim.layer.kernels`).
         k_stretch, k_bend: PBD stiffness coefficients in [0, 1] (form "pbd").
         stretch_compliance: ``(e,)`` or scalar α [m/N] ≥ 0 (form "xpbd"; e.g. from
-            :func:`tissuesim.pbd.compliance.shell_compliance`).
+            :func:`tissuesim.layer.compliance.shell_compliance`).
         bend_compliance: ``(b,)`` or scalar α [1/(N·m)] ≥ 0 (form "xpbd").
         prescribed: ``(k,)`` node indices whose positions are set from :attr:`targets` each step (eq 17).
         forces: optional ``(n, 3) float64`` external-force array [N] to bind; by default one is allocated (zeros).
@@ -78,7 +78,7 @@ class SurfaceStepper:
                             bend_compliance if bend_compliance is not None else 0.0)
         if form == "xpbd" and (stretch_compliance is None or bend_compliance is None):
             raise SolverError("form 'xpbd' needs stretch_compliance and bend_compliance (e.g. from "
-                              "tissuesim.pbd.compliance.shell_compliance(constraints, thickness=h))")
+                              "tissuesim.layer.compliance.shell_compliance(constraints, thickness=h))")
         self._inv_mass = self._check_inv_mass(inv_mass)
         self._lambda_stretch = np.zeros(constraints.stretch_count)
         self._lambda_bend = np.zeros(constraints.bending_count)

@@ -1,7 +1,7 @@
 """The surface layer's static equilibrium in small strain: one sparse solve with the layer's stiffness at rest.
 
 The XPBD form's constraints define an elastic energy (Macklin et al. 2016, U = Σ_c C_c²/(2 α_c)): stretch (eq 8)
-and bending (eq 10, the signed angle) with the material's compliance α (:mod:`tissuesim.pbd.compliance`).
+and bending (eq 10, the signed angle) with the material's compliance α (:mod:`tissuesim.layer.compliance`).
 Linearised at rest, C ≈ J u with J the constraint Jacobian at the rest positions, so U ≈ ½ uᵀ K u with the layer's
 stiffness K = Jᵀ α⁻¹ J. With the prescribed nodes' displacements u_p given (control nodes at their FEM
 displacement, fixed nodes at zero) and nodal forces f on the free nodes, the equilibrium is

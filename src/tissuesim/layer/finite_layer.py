@@ -2,7 +2,7 @@
 
 The XPBD form's constraints are an elastic energy (Macklin et al. 2016): U(x) = Σ_c C_c(x)²/(2 α_c), with stretch
 C = |x_i − x_j| − l (eq 8, compliance α [m/N]) and the signed bending angle C = β − β0 (eq 10 in the signed form of
-:func:`tissuesim.pbd.constraints.signed_bend_angle`, α [1/(N·m)]). :mod:`tissuesim.pbd.static` linearises U at rest,
+:func:`tissuesim.layer.constraints.signed_bend_angle`, α [1/(N·m)]). :mod:`tissuesim.layer.static` linearises U at rest,
 which is exact only while edges and hinges turn by small angles: a rotated layer gains strain energy there (a rigid
 turn by θ stretches every edge by about θ²/2 of its length). Here C and ∇C are the true nonlinear ones at the
 current positions, so a rigid motion costs no energy, whatever its size.
@@ -185,7 +185,7 @@ class FiniteLayer(LayerStatics):
     def tangent(self, positions: np.ndarray, *, definite: bool = False) -> sp.csc_matrix:
         """``(3f, 3f)`` free-free part [N/m] of the layer's tangent at ``positions`` ``(n, 3)`` [m], free dofs in
         :attr:`free_nodes` order: Newton's Jᵀ α⁻¹ J + Σ (C/α) ∇²C, or with ``definite`` its part that is positive
-        semi-definite at any x (:func:`~tissuesim.pbd.finite_kernels.layer_tangent`)."""
+        semi-definite at any x (:func:`~tissuesim.layer.finite_kernels.layer_tangent`)."""
         layer_tangent(positions, *self._constraints, definite, self._stretch_slots, self._hinge_slots, self._blocks)
         size = 3 * self.free_nodes.size
         return sp.bsr_matrix((self._blocks, self._indices, self._indptr), shape=(size, size)).tocsc()

@@ -1,4 +1,4 @@
-"""Numba kernels of the finite-strain surface layer (:mod:`tissuesim.pbd.finite_layer`): the energy
+"""Numba kernels of the finite-strain surface layer (:mod:`tissuesim.layer.finite_layer`): the energy
 U = Σ_c C_c²/(2 α_c) (Macklin et al. 2016) of the stretch (eq 8) and signed bending (eq 10, signed form)
 constraints, its gradient and its tangent at the current positions, and the per-dof loops of the implicit step.
 Arrays are the caller's, written in place.
