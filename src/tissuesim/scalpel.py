@@ -84,6 +84,11 @@ class Scalpel:
     def pressed(self) -> bool:
         return self.tip is not None
 
+    def prepare(self) -> None:
+        """Get the solver ready for a cut that is about to come, e.g. when the tool is picked up: what its first
+        move needs (the layer's explicit factor) is built in the background from now. :meth:`press` does it too."""
+        self._updater.prepare()
+
     def press(self, point, direction=None) -> CutReport:
         """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` ``(3,)``, a vector of
         any finite, non-zero length (default: the inward normal there); SolverError for anything else."""

@@ -24,6 +24,9 @@ class FakeScalpel:
     def __init__(self, solver):
         self.solver, self.calls = solver, []
 
+    def prepare(self):
+        self.calls.append(("prepare",))
+
     def press(self, point, direction=None):
         self.calls.append(("press", np.array(point), direction))
         return {"cut": 0}
@@ -105,7 +108,8 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_up()
     calls = c.scalpel.calls
     lift = np.array([0.0, 0.0, BLADE_LIFT * FakeScalpel.depth])  # the tip above the picked point, toward the camera
-    assert [call[0] for call in calls] == ["press", "move", "move", "release"]
+    assert [call[0] for call in calls] == ["prepare", "press", "move", "move", "release"]   # prepared on pick-up
+    calls = calls[1:]
     assert np.allclose(calls[0][1], top + lift) and calls[0][2] is None  # the blade along the inward normal
     assert np.allclose(calls[1][1], top + [0.005, 0.0, 0.0] + lift)
     assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0] + lift)  # off the surface: the plane through the tip
@@ -294,3 +298,12 @@ def test_the_near_field_is_a_setting_and_a_cut_in_the_viewer_switches_it_off(hyb
     for bad in (-1.0, "far"):
         with pytest.raises(SolverError, match="near field W"):
             c.configure(near_field=bad)
+
+
+def test_picking_up_the_scalpel_starts_building_the_first_cut_factor(hybrid):
+    c = Controller(hybrid)
+    c.advance(0.05)                          # the layer is factorised by its first steps
+    statics = c.solver._statics
+    assert getattr(statics, "_cut_base", None) is None
+    c.set_mode("scalpel")
+    assert statics._cut_base.result() is not None    # built while the user aims, before any press

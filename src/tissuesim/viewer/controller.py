@@ -231,6 +231,8 @@ class Controller:
             return
         self.pointer_up()  # never leave a load or a cut dangling across a mode switch
         self.mode = mode
+        if mode == "scalpel":
+            self.scalpel.prepare()     # the first cut's factor, built while the user aims
 
     def toggle_pause(self) -> None:
         self.paused = not self.paused
