@@ -22,10 +22,10 @@ class FakeScalpel:
     depth = 0.01  # blade length [m]
 
     def __init__(self, solver):
-        self.solver, self.calls = solver, []
+        self.solver, self.calls, self.prepared = solver, [], False
 
     def prepare(self):
-        self.calls.append(("prepare",))
+        self.prepared = True
 
     def press(self, point, direction=None):
         self.calls.append(("press", np.array(point), direction))
@@ -108,8 +108,8 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_up()
     calls = c.scalpel.calls
     lift = np.array([0.0, 0.0, BLADE_LIFT * FakeScalpel.depth])  # the tip above the picked point, toward the camera
-    assert [call[0] for call in calls] == ["prepare", "press", "move", "move", "release"]   # prepared on pick-up
-    calls = calls[1:]
+    assert c.scalpel.prepared     # when the scalpel was picked up
+    assert [call[0] for call in calls] == ["press", "move", "move", "release"]
     assert np.allclose(calls[0][1], top + lift) and calls[0][2] is None  # the blade along the inward normal
     assert np.allclose(calls[1][1], top + [0.005, 0.0, 0.0] + lift)
     assert np.allclose(calls[2][1], top + [0.01, 0.0, 0.0] + lift)  # off the surface: the plane through the tip
