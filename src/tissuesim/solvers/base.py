@@ -1,9 +1,10 @@
-"""The solver protocol shared by every method (its state: :mod:`.state`; the registry: :mod:`.registry`).
+"""The solver protocol shared by every method (its state: :mod:`.state`; its quasi-static solve:
+:mod:`.quasi_static`; the registry: :mod:`.registry`).
 
 A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
 owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load: a pin-head's force on
-one M_S node (§8.2), or spread over the nodes under a tip of radius R (:mod:`tissuesim.loads`). Every method exposes the same calls, so the experiments compare like
-with like:
+one M_S node (§8.2), or spread over the nodes under a tip of radius R (:mod:`tissuesim.loads`). Every method
+exposes the same calls, so the experiments compare like with like:
 
 * ``step(dt)`` advances one time step [s];
 * ``set_load(node, force, radius=None)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node,
@@ -30,29 +31,25 @@ Common options (keyword-only, the same for every method):
 
 from __future__ import annotations
 
-import time
 from abc import ABC, abstractmethod
 from typing import ClassVar
 
 import numpy as np
 
-from ..errors import BoundaryConditionError, InversionError, SolverError, first_indices
+from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from .contact import ContactPatches
 from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
-from .finite_strain import check_dead_press, check_method_material, unstable_load_error
+from .finite_strain import check_method_material, unstable_load_error
+from .quasi_static import QuasiStaticSolve
 from .report import SolveReport, linear_validity_warning
-from .state import State, farthest_node, motion_and_displacement, remaining_error
+from .state import State, farthest_node
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
 DEFAULT_DENSITY = 1000.0  # kg/m³
 DEFAULT_DT = 0.01  # s
-#: Relative accuracy of a stepped quasi-static solve: its remaining error over the largest displacement (methods
-#: with a static solver of their own solve the equilibrium exactly).
-DEFAULT_RTOL = 1e-5
-DEFAULT_MAX_STEPS = 20000
 #: A state has run away when a node lies farther than this many model sizes (the diagonal of M_S's rest bounding
 #: box) from its rest position. Linear elasticity stops being valid near 0.1 sizes; the paper's largest load (20 N on
 #: a cube corner) moves the fine FEM 35 sizes and the embedded surface 31, so 100 sizes is no tissue's answer, only
@@ -60,9 +57,8 @@ DEFAULT_MAX_STEPS = 20000
 RUNAWAY_SIZES = 100.0
 
 
-
-class Solver(ContactPatches, ABC):
-    """Base class of every method: state, load, stepping and the quasi-static loop.
+class Solver(ContactPatches, QuasiStaticSolve, ABC):
+    """Base class of every method: state, load and stepping (the quasi-static solve: :class:`QuasiStaticSolve`).
 
     Subclasses implement :meth:`_step` (one time step on ``self.state`` under ``self.forces``) and may override
     :meth:`_on_load_changed` (e.g. to redo the FEM part) and :meth:`_on_reset`.
@@ -257,98 +253,6 @@ class Solver(ContactPatches, ABC):
         self._on_load_changed()
         self._on_reset()
 
-    def solve_static(
-        self,
-        node: int,
-        force,
-        *,
-        radius: float | None = None,
-        tolerance: float | None = None,
-        rtol: float = DEFAULT_RTOL,
-        max_steps: int = DEFAULT_MAX_STEPS,
-        dt: float | None = None,
-        reset: bool = True,
-    ) -> np.ndarray:
-        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``.
-
-        ``radius`` spreads the force over a contact patch (:meth:`set_load`). Methods with a static solver of their
-        own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.layer.static`) solve the equilibrium
-        directly (a linear solve, exact to round-off). The others step (with the solver's
-        damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
-        ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
-        stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load (and on
-        where :meth:`set_fixed_positions` put the fixed set, which it keeps).
-        What was done, and whether linear elasticity is valid for the answer (``last_solve.warning``), is in
-        :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling, or at once when the state
-        blows up (see :meth:`step`).
-        """
-        tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
-        rtol = positive_number("rtol", rtol, "1")
-        if rtol >= 1.0:  # a remaining error as large as the answer itself accepts any state as settled
-            raise SolverError(f"rtol is a relative accuracy and must lie in (0, 1), got {rtol!r}; e.g. 1e-5")
-        if not is_integer(max_steps) or max_steps < 1:
-            raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
-        dt = self._check_dt(dt)
-        node = self._check_node(node)
-        force = check_force(force)
-        self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
-        check_dead_press(self, node, force, radius)
-        # only a finite-strain solve can find no stable equilibrium and have to restore what it was given
-        before = None if self.material == "linear" else (self.state.positions.copy(), self.state.velocities.copy(),
-                                                         self.load, self.load_radius)
-        if reset:
-            self._unloaded()
-        self.set_load(node, force, radius=radius)
-        try:
-            return self._settle(dt, tolerance, rtol, max_steps)
-        except UnstableLoadError as error:
-            refusal = unstable_load_error(self, error)
-            self._restore(*before)
-            raise refusal from None
-
-    def _settle(self, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
-        """:meth:`solve_static`'s work once the load is set: the method's static solve, else stepping."""
-        start = time.perf_counter()
-        iterations = self._static_solve()
-        if iterations is not None:
-            self._check_blow_up(dt, " in its static solve", linear=self.material == "linear")
-            self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
-                                          *self._largest_displacement())
-            return self.state.positions.copy()
-        previous = self._previous
-        previous[:] = self.state.positions
-        steps, motion, settled = 0, np.inf, False
-        history = []
-        while steps < int(max_steps) and not settled:
-            try:
-                self._step(dt)
-            except InversionError:
-                # The surface cannot come back: report the solve as unsettled at its last (finite) state.
-                self.last_solve = SolveReport(steps, False, float(motion), tolerance, time.perf_counter() - start,
-                                              *self._largest_displacement())
-                raise
-            steps += 1
-            self._check_blow_up(dt, f" after {steps} step" + "s" * (steps > 1))
-            motion, largest = motion_and_displacement(previous, self.state.positions, self.rest_positions)
-            history.append(motion)
-            settled = motion <= tolerance or remaining_error(history) <= rtol * largest or self.static
-        self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start,
-                                      *self._largest_displacement())
-        if not settled:
-            raise SolverError(
-                f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
-                f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"
-            )
-        return self.state.positions.copy()
-
-    def _restore(self, positions, velocities, load, radius) -> None:
-        """Back to a state and load taken before a refused solve."""
-        self._unloaded()
-        if load is not None:
-            self.set_load(load[0], load[1], radius=radius)
-        self.state.positions[:] = positions
-        self.state.velocities[:] = velocities
-
     def set_fixed_positions(self, positions) -> None:
         """Move the fixed set: ``positions`` ``(k, 3)`` [m] of the vertices in :attr:`fixed`, in that order (a base
         carried or turned by a grasper or retractor; the next step or static solve follows). A finite-strain
@@ -369,10 +273,6 @@ class Solver(ContactPatches, ABC):
     def _move_fixed(self, positions: np.ndarray) -> None:
         """Subclasses with a finite-strain material carry the fixed set to ``positions`` ``(k, 3)`` [m]."""
         raise BoundaryConditionError(f"the {self.name} method cannot move its fixed set")
-
-    def _largest_displacement(self) -> tuple[float, float]:
-        """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""
-        return float(farthest_node(self.state.positions, self.rest_positions)[1]), self.size
 
     def _check_blow_up(self, dt: float, when: str = "", *, linear: bool = False) -> None:
         """SolverError naming the cause and the fix when the state is non-finite or ran away (one O(n) pass).
