@@ -31,8 +31,9 @@ import pytest
 
 from tissuesim.cli import main
 from tissuesim.experiments import protocol
-from tissuesim.experiments.run import load_model, reference_config, reference_numbers, run_experiment
+from tissuesim.experiments.run import reference_config, reference_numbers, run_experiment
 from tissuesim.experiments.schema import check_results
+from tissuesim.experiments.sweep_config import load_model
 from tissuesim.solvers import make_solver
 
 REFERENCE_FILE = Path(__file__).with_name("experiment_reference.json")

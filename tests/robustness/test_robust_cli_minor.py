@@ -9,7 +9,7 @@ import pytest
 
 from tissuesim import BundleError, HybridMesh, MaterialError, MeshError
 from tissuesim.cli import main
-from tissuesim.experiments.run import ExperimentConfig, load_model
+from tissuesim.experiments.sweep_config import ExperimentConfig, load_model
 from tissuesim.fem.material import Material
 from tissuesim.mesh import models
 

@@ -114,7 +114,8 @@ def test_bad_contact_argument_is_a_one_line_error(arguments, message, tmp_path, 
 
 def test_paper_report_shows_the_single_node_load_diverging():
     from tissuesim.experiments.report import report_markdown
-    from tissuesim.experiments.run import ExperimentConfig, run_experiment
+    from tissuesim.experiments.run import run_experiment
+    from tissuesim.experiments.sweep_config import ExperimentConfig
 
     data = run_experiment(ExperimentConfig.quick(models=("cube",), forces=(1.0,), loads=("pressure",),
                                                  methods=("embedded", "fem")), progress=False)

@@ -9,7 +9,8 @@ from tissuesim.experiments import contact
 from tissuesim.experiments.contact_report import contact_report_markdown
 from tissuesim.experiments.report import report_markdown
 from tissuesim.experiments.reference import RefinementSettings
-from tissuesim.experiments.run import ExperimentConfig, run_experiment
+from tissuesim.experiments.run import run_experiment
+from tissuesim.experiments.sweep_config import ExperimentConfig
 
 
 @pytest.fixture(scope="module")

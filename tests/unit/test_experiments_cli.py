@@ -3,7 +3,7 @@
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.experiments.run import ExperimentConfig
+from tissuesim.experiments.sweep_config import ExperimentConfig
 
 
 @pytest.mark.parametrize("arguments, message", [

@@ -55,7 +55,8 @@ def run(args) -> int:
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.protocol import METHODS, REFERENCE
     from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
-    from ..experiments.run import ExperimentConfig, run_experiment
+    from ..experiments.run import run_experiment
+    from ..experiments.sweep_config import ExperimentConfig
     from ..fem.hyperelastic import check_material
     from ..mesh.models import MODELS
 

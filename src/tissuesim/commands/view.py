@@ -39,7 +39,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
     """The hybrid mesh of a built-in model name or a surface file (built with the fine volume, so every method
     runs), or a saved bundle as it is (without a fine volume the fem method is refused, saying why); and its name."""
-    from ..experiments.run import ExperimentConfig, load_model, model_name
+    from ..experiments.inputs import model_name
+    from ..experiments.sweep_config import ExperimentConfig, load_model
     from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS

@@ -40,7 +40,10 @@ from ..errors import SolverError
 from ..mesh import models as builtin_models
 from ..solvers.near_field import NEAR_FIELD_WINDOW
 from . import protocol
+from .inputs import check_free_node, model_name
 from .reference import RefinementSettings, contact_references
+from .sweep_config import ExperimentConfig, load_model
+from .sweep_measure import inverted_elements
 
 FORCES_N = (0.5, 1.0, 2.0, 5.0, 10.0)
 RADII_MM = (4.0, 8.0)
@@ -122,65 +125,102 @@ def shared_livers(folder=None) -> dict:
 
 def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -> dict:
     """Run the contact protocol; return its results document (JSON-ready)."""
-    from .inputs import check_free_node, model_name
-    from .run import ExperimentConfig, load_model
-
     config = config or ContactConfig()
     start = time.perf_counter()
     methods = tuple(config.methods or methods_with(config.material))
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
-    for spec, name in zip(config.models, _names(config.models, model_name)):
-        hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
-                                                   scale=config.scales.get(spec, 1.0)))
-        rest = np.array(hybrid.surface.vertices, dtype=np.float64)
-        node = protocol.load_node(rest, hybrid.surface.triangles)
-        solvers = {m: _make_method(m, hybrid, config.material) for m in methods}
-        check_free_node(solvers[methods[0]], node, name, role="the contact load at its top centre")
-        patches, skipped = {}, {}
-        for radius_mm in config.radii_mm:
-            try:
-                patches[radius_mm] = solvers[methods[0]].contact_patch(node, 1e-3 * radius_mm)
-            except SolverError as error:  # e.g. the patch reaches the support on a small model: say so, go on
-                skipped[f"{radius_mm:g}"] = str(error)
-                say(f"{name}: R = {radius_mm:g} mm skipped: {error}")
-        kept = list(patches)    # a skipped radius costs no reference
-        say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in kept) or 'none'} mm")
-        cases = {r: _stable_cases(solvers[methods[0]], node, r, protocol.load_cases(config.forces, config.loads))
-                 for r in kept}
-        refs = _references(hybrid, node, kept, cases, config, lambda line: say(f"  {name} {line}"))
-        info[name] = _model_info(spec, hybrid, node, refs, kept, config.settings)
-        if skipped:
-            info[name]["skipped"] = skipped
-        beyond = [entry for r in kept for entry in cases[r][1]]
-        if beyond:
-            info[name]["beyond_stable_press"] = beyond
-        for radius_mm, ref in zip(kept, refs):
-            patch = patches[radius_mm]
-            for case in cases[radius_mm][0]:
-                try:
-                    reference = rest + ref.displacements(case.vector)
-                except SolverError as error:   # no stable finite-strain equilibrium on the reference's mesh
-                    info[name].setdefault("unstable_reference", []).append(
-                        {"load": case.load, "force_N": float(case.force_N), "radius_mm": float(radius_mm),
-                         "reason": str(error)})
-                    continue
-                for method in methods:
-                    record = {"model": name, "load": case.load, "force_N": case.force_N,
-                              "radius_mm": float(radius_mm), "method": method,
-                              "role": role(name, case.load, case.force_N, radius_mm),
-                              "reference_converged": ref.converged}
-                    try:
-                        positions, solve = _equilibrium(solvers[method], node, case.vector, 1e-3 * radius_mm,
-                                                        config.max_steps)
-                    except SolverError as error:  # a solver that refuses or blows up: recorded, the run goes on
-                        records.append({**record, **_no_metrics(), "converged": False, "error": str(error)})
-                        continue
-                    records.append({**record, **contact_metrics(positions, reference, rest, ref.samples, *patch),
-                                    **solve})
-            say(f"{name}: R = {radius_mm:g} mm done")
+    for spec, name in zip(config.models, _names(config.models)):
+        info[name] = _run_model(spec, name, methods, config, say, records)
     return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
             "records": records}
+
+
+@dataclass(frozen=True)
+class _Site:
+    """One model as its contact cases see it: its report name, rest M_S positions, load node, and its solvers
+    (``methods`` in the order run, ``solvers`` by method)."""
+
+    name: str
+    rest: np.ndarray
+    node: int
+    methods: tuple
+    solvers: dict
+
+
+def _run_model(spec: str, name: str, methods: tuple, config: ContactConfig, say, records: list) -> dict:
+    """Every method in every case of one model, appended to ``records``; return the model's metadata (references,
+    skipped radii, presses beyond the stable range, references without a stable equilibrium)."""
+    hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
+                                               scale=config.scales.get(spec, 1.0)))
+    rest = np.array(hybrid.surface.vertices, dtype=np.float64)
+    node = protocol.load_node(rest, hybrid.surface.triangles)
+    site = _Site(name, rest, node, methods, {m: _make_method(m, hybrid, config.material) for m in methods})
+    first = site.solvers[methods[0]]
+    check_free_node(first, node, name, role="the contact load at its top centre")
+    patches, skipped = _patches(first, node, config.radii_mm, lambda line: say(f"{name}: {line}"))
+    kept = list(patches)    # a skipped radius costs no reference
+    say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in kept) or 'none'} mm")
+    cases = {r: _stable_cases(first, node, r, protocol.load_cases(config.forces, config.loads)) for r in kept}
+    refs = _references(hybrid, node, kept, cases, config, lambda line: say(f"  {name} {line}"))
+    info = _model_info(spec, hybrid, node, refs, kept, config.settings)
+    if skipped:
+        info["skipped"] = skipped
+    beyond = [entry for r in kept for entry in cases[r][1]]
+    if beyond:
+        info["beyond_stable_press"] = beyond
+    for radius_mm, ref in zip(kept, refs):
+        records.extend(_radius_records(site, radius_mm, patches[radius_mm], ref, cases[radius_mm][0],
+                                       config.max_steps, info))
+        say(f"{name}: R = {radius_mm:g} mm done")
+    return info
+
+
+def _patches(solver, node: int, radii_mm, say) -> tuple[dict, dict]:
+    """``(patches, skipped)``: the contact patch of each radius [mm], and why a radius has none."""
+    patches, skipped = {}, {}
+    for radius_mm in radii_mm:
+        try:
+            patches[radius_mm] = solver.contact_patch(node, 1e-3 * radius_mm)
+        except SolverError as error:  # e.g. the patch reaches the support on a small model: say so, go on
+            skipped[f"{radius_mm:g}"] = str(error)
+            say(f"R = {radius_mm:g} mm skipped: {error}")
+    return patches, skipped
+
+
+def _radius_records(site: _Site, radius_mm: float, patch: tuple, ref, cases: list, max_steps: int,
+                    info: dict) -> list[dict]:
+    """The records of one radius's ``cases``; a case whose reference has no stable equilibrium goes into ``info``'s
+    ``unstable_reference`` instead."""
+    records = []
+    for case in cases:
+        try:
+            reference = site.rest + ref.displacements(case.vector)
+        except SolverError as error:   # no stable finite-strain equilibrium on the reference's mesh
+            info.setdefault("unstable_reference", []).append(
+                {"load": case.load, "force_N": float(case.force_N), "radius_mm": float(radius_mm),
+                 "reason": str(error)})
+            continue
+        records += _case_records(site, case, radius_mm, patch, ref, reference, max_steps)
+    return records
+
+
+def _case_records(site: _Site, case: protocol.LoadCase, radius_mm: float, patch: tuple, ref, reference,
+                  max_steps: int) -> list[dict]:
+    """One record per method of one case: its three errors, or the error that stopped its solve."""
+    records = []
+    for method in site.methods:
+        record = {"model": site.name, "load": case.load, "force_N": case.force_N,
+                  "radius_mm": float(radius_mm), "method": method,
+                  "role": role(site.name, case.load, case.force_N, radius_mm),
+                  "reference_converged": ref.converged}
+        try:
+            positions, solve = _equilibrium(site.solvers[method], site.node, case.vector, 1e-3 * radius_mm, max_steps)
+        except SolverError as error:  # a solver that refuses or blows up: recorded, the run goes on
+            records.append({**record, **_no_metrics(), "converged": False, "error": str(error)})
+            continue
+        records.append({**record, **contact_metrics(positions, reference, site.rest, ref.samples, *patch), **solve})
+    return records
 
 
 def methods_with(material: str) -> tuple:
@@ -234,7 +274,7 @@ def _references(hybrid, node: int, radii_mm: list, cases: dict, config: ContactC
                                      progress=say) for r in radii_mm]
 
 
-def _names(specs, model_name) -> list[str]:
+def _names(specs) -> list[str]:
     """Report names: a file's stem, prefixed with its folder where two models would share one (the shared
     softbodyliver/liver.obj beside the built-in liver)."""
     names = []
@@ -296,8 +336,6 @@ def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, di
         positions = np.array(solver.positions)
     elapsed = 1e3 * (time.perf_counter() - start)
     report = solver.last_solve
-    from .run import inverted_elements
-
     inverted = inverted_elements(solver)
     solver.reset()
     return positions, {"equilibrium_ms": elapsed, "converged": True if report is None else bool(report.converged),

@@ -105,10 +105,27 @@ def convergence_table(levels: list) -> str:
 def contact_report_markdown(data: dict) -> str:
     """The text of the contact protocol's ``report.md``."""
     meta = data["metadata"]
+    material = meta.get("material", "linear")
+    parts = _summary(meta, material) + ["## Errors per method (held-out rows)", "", method_table(data), ""]
+    ratios = ratio_table(data)
+    if ratios.count("\n") > 1:
+        parts += ["## The hybrid against the embedded surface and PBD, row by row (held out)", "",
+                  "Relative RMSE over all samples, divided by the other method's in the same row. Ours+NF is the "
+                  "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, "", *_floor_lines(meta)]
+    if any(r["role"] == "calibration" for r in data["records"]):
+        parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
+    if material != "linear":
+        parts += [f"## Validity of the {material} runs", ""] + [f"- {line}" for line in finite_validity(data)] + [""]
+    parts += _reference_sections(meta, material) + _failure_notes(data)
+    parts += ["## Every case", "", case_table(data), ""]
+    return "\n".join(parts)
+
+
+def _summary(meta: dict, material: str) -> list[str]:
+    """The report's title and opening paragraphs: what was run, on which material, and which row calibrates."""
     settings = meta["refinement"]
     calibration = meta["calibration_case"]
-    material = meta.get("material", "linear")
-    parts = [
+    return [
         "# Contact protocol report",
         "",
         f"Models: {', '.join(meta['models'])}. Loads: {' and '.join(meta['loads'])} at "
@@ -124,26 +141,19 @@ def contact_report_markdown(data: dict) -> str:
         "every other row is held out. Errors are relative to the reference's RMS displacement over the "
         f"{settings['samples']} samples.",
         "",
-        "## Errors per method (held-out rows)",
-        "",
-        method_table(data),
-        "",
     ]
-    ratios = ratio_table(data)
-    if ratios.count("\n") > 1:
-        parts += ["## The hybrid against the embedded surface and PBD, row by row (held out)", "",
-                  "Relative RMSE over all samples, divided by the other method's in the same row. Ours+NF is the "
-                  "hybrid with its near field (`near_field`, docs/solvers.md).", "", ratios, "", *_floor_lines(meta)]
-    if any(r["role"] == "calibration" for r in data["records"]):
-        parts += ["## Errors per method (calibration row)", "", method_table(data, role="calibration"), ""]
-    if material != "linear":
-        parts += [f"## Validity of the {material} runs", ""] + [f"- {line}" for line in finite_validity(data)] + [""]
+
+
+def _reference_sections(meta: dict, material: str) -> list[str]:
+    """The references: how they were refined, then each one's convergence table and load rule floor, then the
+    radii skipped."""
+    settings = meta["refinement"]
     per = ("per unit force along −z" if material == "linear" else
            f"{material} quadratic-tet FEM (Newton) under each load; the table's displacements are per newton of the "
            "largest stable load (the response is not linear in the force), its change the largest over the loads")
-    parts += ["## References", "",
-              f"Refined until the sample displacements change by less than {100 * settings['tolerance']:g} % "
-              f"between levels (at most level {settings['max_levels']}); {per}.", ""]
+    parts = ["## References", "",
+             f"Refined until the sample displacements change by less than {100 * settings['tolerance']:g} % "
+             f"between levels (at most level {settings['max_levels']}); {per}.", ""]
     for model, info in meta["models"].items():
         for radius, ref in info["references"].items():
             status = "converged" if ref["converged"] else (
@@ -156,6 +166,12 @@ def contact_report_markdown(data: dict) -> str:
     for model, info in meta["models"].items():
         for radius, reason in info.get("skipped", {}).items():
             parts += [f"Skipped: {model}, R = {radius} mm: {reason}", ""]
+    return parts
+
+
+def _failure_notes(data: dict) -> list[str]:
+    """How many solves failed (and the first one's error) and how many did not settle."""
+    parts = []
     failed = [r for r in data["records"] if "error" in r]
     if failed:
         parts += [f"{len(failed)} solves failed and have no figures; the first: {failed[0]['method']} on "
@@ -166,8 +182,7 @@ def contact_report_markdown(data: dict) -> str:
         parts += [f"{len(unsettled)} solves did not settle within the step cap, or turned the mass-spring surface "
                   "inside out (which springs cannot undo), and are measured at their last positions (marked in the "
                   "table).", ""]
-    parts += ["## Every case", "", case_table(data), ""]
-    return "\n".join(parts)
+    return parts
 
 
 def main(argv: list[str] | None = None) -> int:
