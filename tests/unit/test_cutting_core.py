@@ -91,7 +91,8 @@ def test_a_sweep_that_misses_the_surface_changes_nothing(cube):
 
 
 def _patch(triangles):
-    from tissuesim.cutting.fans import RowPatch, VertexFans
+    from tissuesim.cutting.fans import VertexFans
+    from tissuesim.cutting.row_patch import RowPatch
 
     return RowPatch(triangles, VertexFans(triangles, 16), 16)
 

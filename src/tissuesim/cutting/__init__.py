@@ -4,8 +4,9 @@ Pure functions (no solver): :func:`cut_surface` returns a :class:`CutResult`; :f
 what is wrong with a cut surface (used by the tests, the fuzz test and ``tissuesim incise``).
 """
 
-from .core import DEFAULT_SNAP, CutResult, cut_surface
+from .core import DEFAULT_SNAP, cut_surface
 from .invariants import check_cut_invariants
+from .result import CutResult
 from .sweep import Sweep
 
 __all__ = ["DEFAULT_SNAP", "CutResult", "Sweep", "check_cut_invariants", "cut_surface"]

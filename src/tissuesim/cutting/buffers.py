@@ -17,8 +17,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .core import CutResult, plan_cut, CutPlan
+from .core import plan_cut
 from .fans import VertexFans
+from .result import CutPlan, CutResult
 from .sweep import Sweep, candidate_triangles, check_snap
 from ..mesh.coincident import coincident_pairs
 

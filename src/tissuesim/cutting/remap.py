@@ -18,7 +18,7 @@ from ..mesh.hybrid import SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY, HybridMesh
 from ..mesh.maps import closest_among
 from ..mesh.surface import SurfaceMesh
 from .buffers import Spare
-from .core import CutResult
+from .result import CutResult
 
 
 def new_rows(values: np.ndarray, result: CutResult, fresh: np.ndarray) -> np.ndarray:

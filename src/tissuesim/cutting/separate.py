@@ -26,7 +26,7 @@ def separate(patch, cut_edges, vertex_count: int):
     """Duplicate the vertices of ``cut_edges`` (pairs of vertex indices) per wedge, on the rows of ``patch``.
 
     Args:
-        patch: the cut's :class:`~tissuesim.cutting.fans.RowPatch`; rows given a copy are rewritten there.
+        patch: the cut's :class:`~tissuesim.cutting.row_patch.RowPatch`; rows given a copy are rewritten there.
         cut_edges: iterable of ``(u, v)`` vertex pairs; a pair that is not an edge of the patch's rows is ignored.
         vertex_count: the number of vertices so far; copies are numbered from it on.
 

@@ -26,10 +26,10 @@ import numpy as np
 from ..errors import SolverError, TissuesimError
 from ..loads import lumped_areas, triangle_areas
 from .buffers import CutSurface
-from .core import CutResult
-from .fans import edge_owners, touched_edges
+from .edges import edge_owners, touched_edges
 from .invariants import unanchored_pieces
 from .remap import cut_hybrid
+from .result import CutResult
 from .rows import EdgeRows, Rows
 
 #: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
@@ -171,7 +171,7 @@ class SolverCut:
 
     def touched_edges(self, result: CutResult) -> tuple[np.ndarray, np.ndarray]:
         """``(keys (k, 2), owners (k, 2))``: the edges (lo < hi) of the triangles the cut changed, before and after
-        it, and the rows holding each now (−1 for none; see :func:`~tissuesim.cutting.fans.edge_owners`)."""
+        it, and the rows holding each now (−1 for none; see :func:`~tissuesim.cutting.edges.edge_owners`)."""
         keys = touched_edges(result.replaced, result.triangles[result.changed])
         return keys, edge_owners(self.surface.fans, self.surface.triangles, keys)
 

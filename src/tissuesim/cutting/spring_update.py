@@ -15,7 +15,7 @@ import numpy as np
 
 from ..layer.compliance import thickness_lengths
 from ..solvers.mass_spring import gershgorin_rows
-from .fans import touched_edges
+from .edges import touched_edges
 from .layer_update import new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
 from .solver_update import SolverCut, _members
