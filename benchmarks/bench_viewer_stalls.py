@@ -11,8 +11,9 @@ scripted session paced at 60 frames/s like a window with vsync (a frame that end
 
 1. start: the first frames (the mesh registered, shaders), then the model settles;
 2. drag: grab a node 35° down the side, drag it 2 cm in the camera plane (the camera looks straight down), release;
-3. cut: switch to the scalpel, press over the top and cut a 3 cm incision, the cursor moving 1.5 edge lengths per
-   frame, release, then frames with no event;
+3. cut: switch to the scalpel, and as many frames later as the model settled (the hand reaching the surface) press
+   over the top and cut a 3 cm incision, the cursor moving 1.5 edge lengths per frame, release, then frames with no
+   event;
 4. drag again: the same on a node never grabbed, on the other side.
 
 A frame's wall time is the pointer event plus ``ViewerApp.tick`` (the controller's steps, the upload of the new
@@ -91,14 +92,16 @@ class Session:
                        lambda: c.pointer_move(None, cursor - DOWN, DOWN))
         self.frame(phase, "release", c.pointer_up)
 
-    def cut(self, phase: str) -> dict:
-        """Cut INCISION over the top in moves of EDGES_PER_MOVE edge lengths; the moves and triangles split."""
+    def cut(self, phase: str, pause: int) -> dict:
+        """Take the scalpel, ``pause`` frames later cut INCISION over the top in moves of EDGES_PER_MOVE edge lengths;
+        the moves and triangles split."""
         c = self.controller
         rest = c.solver.rest_positions
         start, end = incision_line(rest, length=INCISION)
         moves = int(np.ceil(INCISION / (EDGES_PER_MOVE * c.solver.hybrid.surface.mean_edge_length)))
         points = [on_sphere(rest, start + f * (end - start)) for f in np.linspace(0.0, 1.0, moves + 1)]
         self.frame(phase, "scalpel mode", lambda: c.set_mode("scalpel"))
+        self.idle(phase, pause, "scalpel taken")  # the hand moves the cursor to the surface
         self.frame(phase, "press", lambda: c.pointer_down(points[0], points[0] - DOWN, DOWN))
         split = 0
         for i, point in enumerate(points[1:]):
@@ -129,7 +132,7 @@ def run(size: int, args, drawing: bool) -> tuple[Session, dict]:
     session.idle("start", args.settle)
     session.drag("drag", surface_node(rest, GRAB_POLAR, -np.pi / 2), args.drag_frames)
     session.idle("drag", args.settle, "after release")
-    cut = session.cut("cut")
+    cut = session.cut("cut", args.settle)
     session.idle("cut", args.settle, "after the cut")
     session.frame("drag again", "pin-head mode", lambda: controller.set_mode("pin"))
     session.drag("drag again", surface_node(rest, GRAB_POLAR, np.pi / 2), args.drag_frames)
