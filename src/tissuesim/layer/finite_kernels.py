@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import TINY_LENGTH, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, _bend_gradient_signed
 
 # Complex step, relative to the hinge edge's length: any size far below 1 is exact to round-off.
 COMPLEX_STEP = 1e-20
@@ -74,7 +74,7 @@ def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, res
 @njit(cache=True, inline="always")
 def _hinge_gradient_abc(ax, ay, az, bx, by, bz, cx, cy, cz):
     """(∇_2β, ∇_3β, ∇_4β) of the signed angle as 9 numbers, from a = P2 − P1, b = P3 − P1, c = P4 − P1 (∇_1β is
-    minus their sum): :func:`kernels._bend_gradient_signed`'s closed form without atan2 or branches, so that it
+    minus their sum): :func:`hinge_kernels._bend_gradient_signed`'s closed form without atan2 or branches, so that it
     runs on complex numbers for the complex-step Hessian."""
     nax = ay * bz - az * by
     nay = az * bx - ax * bz
@@ -132,6 +132,13 @@ def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle,
     and of the hinges. ``stretch_slots`` ``(e, 4)`` and ``hinge_slots`` ``(b, 16)`` give the block of each node pair
     (ii, ij, ji, jj; row-major over the hinge's 4×4 pairs), −1 where either node is prescribed."""
     data[:] = 0.0
+    _add_stretch_tangent(x, edges, rest_length, stretch_compliance, definite, stretch_slots, data)
+    _add_hinge_tangent(x, hinges, rest_angle, bend_compliance, definite, hinge_slots, data)
+
+
+@njit(cache=True)
+def _add_stretch_tangent(x, edges, rest_length, stretch_compliance, definite, stretch_slots, data):
+    """The stretch constraints' part of :func:`layer_tangent`, added to ``data``."""
     block = np.empty((3, 3))
     d = np.empty(3)
     for c in range(edges.shape[0]):
@@ -157,6 +164,11 @@ def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle,
                 for p in range(3):
                     for q in range(3):
                         data[slot, p, q] += sign * block[p, q]
+
+
+@njit(cache=True)
+def _add_hinge_tangent(x, hinges, rest_angle, bend_compliance, definite, hinge_slots, data):
+    """The bending constraints' part of :func:`layer_tangent`, added to ``data``."""
     hessian = np.empty((12, 12))
     gradient = np.empty(12)
     work = np.empty(9, dtype=np.complex128)

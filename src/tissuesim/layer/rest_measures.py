@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .kernels import TINY_LENGTH, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, _bend_gradient_signed
 
 
 @njit(cache=True)

@@ -22,7 +22,7 @@ from numba import njit
 
 from ..errors import SolverError
 from ..fem.factorise import factorise_spd
-from .kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
 
 
 @njit(cache=True)
