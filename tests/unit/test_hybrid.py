@@ -9,7 +9,9 @@ import pytest
 from tissuesim.errors import BundleError, MeshError
 from tissuesim.io import read_surface
 from tissuesim.mesh import models
-from tissuesim.mesh.hybrid import BUNDLE_VERSION, HybridMesh, ascii_size, table1_markdown, table1_row
+from tissuesim.mesh.bundle import BUNDLE_VERSION
+from tissuesim.mesh.hybrid import HybridMesh
+from tissuesim.mesh.table1 import ascii_size, table1_markdown, table1_row
 from tissuesim.mesh.surface import SurfaceMesh
 from tissuesim.mesh.validate import validate_surface
 

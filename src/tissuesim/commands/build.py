@@ -50,7 +50,8 @@ def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution
 
 def run(args: argparse.Namespace) -> int:
     from ..mesh.bundle_check import check_bundle_target
-    from ..mesh.hybrid import HybridMesh, table1_markdown, table1_row
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.table1 import table1_markdown, table1_row
 
     if args.output is not None:
         # an unwritable target, or the input itself, is refused before the build, not after

@@ -1,0 +1,165 @@
+"""The hybrid mesh's bundle: :meth:`HybridMesh.save <tissuesim.mesh.hybrid.HybridMesh.save>` and
+:meth:`~tissuesim.mesh.hybrid.HybridMesh.load` write and read it here.
+
+One ``.npz`` file of plain arrays (no pickle) plus a JSON header carrying the bundle format version and the tissuesim
+version that wrote it. Loading a bundle of another format version, an unreadable one, or one whose arrays fail the
+checks of :mod:`.bundle_check` (dtype, shape, finiteness, index range, consistency between the meshes) raises
+:class:`BundleError` naming the array. Saving writes a temporary file beside the target and renames it, so a bundle
+is never half-written; a target that exists and is not a regular file is refused. Arrays survive bit for bit; M'_S
+is stored as triangles only (its vertices are ``surface.vertices[control]``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import BundleError, MeshError
+from .bundle_check import (bundle_path, check_arrays, check_bundle_target, check_header, temporary_prefix,
+                           unsaveable)
+from .surface import SurfaceMesh
+from .tetmesh import TetMesh
+
+BUNDLE_FORMAT = "tissuesim-hybrid"
+BUNDLE_VERSION = 1
+WHAT_A_BUNDLE_IS = ("a bundle is the .npz file that `tissuesim build MESH --output FILE.npz` or HybridMesh.save "
+                    "writes; read a surface file with tissuesim.read_surface and build it with HybridMesh.build")
+
+
+def save_bundle(hybrid, path) -> Path:
+    """Write ``hybrid`` (a :class:`~tissuesim.mesh.hybrid.HybridMesh`) to ``path`` atomically; see
+    :meth:`HybridMesh.save <tissuesim.mesh.hybrid.HybridMesh.save>`."""
+    from .. import __version__
+
+    path = check_bundle_target(path)
+    header = {"format": BUNDLE_FORMAT, "format_version": BUNDLE_VERSION, "tissuesim_version": __version__,
+              "has_fine_volume": hybrid.fine_volume is not None, "info": _jsonable(hybrid.info)}
+    arrays = {
+        "surface_vertices": hybrid.surface.vertices, "surface_triangles": hybrid.surface.triangles,
+        "coarse_triangles": hybrid.coarse_surface.triangles, "volume_points": hybrid.volume.points,
+        "volume_tets": hybrid.volume.tets, "control": hybrid.control, "control_volume": hybrid.control_volume,
+        "coarse_triangle": hybrid.coarse_triangle, "coarse_barycentric": hybrid.coarse_barycentric,
+        "embedding_tet": hybrid.embedding_tet, "embedding_barycentric": hybrid.embedding_barycentric,
+    }
+    if hybrid.coarse_volume is not None:
+        arrays["coarse_volume"] = hybrid.coarse_volume
+    if hybrid.fine_volume is not None:
+        arrays.update(fine_points=hybrid.fine_volume.points, fine_tets=hybrid.fine_volume.tets,
+                      fine_surface_nodes=hybrid.fine_surface_nodes)
+    arrays["header"] = np.frombuffer(json.dumps(header).encode("utf-8"), dtype=np.uint8)
+    _write_atomically(path, arrays)
+    return path
+
+
+def _write_atomically(path: Path, arrays: dict) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, temporary = tempfile.mkstemp(prefix=temporary_prefix(path), suffix=".tmp", dir=path.parent)
+    except OSError as error:
+        raise BundleError(unsaveable(path, error)) from None
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            np.savez(stream, **arrays)
+            stream.flush()
+            os.fsync(stream.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(temporary, 0o666 & ~umask)     # mkstemp makes it private; a bundle is an ordinary file
+        os.replace(temporary, path)
+    except BaseException as error:
+        Path(temporary).unlink(missing_ok=True)
+        if isinstance(error, OSError):      # e.g. a full disk: name the bundle, not the temporary file
+            raise BundleError(unsaveable(path, error)) from None
+        raise
+
+
+def load_bundle(path) -> dict:
+    """The :class:`~tissuesim.mesh.hybrid.HybridMesh` fields of the bundle at ``path``, checked; see
+    :meth:`HybridMesh.load <tissuesim.mesh.hybrid.HybridMesh.load>`."""
+    path = bundle_path(path)
+    arrays = _read_arrays(path)
+    header = _read_header(path, arrays)
+    fine_volume = header["has_fine_volume"]
+    required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
+                "control", "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet",
+                "embedding_barycentric"]
+    if fine_volume:
+        required += ["fine_points", "fine_tets", "fine_surface_nodes"]
+    missing = [key for key in required if key not in arrays]
+    if missing:
+        raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+    check_arrays(path, arrays, fine=fine_volume)
+    try:
+        surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
+        control = arrays["control"]
+        volume = TetMesh(arrays["volume_points"], arrays["volume_tets"])
+        coarse_volume = arrays.get("coarse_volume")
+        coarse = SurfaceMesh(surface.vertices[control] if coarse_volume is None else
+                             volume.points[coarse_volume], arrays["coarse_triangles"])
+        fine = fine_nodes = None
+        if fine_volume:
+            fine = TetMesh(arrays["fine_points"], arrays["fine_tets"])
+            fine_nodes = arrays["fine_surface_nodes"]
+    except MeshError as error:
+        raise BundleError(f"{path} holds inconsistent meshes ({error}); rebuild it") from error
+    return dict(surface=surface, coarse_surface=coarse, volume=volume, control=control,
+                control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
+                coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
+                embedding_barycentric=arrays["embedding_barycentric"], fine_volume=fine,
+                fine_surface_nodes=fine_nodes, info=header.get("info", {}), coarse_volume=coarse_volume)
+
+
+def _read_arrays(path: Path) -> dict:
+    """Every array of the ``.npz`` at ``path``, refusing (BundleError) what is no readable archive of plain arrays."""
+    if path.is_dir():
+        raise BundleError(f"{path} is a folder, not a hybrid-mesh bundle; {WHAT_A_BUNDLE_IS}")
+    if path.exists() and not path.is_file():
+        raise BundleError(f"{path} is not a regular file (a device or pipe), so not a hybrid-mesh bundle; "
+                          f"{WHAT_A_BUNDLE_IS}")
+    if not path.is_file():
+        raise FileNotFoundError(f"no hybrid-mesh bundle at {path}")
+    if not zipfile.is_zipfile(path):
+        raise BundleError(f"{path} is not a readable hybrid-mesh bundle: it is not a .npz (zip) archive; "
+                          f"{WHAT_A_BUNDLE_IS}")
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            return {key: data[key] for key in data.files}
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
+        # numpy's own text would suggest allow_pickle=True: never load a file's Python objects
+        reason = "it holds Python objects, which a bundle never does" if "pickle" in str(error) else str(error)
+        raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({reason}); {WHAT_A_BUNDLE_IS}") \
+            from None
+
+
+def _read_header(path: Path, arrays: dict) -> dict:
+    if "header" not in arrays:
+        raise BundleError(f"{path} has no bundle header; it is not a tissuesim hybrid-mesh bundle")
+    try:
+        header = json.loads(arrays["header"].tobytes().decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
+    if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:
+        raise BundleError(f"{path} is not a tissuesim hybrid-mesh bundle")
+    check_header(path, header)
+    if header.get("format_version") != BUNDLE_VERSION:
+        raise BundleError(
+            f"{path} is bundle format version {header.get('format_version')} (written by tissuesim "
+            f"{header.get('tissuesim_version', '?')}); this tissuesim reads version {BUNDLE_VERSION}: rebuild it "
+            "with `tissuesim build ... --output`")
+    return header
+
+
+def _jsonable(value):
+    """``info`` with numpy scalars turned into plain numbers, for the JSON header."""
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
