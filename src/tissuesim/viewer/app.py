@@ -4,7 +4,7 @@ Each frame polyscope calls :meth:`ViewerApp.frame`, which (1) turns the mouse in
 on the surface grabs (pin-head) or starts a cut (scalpel) and turns the camera's mouse handling off until the
 button is released; a click beside the surface turns the camera as usual — (2) lets the controller run the steps
 the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a recording frame, (5) draws
-the panel. Keys: S switches pin-head / scalpel, R resets, space pauses.
+the panel (:mod:`.panel`). Keys: S switches pin-head / scalpel, R resets, space pauses.
 
 :class:`ReplayApp` plays a recording (``tissuesim view --replay FILE.pvd``) with a frame slider.
 """
@@ -19,20 +19,17 @@ import numpy as np
 from ..errors import TissuesimError
 from ..recording import Recorder, border_edges, solver_frame
 from ..recording_place import session_path
-from ..solvers.near_field import NEAR_FIELD_WINDOW
-from ..fem.hyperelastic import MATERIALS
-from ..solvers.registry import available_solvers, solver_class, solver_options
-from .controller import MODES, Controller
+from .controller import Controller
 from .gl import look_at_oblique, polyscope
+from .panel import PanelWidgets
 
 SURFACE = "M_S"
 WINDOW_SIZE = (1024, 720)  # pixels
-PANEL_WIDTH, PANEL_ITEM_WIDTH = 330, 150  # pixels of the panel and of one widget: the panel leaves the model in view
-BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
+PANEL_WIDTH = 330  # pixels: the panel leaves the model in view
 FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
 
 
-class ViewerApp:
+class ViewerApp(PanelWidgets):
     """The window over ``controller``; ``record`` (a .pvd path) starts recording at once.
 
     The panel's record button names each recording after the time it starts (:func:`session_path`), in the folder
@@ -56,7 +53,7 @@ class ViewerApp:
         self.callback_seconds = 0.0  # last frame's time inside the callback: events, steps, uploads, panel [s]
         self.stats = None
         self.sim_time = 0.0  # simulated seconds since the start [s]
-        self._pending = {}  # slider values not yet applied (see _apply_on_release)
+        self._pending = {}  # slider values not yet applied (see PanelWidgets._apply_on_release)
         self._topology = None
         self._home_view = True
         self._coarse_for, self._coarse = None, None  # cache of _coarse_nodes
@@ -232,111 +229,7 @@ class ViewerApp:
                 if name == "r":
                     self._topology, self._home_view = None, True
 
-    # ---------------------------------------------------------------------------------------------- panel
-    def _panel(self, psim) -> None:
-        c, s = self.controller, self.controller.settings
-        psim.PushItemWidth(PANEL_ITEM_WIDTH)
-        if self.title:
-            psim.TextUnformatted(self.title)
-        for mode in MODES:
-            if psim.RadioButton("pin-head" if mode == "pin" else "scalpel", c.mode == mode):
-                c.set_mode(mode)
-            psim.SameLine()
-        psim.TextUnformatted("(S)")
-        methods = list(available_solvers())
-        changed, index = psim.Combo("method", methods.index(s.method), methods)
-        if changed:
-            self._configure(method=methods[index])
-        self._material(psim, s)
-        self._timing(psim)
-        if psim.Button("reset (R)"):
-            c.reset()
-            self._topology, self._home_view = None, True
-        psim.SameLine()
-        if psim.Button("stop recording" if self.recorder else "record"):
-            self._toggle_recording()
-        _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
-        _, self.show_control = psim.Checkbox("control nodes", self.show_control)
-        _, self.show_colours = psim.Checkbox("displacement colours", self.show_colours)
-        if self.show_colours:
-            psim.TextUnformatted(f"colours: |u| from 0 to {self.colour_top:.1f} mm (viridis)")
-        if c.notice:
-            psim.TextWrapped(c.notice)
-        psim.PopItemWidth()
-
-    def _finite_strain(self, psim, s) -> None:
-        """The material selector where the method has finite strain; a line saying so where it has not."""
-        if set(MATERIALS) <= set(solver_class(s.method).materials):
-            changed, index = psim.Combo("strain", MATERIALS.index(s.material), list(MATERIALS))
-            if changed:
-                self._configure(material=MATERIALS[index])
-        elif s.material != "linear":
-            psim.TextUnformatted(f"{s.method}: no finite strain, its own model")
-
-    def _material(self, psim, s) -> None:
-        enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
-        changed, e = psim.InputFloat("E [Pa]", s.youngs_modulus, 0.0, 0.0, "%.0f", enter)
-        if changed:
-            self._configure(youngs_modulus=e)
-        _, self._pending["poisson_ratio"] = psim.SliderFloat("nu", self._pending.get("poisson_ratio",
-                                                                                     s.poisson_ratio), 0.0, 0.49)
-        self._apply_on_release(psim, "poisson_ratio")
-        changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
-        if changed:
-            self._configure(stiffness=k)
-        radius_mm = 1e3 * (s.radius or 0.0)  # 0: one node
-        changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
-        if changed:
-            self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
-        if "iterations" in solver_options(s.method):
-            current = s.iterations or solver_options(s.method)["iterations"]
-            _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
-                                                            1, 50)
-            self._apply_on_release(psim, "iterations")
-        self._finite_strain(psim, s)
-        if "near_field" in solver_options(s.method):
-            if self.controller.near_field_available():
-                changed, on = psim.Checkbox(f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)",
-                                            s.near_field is not None)
-                if changed:
-                    self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
-            elif s.near_field is not None:
-                psim.TextUnformatted("near field off: the mesh is cut, or has no fine volume")
-        if "prestrain" in solver_options(s.method):
-            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
-                                                             0.0, 0.3, "%.3f")
-            self._apply_on_release(psim, "prestrain")
-        changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
-        if changed:
-            self._configure(dt=dt_ms * 1e-3)
-
-    def _timing(self, psim) -> None:
-        st, c = self.stats, self.controller
-        step_ms = 1e3 * st.step_seconds if st else 0.0
-        fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
-        psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
-        psim.TextUnformatted(f"simulated {self.sim_time:.2f} s")
-        psim.TextUnformatted(f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else ""))
-        if st and (st.behind or st.dropped > 0.0):
-            psim.TextColored(BEHIND, "slower than real time (a step > dt)" if st.behind else
-                             "slower than real time (drawing)")
-        if c.paused:
-            psim.TextColored(BEHIND, "paused (space)")
-
-    def _apply_on_release(self, psim, name: str) -> None:
-        """Settings that rebuild the solver change when the slider is let go, not on every pixel of the drag."""
-        if psim.IsItemDeactivatedAfterEdit():
-            self._configure(**{name: self._pending.pop(name)})
-        elif not psim.IsItemActive():
-            self._pending.pop(name, None)
-
-    def _configure(self, **changes) -> None:
-        try:
-            self.controller.configure(**changes)
-            self._topology = None
-        except TissuesimError as error:
-            self.controller.notice = str(error)
-
+    # ---------------------------------------------------------------------------------------------- recording
     def _record_frame(self) -> None:
         """Add the current frame; a frame that cannot be written (a full disk) ends the recording, discarded, and
         the session goes on."""

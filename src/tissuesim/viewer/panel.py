@@ -1,0 +1,131 @@
+"""The simulator window's panel (:class:`~tissuesim.viewer.app.ViewerApp`'s ImGui widgets): tool, method, material
+and time settings, timings, record and reset buttons, the layers to show and the controller's notice.
+
+A setting that rebuilds the solver goes to the controller through :meth:`PanelWidgets._configure`; one whose slider
+would rebuild it on every pixel of a drag waits until the slider is let go.
+"""
+
+from __future__ import annotations
+
+from ..errors import TissuesimError
+from ..fem.hyperelastic import MATERIALS
+from ..solvers.near_field import NEAR_FIELD_WINDOW
+from ..solvers.registry import available_solvers, solver_class, solver_options
+from .controller import MODES
+
+PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
+BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
+
+
+class PanelWidgets:
+    """The panel half of :class:`~tissuesim.viewer.app.ViewerApp`, which draws it each frame (:meth:`_panel`).
+
+    It reads the app's ``controller``, ``title``, ``recorder``, ``stats`` and frame timings, sets its layer switches
+    (``show_*``), calls its ``_toggle_recording``, and after a reset or a rebuild drops its registered surface
+    (``_topology``) so that the next frame registers it anew; its slider values not yet applied are ``_pending``.
+    """
+
+    def _panel(self, psim) -> None:
+        """The panel, drawn each frame after the surface."""
+        c, s = self.controller, self.controller.settings
+        psim.PushItemWidth(PANEL_ITEM_WIDTH)
+        if self.title:
+            psim.TextUnformatted(self.title)
+        for mode in MODES:
+            if psim.RadioButton("pin-head" if mode == "pin" else "scalpel", c.mode == mode):
+                c.set_mode(mode)
+            psim.SameLine()
+        psim.TextUnformatted("(S)")
+        methods = list(available_solvers())
+        changed, index = psim.Combo("method", methods.index(s.method), methods)
+        if changed:
+            self._configure(method=methods[index])
+        self._material(psim, s)
+        self._timing(psim)
+        if psim.Button("reset (R)"):
+            c.reset()
+            self._topology, self._home_view = None, True
+        psim.SameLine()
+        if psim.Button("stop recording" if self.recorder else "record"):
+            self._toggle_recording()
+        _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
+        _, self.show_control = psim.Checkbox("control nodes", self.show_control)
+        _, self.show_colours = psim.Checkbox("displacement colours", self.show_colours)
+        if self.show_colours:
+            psim.TextUnformatted(f"colours: |u| from 0 to {self.colour_top:.1f} mm (viridis)")
+        if c.notice:
+            psim.TextWrapped(c.notice)
+        psim.PopItemWidth()
+
+    def _finite_strain(self, psim, s) -> None:
+        """The material selector where the method has finite strain; a line saying so where it has not."""
+        if set(MATERIALS) <= set(solver_class(s.method).materials):
+            changed, index = psim.Combo("strain", MATERIALS.index(s.material), list(MATERIALS))
+            if changed:
+                self._configure(material=MATERIALS[index])
+        elif s.material != "linear":
+            psim.TextUnformatted(f"{s.method}: no finite strain, its own model")
+
+    def _material(self, psim, s) -> None:
+        enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
+        changed, e = psim.InputFloat("E [Pa]", s.youngs_modulus, 0.0, 0.0, "%.0f", enter)
+        if changed:
+            self._configure(youngs_modulus=e)
+        _, self._pending["poisson_ratio"] = psim.SliderFloat("nu", self._pending.get("poisson_ratio",
+                                                                                     s.poisson_ratio), 0.0, 0.49)
+        self._apply_on_release(psim, "poisson_ratio")
+        changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
+        if changed:
+            self._configure(stiffness=k)
+        radius_mm = 1e3 * (s.radius or 0.0)  # 0: one node
+        changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
+        if changed:
+            self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
+        if "iterations" in solver_options(s.method):
+            current = s.iterations or solver_options(s.method)["iterations"]
+            _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
+                                                            1, 50)
+            self._apply_on_release(psim, "iterations")
+        self._finite_strain(psim, s)
+        if "near_field" in solver_options(s.method):
+            if self.controller.near_field_available():
+                changed, on = psim.Checkbox(f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)",
+                                            s.near_field is not None)
+                if changed:
+                    self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
+            elif s.near_field is not None:
+                psim.TextUnformatted("near field off: the mesh is cut, or has no fine volume")
+        if "prestrain" in solver_options(s.method):
+            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
+                                                             0.0, 0.3, "%.3f")
+            self._apply_on_release(psim, "prestrain")
+        changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
+        if changed:
+            self._configure(dt=dt_ms * 1e-3)
+
+    def _timing(self, psim) -> None:
+        st, c = self.stats, self.controller
+        step_ms = 1e3 * st.step_seconds if st else 0.0
+        fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
+        psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
+        psim.TextUnformatted(f"simulated {self.sim_time:.2f} s")
+        psim.TextUnformatted(f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else ""))
+        if st and (st.behind or st.dropped > 0.0):
+            psim.TextColored(BEHIND, "slower than real time (a step > dt)" if st.behind else
+                             "slower than real time (drawing)")
+        if c.paused:
+            psim.TextColored(BEHIND, "paused (space)")
+
+    def _apply_on_release(self, psim, name: str) -> None:
+        """Settings that rebuild the solver change when the slider is let go, not on every pixel of the drag."""
+        if psim.IsItemDeactivatedAfterEdit():
+            self._configure(**{name: self._pending.pop(name)})
+        elif not psim.IsItemActive():
+            self._pending.pop(name, None)
+
+    def _configure(self, **changes) -> None:
+        try:
+            self.controller.configure(**changes)
+            self._topology = None
+        except TissuesimError as error:
+            self.controller.notice = str(error)
