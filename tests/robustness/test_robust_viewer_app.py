@@ -20,7 +20,7 @@ DOWN = np.array([0.0, 0.0, -1.0])
 @contextmanager
 def grabbing_app(cube, record):
     """A headless window over ``cube`` recording to ``record``, its pin-head holding the top node: yields
-    ``(app, top)``, and finishes the recording and closes the window on the way out."""
+    ``(app, top)`` and closes the window on the way out."""
     from tissuesim.viewer.app import ViewerApp
     from tissuesim.viewer.controller import Controller
 
@@ -30,7 +30,6 @@ def grabbing_app(cube, record):
         app.controller.pointer_down(top, top + [0.0, 0.0, 1.0], DOWN)
         yield app, top
     finally:
-        app.stop_recording()
         app.close()
 
 

@@ -22,10 +22,7 @@ class FakeScalpel:
     depth = 0.01  # blade length [m]
 
     def __init__(self, solver):
-        self.solver, self.calls, self.prepared = solver, [], False
-
-    def prepare(self):
-        self.prepared = True
+        self.solver, self.calls = solver, []
 
     def press(self, point, direction=None):
         self.calls.append(("press", np.array(point), direction))
@@ -108,7 +105,6 @@ def test_scalpel_mode_turns_press_move_release_into_scalpel_calls(hybrid):
     c.pointer_up()
     calls = c.scalpel.calls
     lift = np.array([0.0, 0.0, BLADE_LIFT * FakeScalpel.depth])  # the tip above the picked point, toward the camera
-    assert c.scalpel.prepared     # when the scalpel was picked up
     assert [call[0] for call in calls] == ["press", "move", "move", "release"]
     assert np.allclose(calls[0][1], top + lift) and calls[0][2] is None  # the blade along the inward normal
     assert np.allclose(calls[1][1], top + [0.005, 0.0, 0.0] + lift)

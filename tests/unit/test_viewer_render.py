@@ -52,7 +52,6 @@ def test_the_window_layer_runs_headless_and_records(hybrid, tmp_path):
     for i in range(4):
         controller.pointer_move(None, top + [0.0, 0.0, 1.0 + 0.005 * i], [0.0, 0.0, -1.0])
         app.tick()  # polyscope calls app.frame, then draws
-    app.stop_recording()
     app.close()
     frames = read_recording(tmp_path / "s.pvd")
     assert len(frames) >= 1 and frames[-1].force[controller.pin.node, 2] > 0.0

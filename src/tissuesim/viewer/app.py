@@ -70,11 +70,7 @@ class ViewerApp(PanelWidgets):
         """Open the window and run until it is closed; then finish the recording and let go of the window. Also on
         Ctrl-C or SIGTERM (:func:`show_window`): the session is the user's, so what was recorded is kept, unlike a
         ``with Recorder(...)`` block, which an exception discards."""
-        show_window(self.ps, self.frame, self._end)
-
-    def _end(self) -> None:
-        self.stop_recording()
-        self.close()
+        show_window(self.ps, self.frame, self.close)
 
     def tick(self) -> None:
         """One frame without a window: the callback, then polyscope's render (headless scripts)."""
@@ -90,8 +86,9 @@ class ViewerApp(PanelWidgets):
         return self.recorded
 
     def close(self) -> None:
-        """Let go of polyscope: its callback and every structure of this window (a recording goes on until
-        :meth:`stop_recording`)."""
+        """End the session: :meth:`stop_recording`, then let go of polyscope's callback and of every structure of
+        this window (:func:`let_go`)."""
+        self.stop_recording()
         self.mesh = self.cut = None
         self._shown, self._topology, self._home_view = {}, None, True
         let_go(self.ps)

@@ -104,7 +104,8 @@ class Controller:
     Args:
         hybrid: the :class:`~tissuesim.mesh.hybrid.HybridMesh` to simulate (kept for :meth:`reset`).
         settings: initial :class:`Settings`.
-        scalpel_factory: ``solver -> scalpel`` with press / move / release; default: ``tissuesim.Scalpel`` where
+        scalpel_factory: ``solver -> scalpel`` with press / move / release (and, optionally, prepare: called when
+            the scalpel is picked up); default: ``tissuesim.Scalpel`` where
             installed, else scalpel mode is unavailable.
         clock: seconds, monotonic (injectable for tests).
 
@@ -232,7 +233,7 @@ class Controller:
         self.pointer_up()  # never leave a load or a cut dangling across a mode switch
         self.mode = mode
         if mode == "scalpel":
-            self.scalpel.prepare()     # the first cut's factor, built while the user aims
+            self._prepare_scalpel()
 
     def toggle_pause(self) -> None:
         self.paused = not self.paused
@@ -364,10 +365,19 @@ class Controller:
         self.scalpel, self._no_scalpel = scalpel, no_scalpel
         if self.scalpel is None and self.mode == "scalpel":
             self.mode = "pin"
+        elif self.mode == "scalpel":
+            self._prepare_scalpel()
         self._debt = 0.0
         self._step_seconds = 0.0
         if held is None and self.mode == "pin":
             self.cursor = None
+
+    def _prepare_scalpel(self) -> None:
+        """Let the scalpel get ready while the user aims (the first cut's factor); a scalpel without ``prepare``
+        needs none."""
+        prepare = getattr(self.scalpel, "prepare", None)
+        if prepare is not None:
+            prepare()
 
     def _new_scalpel(self, solver):
         """``(scalpel or None, why there is none)`` over ``solver``."""
