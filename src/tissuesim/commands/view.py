@@ -57,7 +57,8 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import check_target, read_recording
     from ..solvers.checks import positive_number
     from ..viewer.app import ReplayApp, ViewerApp
-    from ..viewer.controller import DEFAULT_STIFFNESS, Controller, Settings, checked_settings
+    from ..viewer.controller import Controller
+    from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings
     from ..viewer.gl import polyscope
 
     if args.replay is not None:

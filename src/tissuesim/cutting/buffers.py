@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..mesh.coincident import coincident_pairs
 from .core import plan_cut
 from .fans import VertexFans
 from .result import CutPlan, CutResult
 from .sweep import Sweep, candidate_triangles, check_snap
-from ..mesh.coincident import coincident_pairs
 
 #: Capacity growth factor of a buffer that runs out of rows, and the spare rows a buffer starts with (a fraction of
 #: its length, at least :data:`MIN_SPARE`).

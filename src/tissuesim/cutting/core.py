@@ -35,7 +35,6 @@ from .sweep import Sweep, candidate_triangles, check_snap, crossings
 DEFAULT_SNAP = 0.25
 
 
-
 def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray, triangles: np.ndarray,
                 sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=()) -> CutResult | None:
     """Cut M_S along one sweep; None when the sweep crosses no triangle (nothing changes).

@@ -1,7 +1,7 @@
 """The wound of the paper's Fig 16: a scripted incision across a model's top, a small force beside it, the gap.
 
 * :func:`scripted_incision`: the scalpel pressed above the top, moved in a straight line along x over ``length``
-  [m] in ``steps`` moves (progressive: each move cuts), blade straight down;
+  [m] in ``moves`` moves (progressive: each move cuts), blade straight down;
 * :func:`wound_gap`: the widest opening [m]: the largest current distance between two vertices that share a rest
   position (the two sides of the cut; both copies start at the same point);
 * :func:`open_wound`: pull a node beside the middle of the cut away from it and solve to equilibrium;

@@ -118,7 +118,6 @@ class QuasiStaticSolve:
         self.state.positions[:] = positions
         self.state.velocities[:] = velocities
 
-
     def _largest_displacement(self) -> tuple[float, float]:
         """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""
         return float(farthest_node(self.state.positions, self.rest_positions)[1]), self.size

@@ -18,7 +18,7 @@ with the wall time that passed. Everything else happens here, so it is tested wi
   window; when one step takes longer than dt of wall time the simulation is slower than real time and
   :attr:`FrameStats.behind` says so.
 
-Choices where the paper is silent: the default pin-head stiffness :data:`DEFAULT_STIFFNESS` [N/m] (a 2 cm drag is
+Choices where the paper is silent: the default pin-head stiffness :data:`~.settings.DEFAULT_STIFFNESS` [N/m] (a 2 cm drag is
 1 N, the middle of the experiments' 0.5–20 N range); a grab that misses every node within the snap radius leaves
 the pin-head free and says why in :attr:`Controller.notice`, instead of raising into the window loop.
 """
@@ -33,7 +33,7 @@ import numpy as np
 from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead, checked_point
 from ..solvers.registry import make_solver, solver_class, solver_options
-from .settings import DEFAULT_STIFFNESS, Settings, checked_settings
+from .settings import Settings, checked_settings
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
