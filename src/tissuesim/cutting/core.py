@@ -23,7 +23,8 @@ import numpy as np
 
 from ..errors import MeshError
 from .fans import VertexFans, read_only
-from .pieces import edge_key, split_triangle
+from .edges import edge_key
+from .pieces import split_triangle
 from .points import CutPoints
 from .result import CutPlan, CutResult
 from .row_patch import RowPatch
@@ -140,7 +141,7 @@ def _carry_closed(closed, points):
     """Earlier cuts' closed edges, with any edge point inserted on them now (the edge became two)."""
     edges = set()
     for u, v in np.asarray(closed, dtype=np.int64).reshape(-1, 2):
-        lo, hi = (int(u), int(v)) if u < v else (int(v), int(u))
+        lo, hi = edge_key(u, v)
         chain = [lo] + [pid for _, pid in sorted(points.edge.get((lo, hi), []))] + [hi]
         edges |= {edge_key(p, q) for p, q in zip(chain, chain[1:])}
     return edges

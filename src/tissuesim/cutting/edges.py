@@ -8,6 +8,12 @@ import numpy as np
 from .fans import VertexFans
 
 
+def edge_key(u, v) -> tuple[int, int]:
+    """The edge (u, v) as ``(lo, hi)`` ints."""
+    u, v = int(u), int(v)
+    return (u, v) if u < v else (v, u)
+
+
 def edge_owners(fans: VertexFans, triangles: np.ndarray, keys: np.ndarray) -> np.ndarray:
     """``(k, 2) int64`` the rows of ``triangles`` holding each edge of ``keys`` ``(k, 2) int`` (lo < hi), ascending;
     −1 where an edge has fewer (a border edge has one, a removed edge none). One vectorised pass over the rows

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from .edges import edge_key
 from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
 
 
@@ -56,7 +57,7 @@ def _polygon(corners, rest, points):
         (x0, y0), (x1, y1) = flat[k], flat[(k + 1) % 3]
         poly_ids.append(u)
         xy.append(flat[k])
-        on_side = points.edge.get((u, v) if u < v else (v, u), ())
+        on_side = points.edge.get(edge_key(u, v), ())
         for s, pid in sorted((tt if u < v else 1.0 - tt, pid) for tt, pid in on_side):
             poly_ids.append(pid)
             xy.append(((1.0 - s) * x0 + s * x1, (1.0 - s) * y0 + s * y1))
@@ -84,9 +85,3 @@ def _side_chain(xy, i, j):
 
 def _globals(local, ids):
     return np.asarray(ids, dtype=np.int64)[local]
-
-
-def edge_key(u, v):
-    """The edge (u, v) as ``(lo, hi)`` ints."""
-    u, v = int(u), int(v)
-    return (u, v) if u < v else (v, u)

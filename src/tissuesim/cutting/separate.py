@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .edges import edge_key
+
 
 @njit(cache=True)
 def rows_touching(triangles, marked):
@@ -35,7 +37,7 @@ def separate(patch, cut_edges, vertex_count: int):
         duplicates, the cut edges that still have two triangles (the tips of a cut, to be opened by a later cut),
         and the rows given a copy.
     """
-    cut = {_key(u, v) for u, v in cut_edges}
+    cut = {edge_key(u, v) for u, v in cut_edges}
     if not cut:
         return np.zeros(0, dtype=np.int64), [], np.zeros(0, dtype=np.int64)
     fans = {v: patch.fan(v) for v in sorted({x for edge in cut for x in edge})}
@@ -74,7 +76,7 @@ def _wedges(patch, v, fan, cut, base):
             if x != v:
                 by_edge.setdefault(x, []).append(r)
     for x, rs in by_edge.items():
-        if len(rs) == 2 and _key(base(v), base(x)) not in cut:
+        if len(rs) == 2 and edge_key(base(v), base(x)) not in cut:
             parent[find(rs[0])] = find(rs[1])
     groups: dict[int, list[int]] = {}
     for r in fan:
@@ -90,8 +92,3 @@ def _still_closed(patch, cut, fans):
         if len(rows) == 2:
             closed.append((u, v))
     return closed
-
-
-def _key(u, v):
-    u, v = int(u), int(v)
-    return (u, v) if u < v else (v, u)

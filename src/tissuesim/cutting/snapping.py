@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .edges import edge_key
+
 #: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
 #: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
 GUARD_QUALITY = 0.02
@@ -33,7 +35,7 @@ def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, 
     sides = []
     for k in range(3):
         u, v = corners[k], corners[(k + 1) % 3]
-        key = (u, v) if u < v else (v, u)
+        key = edge_key(u, v)
         others = known.get(key) if k in reachable else [corners[(k + 2) % 3]]
         if others is None:
             others = known[key] = [o for r in patch.owners(*key) for o in patch.row_list(r) if o != u and o != v]
