@@ -160,7 +160,7 @@ def test_hybrid_control_nodes_equal_scikit_fem(hybrid, unit_cases):
 
 def layer_residual(solver, x) -> np.ndarray:
     """``(n, 3)`` [N]: the external forces plus the surface layer's internal forces at positions ``x``, from the NumPy
-    reference constraints (checked against finite differences in test_pbd_constraints.py); prescribed nodes 0."""
+    reference constraints (checked against finite differences in test_layer_constraints.py); prescribed nodes 0."""
     from tissuesim.layer import constraints as C
 
     c, residual = solver.constraints, solver.forces.copy()

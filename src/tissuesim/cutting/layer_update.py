@@ -23,7 +23,7 @@ from ..loads import triangle_areas
 from ..layer.rest_measures import dihedral_angles, signed_bend_angles
 from .lengths import barycentric_distance
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, _members
+from .solver_update import SolverCut, members
 
 
 class CutConstraints(SimpleNamespace):
@@ -275,7 +275,7 @@ class HybridCut(SurfaceLayerCut):
         # pinned: the fixed nodes off the control list, with the released fixed ones and this cut's new fixed ones
         fixed = np.asarray(s.fixed, dtype=np.int64)
         pinned = s.prescribed[count:]
-        freed = np.sort(released[_members(released, fixed)])
+        freed = np.sort(released[members(released, fixed)])
         pinned = np.concatenate([np.insert(pinned, np.searchsorted(pinned, freed), freed), _new_of(fixed, n)])
         s.prescribed = np.concatenate([control, pinned])
         s.targets = np.array(s.rest_positions[s.prescribed])

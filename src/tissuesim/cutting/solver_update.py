@@ -105,8 +105,8 @@ class SolverCut:
             return CutReport(seconds=time.perf_counter() - start), -1
         n = plan.old_count
         originals = np.unique(plan.new_copy_of[plan.new_copy_of >= 0])
-        released = originals[_members(originals, s.hybrid.control)]
-        new_fixed = n + np.flatnonzero(np.sum(plan.weights * _members(plan.parents, s.fixed), axis=1)
+        released = originals[members(originals, s.hybrid.control)]
+        new_fixed = n + np.flatnonzero(np.sum(plan.weights * members(plan.parents, s.fixed), axis=1)
                                        >= 1.0 - 1e-12)
         undo = _Undo(self, plan)
         try:
@@ -322,7 +322,7 @@ class _Undo:
             journal.commit()
 
 
-def _members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
+def members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
     """``values.shape bool``: whether each value is in ``sorted_set`` (ascending), by binary search."""
     if len(sorted_set) == 0:
         return np.zeros(np.shape(values), dtype=bool)

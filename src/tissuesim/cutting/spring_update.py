@@ -18,7 +18,7 @@ from ..solvers.mass_spring import gershgorin_rows
 from .edges import touched_edges
 from .layer_update import new_edge_constraints, new_hinges
 from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, _members
+from .solver_update import SolverCut, members
 
 
 class MassSpringCut(SolverCut):
@@ -72,7 +72,7 @@ class MassSpringCut(SolverCut):
         self.local_masses(touched, self.mass_total)
         added = len(result.parents)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
-        s.inv_mass[touched] = np.where(_members(touched, s.fixed), 0.0, 1.0 / s.mass[touched])
+        s.inv_mass[touched] = np.where(members(touched, s.fixed), 0.0, 1.0 / s.mass[touched])
         # the explicit stability bound follows the new, smaller springs and masses
         self.gershgorin = self.spare.extend("gershgorin", self.gershgorin, np.zeros(added))
         # the rows that changed: the touched vertices' (masses, springs) and their spring neighbours' (the √(w_i w_j)
@@ -91,7 +91,7 @@ class MassSpringCut(SolverCut):
         ids = np.concatenate([self.stretch_row.get(edges), self.bend_row.get(edges)])
         ids = np.unique(ids[ids >= 0])
         ends = self.solver.springs[ids]
-        return ids[_members(ends[:, 0], vertices) | _members(ends[:, 1], vertices)]
+        return ids[members(ends[:, 0], vertices) | members(ends[:, 1], vertices)]
 
     def _recompute_rows(self, vertices: np.ndarray) -> None:
         """Gershgorin row sums Σ k (w_i + √(w_i w_j)) of ``vertices`` (ascending) from their springs."""
@@ -101,5 +101,5 @@ class MassSpringCut(SolverCut):
         cross = np.sqrt(w[springs[:, 0]] * w[springs[:, 1]])
         row[vertices] = 0.0
         for end in (0, 1):
-            at = _members(springs[:, end], vertices)
+            at = members(springs[:, end], vertices)
             np.add.at(row, springs[at, end], stiffness[at] * (w[springs[at, end]] + cross[at]))

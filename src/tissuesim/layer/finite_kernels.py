@@ -11,7 +11,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .hinge_kernels import TINY_LENGTH, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, bend_gradient_signed
 
 # Complex step, relative to the hinge edge's length: any size far below 1 is exact to round-off.
 COMPLEX_STEP = 1e-20
@@ -49,7 +49,7 @@ def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, res
         i2 = hinges[c, 1]
         i3 = hinges[c, 2]
         i4 = hinges[c, 3]
-        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
+        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient_signed(
             x, i1, i2, i3, i4)
         if not valid:
             continue
@@ -74,7 +74,7 @@ def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, res
 @njit(cache=True, inline="always")
 def _hinge_gradient_abc(ax, ay, az, bx, by, bz, cx, cy, cz):
     """(∇_2β, ∇_3β, ∇_4β) of the signed angle as 9 numbers, from a = P2 − P1, b = P3 − P1, c = P4 − P1 (∇_1β is
-    minus their sum): :func:`hinge_kernels._bend_gradient_signed`'s closed form without atan2 or branches, so that it
+    minus their sum): :func:`hinge_kernels.bend_gradient_signed`'s closed form without atan2 or branches, so that it
     runs on complex numbers for the complex-step Hessian."""
     nax = ay * bz - az * by
     nay = az * bx - ax * bz
@@ -177,7 +177,7 @@ def _add_hinge_tangent(x, hinges, rest_angle, bend_compliance, definite, hinge_s
         i2 = hinges[c, 1]
         i3 = hinges[c, 2]
         i4 = hinges[c, 3]
-        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
+        valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient_signed(
             x, i1, i2, i3, i4)
         if not valid:
             continue

@@ -37,7 +37,7 @@ import math
 
 from numba import njit
 
-from .hinge_kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, bend_gradient, bend_gradient_signed
 
 # Safeguard beyond the paper: one bending projection may move a vertex by at most this fraction of the hinge edge's
 # current length. Eq 11's correction grows without bound on a tangled hinge (a surface pushed through itself under a
@@ -117,7 +117,7 @@ def _project_bend(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
       ∇_4 = σ|a| (a×c)/|a×c|², σ = sign det(a, b, c); ∇_2 = −(b·a/|a|²) ∇_3 − (c·a/|a|²) ∇_4 (lever rule);
       ∇_1 = −∇_2 − ∇_3 − ∇_4.
     """
-    valid, theta, length, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient(
+    valid, theta, length, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient(
         x, i1, i2, i3, i4)
     if not valid:
         return 0.0
@@ -151,7 +151,7 @@ def _project_bend_signed(x, w, i1, i2, i3, i4, rest, scale, alpha, lam):
     Gradient in closed form (``constraints.signed_bend_gradient``): no division by sin β, so it is exact and smooth
     at flat hinges, where eq 10's unsigned angle has a cusp. Same PBD/XPBD update as :func:`_project_bend`.
     """
-    valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
+    valid, beta, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient_signed(
         x, i1, i2, i3, i4)
     if not valid:
         return 0.0

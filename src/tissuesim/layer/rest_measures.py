@@ -9,7 +9,7 @@ import math
 import numpy as np
 from numba import njit
 
-from .hinge_kernels import TINY_LENGTH, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, bend_gradient_signed
 
 
 @njit(cache=True)
@@ -66,14 +66,14 @@ def edge_lengths(positions, edges):
 
 @njit(cache=True)
 def signed_bend_angles(positions, bending):
-    """``(b,) float64`` signed angle β [rad] per hinge, by :func:`_bend_gradient_signed`, the arithmetic of
+    """``(b,) float64`` signed angle β [rad] per hinge, by :func:`bend_gradient_signed`, the arithmetic of
     :func:`_project_bend_signed`.
 
     Degenerate hinges give 0.
     """
     out = np.zeros(bending.shape[0])
     for c in range(bending.shape[0]):
-        valid, beta, _, _, _, _, _, _, _, _, _, _, _, _ = _bend_gradient_signed(
+        valid, beta, _, _, _, _, _, _, _, _, _, _, _, _ = bend_gradient_signed(
             positions, bending[c, 0], bending[c, 1], bending[c, 2], bending[c, 3])
         if valid:
             out[c] = beta

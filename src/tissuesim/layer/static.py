@@ -22,7 +22,7 @@ from numba import njit
 
 from ..errors import SolverError
 from ..fem.factorise import factorise_spd
-from .hinge_kernels import TINY_LENGTH, _bend_gradient, _bend_gradient_signed
+from .hinge_kernels import TINY_LENGTH, bend_gradient, bend_gradient_signed
 
 
 @njit(cache=True)
@@ -52,10 +52,10 @@ def constraint_jacobian(x, edges, bending, signed_bending, stretch_grad, bend_gr
         i3 = bending[c, 2]
         i4 = bending[c, 3]
         if signed_bending:
-            valid, _, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient_signed(
+            valid, _, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient_signed(
                 x, i1, i2, i3, i4)
         else:
-            valid, _, _, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = _bend_gradient(
+            valid, _, _, g1x, g1y, g1z, g2x, g2y, g2z, g3x, g3y, g3z, g4x, g4y, g4z = bend_gradient(
                 x, i1, i2, i3, i4)
         g = bend_grad[c]
         g[:] = 0.0
