@@ -7,7 +7,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-slow setup clean
+.PHONY: run test test-slow setup clean clean-numba
 
 # Headless OpenGL (EGL on Mesa's software renderer) for the figures; installed where apt-get can, else skipped.
 GL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
@@ -35,3 +35,8 @@ test-slow: $(STAMP)
 
 clean:
 	rm -rf $(VENV) results .pytest_cache
+
+# Numba caches a compiled kernel by its own source file: after editing a module whose functions others inline
+# (layer/hinge_kernels.py), the callers' caches are stale.
+clean-numba:
+	find src -name '*.nbi' -delete -o -name '*.nbc' -delete

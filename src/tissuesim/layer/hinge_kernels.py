@@ -4,6 +4,8 @@ of each per node, without eq 12's division by sinθ.
 The step kernels (:mod:`tissuesim.layer.kernels`), the linearised statics (:mod:`tissuesim.layer.static`), the rest
 measures and the finite-strain layer all read a hinge through these functions, so they agree to the last bit. Each
 is inlined into its caller (``inline="always"``): it returns its numbers as a tuple, which then costs nothing.
+Numba's on-disk cache of a caller is keyed by the caller's own file, so after an edit here its compiled callers are
+stale: ``make clean-numba`` removes the caches.
 """
 
 from __future__ import annotations
