@@ -98,3 +98,10 @@ def test_the_contact_command_runs_with_a_finite_strain_material(tmp_path, capsys
                  "--methods", "fem", "--forces", "1", "--quiet", "--no-cache", "--output", str(out)]) == 0
     report = (out / "report.md").read_text()
     assert "Material: corotated (finite strain)" in report and "beyond the stable dead-load range" in report
+
+
+def test_the_contact_figure_names_the_reference_it_was_measured_against(finite_contact_run):
+    from tissuesim.experiments.contact_plots import error_figure
+
+    title = error_figure(finite_contact_run).axes[0].get_title()
+    assert "neo-hookean reference" in title and "not converged" in title    # level 0 only: nothing to compare

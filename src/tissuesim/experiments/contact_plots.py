@@ -41,7 +41,13 @@ def error_figure(data: dict):
     axes.set_yscale("log")
     axes.set_xticks(np.arange(len(groups)), [f"{model}\nR {radius:g} mm" for model, radius in groups], fontsize=7)
     axes.set_ylabel("relative RMSE (median, held-out rows)")
-    axes.set_title("Contact protocol: error against the converged reference", fontsize=10)
+    material = data["metadata"].get("material", "linear")
+    converged = all(ref["converged"] for info in data["metadata"]["models"].values()
+                    for ref in info["references"].values())
+    details = [f"{material} reference" if material != "linear" else "", "" if converged else "not converged"]
+    detail = ", ".join(d for d in details if d)
+    axes.set_title("Contact protocol: error against the refined reference" + (f"\n({detail})" if detail else ""),
+                   fontsize=10)
     axes.legend(fontsize=7, ncol=min(4, len(methods) + 2), loc="upper left", bbox_to_anchor=(0.0, -0.16))
     figure.tight_layout()
     return figure
