@@ -162,6 +162,7 @@ class SurfaceLayerCut(SolverCut):
 
     def prepare(self) -> None:
         """The linear layer's explicit factor for its first cut, built in the background from now."""
+        super().prepare()
         s = self.solver
         if s.form == "xpbd" and s.material == "linear":
             from ..layer.cut_statics import prepare

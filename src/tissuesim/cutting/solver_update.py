@@ -31,6 +31,7 @@ from .invariants import unanchored_pieces
 from .remap import cut_hybrid
 from .result import CutResult
 from .rows import EdgeRows, Rows
+from .warm import load_cut_kernels
 
 #: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
 #: question to the whole-surface count.
@@ -83,7 +84,9 @@ class SolverCut:
         self.loose_total = 0
 
     def prepare(self) -> None:
-        """Get ready for a cut that is about to come (the scalpel is pressed): by default, nothing."""
+        """Get ready for a cut that is about to come (the scalpel is picked up or pressed): the cut's compiled
+        kernels loaded (:mod:`.warm`); subclasses add their own."""
+        load_cut_kernels()
 
     def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
