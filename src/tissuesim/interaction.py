@@ -36,7 +36,8 @@ class PinHead:
         snap_radius: largest distance [m] from the grab point to the node it snaps to; default
             ``SNAP_RADIUS_EDGES`` × the mean rest edge length of M_S.
         radius: the tip's contact radius R [m]: the force is spread, area-weighted, over the M_S nodes within R of
-            the grabbed node (:meth:`Solver.set_load`); None (default) loads the grabbed node alone.
+            the grabbed node (:meth:`Solver.add_load`: its own load, beside any other); None (default) loads the
+            grabbed node alone.
 
     Attributes:
         node: the grabbed M_S vertex index, or None.
@@ -46,7 +47,7 @@ class PinHead:
     """
 
     def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None, radius: float | None = None):
-        for needed in ("positions", "set_load", "clear_load"):
+        for needed in ("positions", "add_load", "move_load", "remove_load"):
             if not hasattr(solver, needed):
                 raise SolverError(f"PinHead needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
         self.solver = solver
@@ -61,6 +62,7 @@ class PinHead:
         self.node: int | None = None
         self.anchor: np.ndarray | None = None
         self.notice = ""
+        self._load = None     # its own load's handle: other loads on the solver act on beside it
 
     @property
     def grabbed(self) -> bool:
@@ -84,8 +86,7 @@ class PinHead:
                 "a larger snap_radius"
             )
         node = self._nearest_movable(distance, nearest)
-        if self.node is not None:
-            self.solver.clear_load()
+        self._withdraw()
         self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
         self.notice = "" if node == nearest else (
             f"node {nearest}, the nearest, {self._why_not(nearest)}; holding node {node} instead, the nearest that "
@@ -121,14 +122,25 @@ class PinHead:
     def drag(self, point) -> np.ndarray:
         """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
         force = self.force(point)
-        self.solver.set_load(self.node, force, radius=self.radius)
+        if self._acting():
+            self.solver.move_load(self._load, node=self.node, force=force, radius=self.radius)
+        else:
+            self._load = self.solver.add_load(self.node, force, radius=self.radius)
         return force
 
     def release(self) -> None:
         """Withdraw the force; the pin-head follows the cursor again (no node held)."""
-        if self.node is not None:
-            self.solver.clear_load()
+        self._withdraw()
         self.node, self.anchor = None, None
+
+    def _acting(self) -> bool:
+        """Whether its load still acts on the solver (a reset or a set_load elsewhere withdraws it)."""
+        return self._load is not None and any(self._load is load for load in self.solver.loads)
+
+    def _withdraw(self) -> None:
+        if self._acting():
+            self.solver.remove_load(self._load)
+        self._load = None
 
 
 def checked_point(point) -> np.ndarray:

@@ -190,24 +190,22 @@ class SolverCut:
         s.mass[touched] = mass_total * self.lumped[touched] / self.lumped_total
 
     def _reload(self, result: CutResult) -> None:
-        """Contact patches are cached per node and the cut changed the surface: drop them and re-apply a held load,
-        whose patch takes the cut's new vertices within its radius and shares by the new lumped areas. It is carried
-        over locally: old vertices keep their rest positions, so it gains only new vertices (the whole-surface
-        search of :meth:`contact_patch` would find the same nodes, in the same order, in O(n))."""
+        """Contact patches are cached per node and the cut changed the surface: drop them and carry every load over,
+        through its own handle, its patch taking the cut's new vertices within its radius and its shares the new
+        lumped areas. It is carried over locally: old vertices keep their rest positions, so a patch gains only new
+        vertices (the whole-surface search of :meth:`contact_patch` would find the same nodes, in the same order, in
+        O(n))."""
         s = self.solver
-        held = s.contact_patch(s._load_node, s.load_radius) if s._load_node >= 0 else None
         s._patches.clear()
         s._lumped_areas = self.lumped
-        if held is None:
-            return
-        if s.load_radius is not None:
-            new = np.arange(result.old_count, len(result.rest))
-            centre = result.rest[s._load_node]
-            near = new[np.linalg.norm(result.rest[new] - centre, axis=1) <= s.load_radius]
-            if not np.isin(near, s.fixed).any():    # else the full search refuses the patch, saying why
-                nodes = np.concatenate([held[0], near])
-                s._patches[(s._load_node, s.load_radius)] = (nodes, self.lumped[nodes] / self.lumped[nodes].sum())
-        s.set_load(s._load_node, s._load_force.copy(), radius=s.load_radius)
+        new = np.arange(result.old_count, len(result.rest))
+        for load in s.loads:
+            if load.radius is not None:
+                near = new[np.linalg.norm(result.rest[new] - result.rest[load.node], axis=1) <= load.radius]
+                if not np.isin(near, s.fixed).any():    # else the full search refuses the patch, saying why
+                    nodes = np.concatenate([load.nodes, near])
+                    s._patches[(load.node, load.radius)] = (nodes, self.lumped[nodes] / self.lumped[nodes].sum())
+            s.move_load(load, node=load.node)
 
     def _update_lumped(self, result) -> None:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""
@@ -296,8 +294,7 @@ class _Undo:
         arrays = [(getattr(owners[o], name, None), rows) for o, name in self.AT_ROWS]
         arrays += [(getattr(owners[o], name, None), slice(None)) for o, name in self.WHOLE]
         self.copies = [(a, at, a[at].copy()) for a, at in arrays if isinstance(a, np.ndarray)]
-        held = s._load_node >= 0
-        self.load = (s.forces, s.load_nodes, s.forces[s.load_nodes].copy(), s._load_force.copy()) if held else None
+        self.loads = (s.kept_loads(), s.forces, s.load_nodes, s.forces[s.load_nodes].copy())
         self.patches = dict(s._patches)
 
     def restore(self) -> None:
@@ -312,10 +309,10 @@ class _Undo:
             journal.undo()
         for array, at, copy in self.copies:
             array[at] = copy
-        if self.load is not None:
-            forces, nodes, values, force = self.load
-            forces[nodes] = values
-            s._load_force[:] = force
+        kept, forces, nodes, values = self.loads
+        for load, *fields in kept:       # the same handles, as they were
+            load.node, load.force, load.radius, load.nodes, load.shares = fields
+        forces[nodes] = values
         s._patches.clear()
         s._patches.update(self.patches)
 

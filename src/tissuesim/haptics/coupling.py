@@ -80,12 +80,13 @@ class Coupler(ABC):
         self.offset = None
         self._node = -1
         self._grab = 0  # the number of the latest grab, published with its coupling
+        self._load = None  # the tool's own load: other loads on the solver act on beside it
 
     def grab(self, node: int | None = None) -> int:
         """Hold M_S ``node``, or (None) the node a :class:`~tissuesim.PinHead` would snap to from the tool
         position; returns it. Measures the node's local response (four static solves; the solver's visual state
         is put back), starts coupling at zero force (a force the servo loop computed for an earlier grab is not
-        synced) and withdraws the solver's load. The tool position is the one the servo loop last read (see the
+        synced) and withdraws the tool's load (other loads on the solver act on). The tool position is the one the servo loop last read (see the
         subclass for before its first tick). A refused node (out of range, fixed, a patch reaching the support)
         raises the solver's error and changes nothing."""
         tool = self._tool_position()
@@ -102,7 +103,7 @@ class Coupler(ABC):
         response = local_response(self.solver, node, radius=self.radius)
         self._grab += 1
         self._hold(response, None if tool is None else tool - response.origin)
-        self.solver.clear_load()
+        self._withdraw()
         return response.node
 
     def sync(self, *, relinearise: bool | None = None) -> np.ndarray:
@@ -114,7 +115,10 @@ class Coupler(ABC):
         if self._node < 0:
             return np.zeros(3)
         force = self._latest_force()
-        self.solver.set_load(self._node, force, radius=self.radius)
+        if self._acting():
+            self.solver.move_load(self._load, node=self._node, force=force, radius=self.radius)
+        else:
+            self._load = self.solver.add_load(self._node, force, radius=self.radius)
         if relinearise is None:
             relinearise = self.solver.material != "linear"
         if relinearise:
@@ -122,11 +126,20 @@ class Coupler(ABC):
         return force
 
     def release(self) -> None:
-        """Let go: the force drops to zero at the next tick and the solver's load is withdrawn."""
+        """Let go: the force drops to zero at the next tick and the tool's load is withdrawn."""
         self._publish(None)
         self.response = self.offset = None
         self._node = -1
-        self.solver.clear_load()
+        self._withdraw()
+
+    def _acting(self) -> bool:
+        """Whether the tool's load still acts on the solver (a reset or a set_load elsewhere withdraws it)."""
+        return self._load is not None and any(self._load is load for load in self.solver.loads)
+
+    def _withdraw(self) -> None:
+        if self._acting():
+            self.solver.remove_load(self._load)
+        self._load = None
 
     def _hold(self, response, offset: np.ndarray | None) -> None:
         """Couple the latest grab with ``response`` and ``offset`` a ``(3,)`` [m] (None: not known yet, the

@@ -83,16 +83,14 @@ class _Snapshot:
     def __init__(self, solver):
         self.positions = solver.positions.copy()
         self.velocities = solver.velocities.copy()
-        self.load, self.radius = solver.load, solver.load_radius
+        self.loads = solver.kept_loads()
         volume = getattr(solver, "volume_displacement", None)
         self.volume = None if volume is None else volume.copy()
         self.arrays = {name: getattr(solver, name).copy() for name in _WARM_ARRAYS if hasattr(solver, name)}
         self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS if hasattr(solver, name)}
 
     def restore(self, solver) -> None:
-        solver.clear_load()
-        if self.load is not None:
-            solver.set_load(self.load[0], self.load[1], radius=self.radius)
+        solver.put_back_loads(self.loads)
         if self.volume is not None:
             solver.volume_displacement = self.volume
         for name, values in self.arrays.items():

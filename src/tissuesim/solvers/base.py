@@ -2,13 +2,15 @@
 :mod:`.quasi_static`; the registry: :mod:`.registry`).
 
 A solver is built from a :class:`~tissuesim.mesh.hybrid.HybridMesh` (static data) plus keyword-only options; it
-owns a :class:`State` (the mutable part: M_S positions and velocities) and one external load: a pin-head's force on
-one M_S node (§8.2), or spread over the nodes under a tip of radius R (:mod:`tissuesim.loads`). Every method
+owns a :class:`State` (the mutable part: M_S positions and velocities) and its external loads (:mod:`.load_set`):
+each a pin-head's force on one M_S node (§8.2), or spread over the nodes under a tip of radius R
+(:mod:`tissuesim.loads`). Every method
 exposes the same calls, so the experiments compare like with like:
 
 * ``step(dt)`` advances one time step [s];
 * ``set_load(node, force, radius=None)`` / ``clear_load()`` set or withdraw the external force [N] on an M_S node,
-  or on the contact patch of radius R [m] around it;
+  or on the contact patch of radius R [m] around it; ``add_load`` / ``move_load`` / ``remove_load`` hold several at
+  once, each by its handle;
 * ``reset()`` returns to rest, at zero velocity and without load;
 * ``solve_static(node, force, radius=None)`` returns the M_S positions at equilibrium: solved directly where the
   method has a static solver, else by stepping with damping until the surface settles.
@@ -40,8 +42,9 @@ from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from .contact import ContactPatches
-from .checks import check_force, fraction, is_integer, node_set, positive_number, time_step
+from .checks import fraction, is_integer, node_set, positive_number, time_step
 from .finite_strain import check_method_material, unstable_load_error
+from .load_set import Load, LoadSet
 from .quasi_static import QuasiStaticSolve
 from .report import SolveReport, linear_validity_warning
 from .state import State, farthest_node
@@ -57,7 +60,7 @@ DEFAULT_DT = 0.01  # s
 RUNAWAY_SIZES = 100.0
 
 
-class Solver(ContactPatches, QuasiStaticSolve, ABC):
+class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     """Base class of every method: state, load and stepping (the quasi-static solve: :class:`QuasiStaticSolve`).
 
     Subclasses implement :meth:`_step` (one time step on ``self.state`` under ``self.forces``) and may override
@@ -67,8 +70,8 @@ class Solver(ContactPatches, QuasiStaticSolve, ABC):
         hybrid: the static hybrid mesh.
         rest_positions: ``(n, 3) float64`` M_S rest positions [m] (read-only).
         fixed: ``(k,) int32`` sorted M_S vertex indices held at rest.
-        forces: ``(n, 3) float64`` external nodal forces [N] on M_S (zero but for the loaded node); read-only to
-            users, change it through :meth:`set_load` / :meth:`clear_load`.
+        forces: ``(n, 3) float64`` external nodal forces [N] on M_S, the sum of the loads (zero elsewhere);
+            read-only to users, change it through the loads (:meth:`set_load`, :meth:`add_load`, ...).
         state: the :class:`State`.
         material: the constitutive model, ``"linear"`` or a finite-strain one (the ``material`` option);
             ``elasticity``: its :class:`~tissuesim.fem.material.Material` (E, ν and the Lamé constants).
@@ -123,11 +126,7 @@ class Solver(ContactPatches, QuasiStaticSolve, ABC):
             self.fixed_height = None
             self.fixed = node_set("fixed", fixed, n)
         self.forces = np.zeros((n, 3))
-        self._load_node = -1
-        self._load_force = np.zeros(3)
-        self.load_radius: float | None = None
-        self.load_nodes = np.zeros(0, dtype=np.int64)
-        self.load_shares = np.zeros(0)
+        self._loads: list[Load] = []
         self._patches: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
         self._lumped_areas: np.ndarray | None = None
         self.state = State.at_rest(self.rest_positions)
@@ -179,48 +178,6 @@ class Solver(ContactPatches, QuasiStaticSolve, ABC):
     @dt.setter
     def dt(self, value) -> None:
         self._dt = time_step(value)
-
-    @property
-    def load(self) -> tuple[int, np.ndarray] | None:
-        """``(node, total force (3,) N)`` of the current load, or None."""
-        if self._load_node < 0:
-            return None
-        return self._load_node, self._load_force.copy()
-
-    # ------------------------------------------------------------------------------------------------------ loads
-    def set_load(self, node: int, force, *, radius: float | None = None) -> None:
-        """Apply ``force`` ``(3,)`` [N] at M_S vertex ``node``, replacing any previous load.
-
-        ``radius`` None (default) loads that node alone; a radius R [m] spreads the force area-weighted over the M_S
-        nodes within R of it at rest (:func:`tissuesim.loads.contact_patch`): the same nodal forces for every
-        method. The nodes carrying the load are :attr:`load_nodes`, their shares :attr:`load_shares`. A load on a
-        fixed node is refused (BoundaryConditionError: all of it would vanish into the support), and so is a patch
-        that reaches the fixed region (SolverError: part of it would); a refused load changes nothing.
-        """
-        node = self._check_node(node)
-        force = check_force(force)
-        nodes, shares = self.contact_patch(node, radius)
-        self._withdraw_load()
-        self.forces[nodes] = shares[:, None] * force[None, :]
-        self._load_node = node
-        self._load_force[:] = force
-        self.load_radius = None if radius is None else float(radius)
-        self.load_nodes, self.load_shares = nodes, shares
-        self._on_load_changed()
-
-    def clear_load(self) -> None:
-        """Withdraw the external load."""
-        if self._load_node >= 0:
-            self._withdraw_load()
-            self._on_load_changed()
-
-    def _withdraw_load(self) -> None:
-        if self._load_node >= 0:
-            self.forces[self.load_nodes] = 0.0
-            self._load_node = -1
-            self._load_force[:] = 0.0
-            self.load_radius = None
-            self.load_nodes, self.load_shares = np.zeros(0, dtype=np.int64), np.zeros(0)
 
     # -------------------------------------------------------------------------------------------------- stepping
     def step(self, dt: float | None = None) -> None:
@@ -288,8 +245,8 @@ class Solver(ContactPatches, QuasiStaticSolve, ABC):
                     f"size {self.size:.3g} m")
         else:
             what = f"node {node} has a non-finite position"
-        load = "no load" if self._load_node < 0 else (
-            f"{np.linalg.norm(self._load_force):.3g} N at node {self._load_node}")
+        load = "no load" if not self._loads else "; ".join(
+            f"{np.linalg.norm(held.force):.3g} N at node {held.node}" for held in self._loads)
         if linear or self.static:  # no step to blame: the answer of a linear solve is out of float64's range
             raise SolverError(
                 f"{self.name} solver's answer{when} is not finite ({what}) under {load}: the load is too large for "

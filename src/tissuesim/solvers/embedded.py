@@ -82,26 +82,29 @@ class EmbeddedSolver(Solver):
     def _solve(self) -> None:
         if self.finite is not None:
             self._finite_solve()
-        elif self._load_node < 0:
-            self._u[:] = 0.0
-        else:
-            patch = self.load_nodes
-            self.fem.patch_response(self._tets[self.tet_of[patch]].ravel(),
-                                    (self.weights[patch] * self.load_shares[:, None]).ravel(), self._load_force,
-                                    output_nodes=self.carrier_nodes, out=self._u)
+            return
+        self._u[:] = 0.0        # the sum of each load's patch response (linear)
+        one = np.empty_like(self._u) if len(self._loads) > 1 else self._u
+        for load in self._loads:
+            self.fem.patch_response(self._tets[self.tet_of[load.nodes]].ravel(),
+                                    (self.weights[load.nodes] * load.shares[:, None]).ravel(), load.force,
+                                    output_nodes=self.carrier_nodes, out=one)
+            if one is not self._u:
+                self._u += one
 
     def _tet_loads(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's force split over its tet's nodes by its
-        barycentric weights."""
-        patch = self.load_nodes
-        forces = (self.weights[patch][:, :, None] * self.forces[patch][:, None, :]).reshape(-1, 3)
-        return self._tets[self.tet_of[patch]].ravel(), forces
+        """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's share of its load split over its tet's
+        nodes by its barycentric weights, every load in turn."""
+        nodes = [self._tets[self.tet_of[load.nodes]].ravel() for load in self._loads]
+        forces = [(self.weights[load.nodes][:, :, None] * (load.shares[:, None] * load.force[None, :])[:, None, :])
+                  .reshape(-1, 3) for load in self._loads]
+        return np.concatenate(nodes), np.concatenate(forces)
 
     def _finite_solve(self) -> None:
         """M_V's finite-strain equilibrium, warm-started from the last one; the carriers' displacement into ``_u``."""
         forces = self._volume_forces
         forces[:] = 0.0
-        if self._load_node >= 0:
+        if self._loads:
             np.add.at(forces, *self._tet_loads())
         self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
         self._u[:] = self.volume_displacement[self.carrier_nodes]

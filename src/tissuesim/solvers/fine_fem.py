@@ -62,7 +62,8 @@ class FineFEMSolver(Solver):
     def displacement_field(self) -> np.ndarray:
         """``(N, 3) float64`` fine-volume displacement [m] under the current load (one full solve)."""
         self._volume_forces[:] = 0.0
-        self._volume_forces[self.surface_nodes[self.load_nodes]] = self.forces[self.load_nodes]
+        loaded = np.unique(self.load_nodes)
+        self._volume_forces[self.surface_nodes[loaded]] = self.forces[loaded]
         if self.finite is None:
             return self.fem.solve(self._volume_forces)
         self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)

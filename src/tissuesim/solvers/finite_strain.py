@@ -88,8 +88,8 @@ def support_displacement(volume_points: np.ndarray, fixed_volume: np.ndarray, su
 def unstable_load_error(solver, error) -> SolverError:
     """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): the
     load, the patch's mean pressure against the shear modulus μ, and the fix."""
-    force = float(np.linalg.norm(solver.load[1])) if solver.load else 0.0
-    area = float(solver.lumped_areas()[solver.load_nodes].sum())
+    force = float(np.linalg.norm(sum(load.force for load in solver.loads))) if solver.loads else 0.0
+    area = float(solver.lumped_areas()[np.unique(solver.load_nodes)].sum())
     mu = solver.elasticity.shear_modulus
     pressure = force / area if area > 0 else np.inf
     return SolverError(

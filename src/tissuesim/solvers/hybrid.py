@@ -196,7 +196,7 @@ class HybridSolver(SurfaceLayerSolver):
         :data:`VOLUME_ITERATIONS` iterations from the last one."""
         forces = self._volume_forces
         forces[:] = 0.0
-        if self._load_node >= 0:
+        if self._loads:
             np.add.at(forces, *self._coarse_loads())
         if exact:
             self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
@@ -208,25 +208,24 @@ class HybridSolver(SurfaceLayerSolver):
         self.targets[self.control_count:] = self.fixed_positions[np.searchsorted(self.fixed, pinned)]
 
     def _coarse_loads(self) -> tuple[np.ndarray, np.ndarray]:
-        """§6.1: ``(M_V nodes (3p,), forces (3p, 3) [N])``, each loaded M_S node's share of the load split over the
-        nodes of its coarse triangle by its barycentric weights."""
-        patch = self.load_nodes
-        shares = (self.load_weights[patch] * self.load_shares[:, None]).ravel()
-        return self.load_volume_nodes[patch].ravel(), shares[:, None] * self._load_force[None, :]
+        """§6.1: ``(M_V nodes (3p,), forces (3p, 3) [N])``, each loaded M_S node's share of its load split over
+        the nodes of its coarse triangle by its barycentric weights, every load in turn."""
+        split = [self._coarse_split(load) for load in self._loads]
+        return (np.concatenate([nodes for nodes, _ in split]),
+                np.concatenate([shares[:, None] * load.force[None, :] for (_, shares), load in zip(split, self._loads)]))
+
+    def _coarse_split(self, load) -> tuple[np.ndarray, np.ndarray]:
+        """``(M_V nodes (3k,), shares (3k,))`` of one load's patch (§6.1's barycentric split)."""
+        return (self.load_volume_nodes[load.nodes].ravel(),
+                (self.load_weights[load.nodes] * load.shares[:, None]).ravel())
 
     def _update_fem(self, *, exact: bool = False) -> None:
-        node = self._load_node
         if self.finite is not None:
             self._finite_response(exact)
-        elif node < 0:
-            self._u[:] = 0.0
         else:
-            patch = self.load_nodes
-            self.fem.patch_response(self.load_volume_nodes[patch].ravel(),
-                                    (self.load_weights[patch] * self.load_shares[:, None]).ravel(), self._load_force,
-                                    output_nodes=self.output_nodes, out=self._u)
+            self._linear_response()
         if self._near is not None:
-            self._prescribe_window(node)
+            self._prescribe_window(self._loads[0].node if self._loads else -1)
         c = self.control_count
         np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
         if self._near is not None and self._window.size:
@@ -241,12 +240,27 @@ class HybridSolver(SurfaceLayerSolver):
             self._embedded[:] = self._embedded_new
         self._dirty = False
 
+    def _linear_response(self) -> None:
+        """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
+        self._u[:] = 0.0
+        one = np.empty_like(self._u) if len(self._loads) > 1 else self._u
+        for load in self._loads:
+            self.fem.patch_response(*self._coarse_split(load), load.force, output_nodes=self.output_nodes, out=one)
+            if one is not self._u:
+                self._u += one
+
+    def _admit(self, load) -> None:
+        if self._near is not None and self._loads:
+            raise SolverError("the near field follows one contact: remove the load acting first (remove_load), or "
+                              "replace it (set_load)")
+
     def _prescribe_near(self, exact: bool) -> None:
         """The window's targets: the near field's displacement under the load (converged when ``exact``, else
         :data:`VOLUME_ITERATIONS` iterations toward it; still moving means M_V's part is not settled either)."""
         iterations = None if exact or self._near.finite is None else VOLUME_ITERATIONS
+        load = self._loads[0]
         self.targets[self._window_slots] = self.rest_positions[self._window] + self._near.displacement(
-            self.load_nodes, self.load_shares, self._load_force, self._window, iterations=iterations)
+            load.nodes, load.shares, load.force, self._window, iterations=iterations)
         if iterations is not None and not self._near.settled:
             self._volume_settled = False
 

@@ -238,10 +238,10 @@ class MassSpringSolver(Solver):
         if count and self.hybrid.info.get("cuts"):
             count, first = self._inside_out_beyond_flaps()
         if count:
-            load = self.load
+            load = float(np.linalg.norm(sum(held.force for held in self.loads))) if self.loads else 0.0
             raise InversionError(
                 f"the mass-spring surface turned {count} triangles inside out (first: {first}) under "
-                f"{0.0 if load is None else float(np.linalg.norm(load[1])):g} N: springs have no force that turns an "
+                f"{load:g} N: springs have no force that turns an "
                 "inverted triangle back, so it may stay inverted after release (a cut's lip, held only by springs in "
                 "its own plane, folds under smaller loads); lower the force, or use the hybrid method (reset() "
                 "returns to rest)"

@@ -64,7 +64,7 @@ class QuasiStaticSolve:
         check_dead_press(self, node, force, radius)
         # only a finite-strain solve can find no stable equilibrium and have to restore what it was given
         before = None if self.material == "linear" else (self.state.positions.copy(), self.state.velocities.copy(),
-                                                         self.load, self.load_radius)
+                                                         self.kept_loads())
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
@@ -110,11 +110,10 @@ class QuasiStaticSolve:
             )
         return self.state.positions.copy()
 
-    def _restore(self, positions, velocities, load, radius) -> None:
-        """Back to a state and load taken before a refused solve."""
+    def _restore(self, positions, velocities, loads) -> None:
+        """Back to a state and loads taken before a refused solve."""
         self._unloaded()
-        if load is not None:
-            self.set_load(load[0], load[1], radius=radius)
+        self.put_back_loads(loads)
         self.state.positions[:] = positions
         self.state.velocities[:] = velocities
 
