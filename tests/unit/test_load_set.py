@@ -137,3 +137,15 @@ def test_a_haptic_tool_and_a_pin_head_act_together(cube):
     assert {load.node for load in solver.loads} == {a, b}
     loop.release()
     assert [load.node for load in solver.loads] == [a]
+
+
+def test_a_load_keeps_its_own_force_and_its_patch_cannot_be_written(cube):
+    solver = tissuesim.make_solver("hybrid", cube)
+    a, _ = _top_nodes(solver)
+    force = np.array([0.0, 0.0, 0.3])
+    load = solver.add_load(a, force, radius=RADIUS)
+    force[2] = 5.0                          # the caller reuses its array
+    assert load.force.tolist() == [0.0, 0.0, 0.3]
+    np.testing.assert_allclose(solver.forces.sum(axis=0), [0.0, 0.0, 0.3], rtol=1e-12)
+    with pytest.raises(ValueError):
+        load.shares *= 0.5                  # the patch is the solver's cache: read-only

@@ -204,7 +204,7 @@ class SolverCut:
                 near = new[np.linalg.norm(result.rest[new] - result.rest[load.node], axis=1) <= load.radius]
                 if not np.isin(near, s.fixed).any():    # else the full search refuses the patch, saying why
                     nodes = np.concatenate([load.nodes, near])
-                    s._patches[(load.node, load.radius)] = (nodes, self.lumped[nodes] / self.lumped[nodes].sum())
+                    s._remember((load.node, load.radius), (nodes, self.lumped[nodes] / self.lumped[nodes].sum()))
             s.move_load(load, node=load.node)
 
     def _update_lumped(self, result) -> None:

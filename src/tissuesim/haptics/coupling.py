@@ -86,8 +86,8 @@ class Coupler(ABC):
         """Hold M_S ``node``, or (None) the node a :class:`~tissuesim.PinHead` would snap to from the tool
         position; returns it. Measures the node's local response (four static solves; the solver's visual state
         is put back), starts coupling at zero force (a force the servo loop computed for an earlier grab is not
-        synced) and withdraws the tool's load (other loads on the solver act on). The tool position is the one the servo loop last read (see the
-        subclass for before its first tick). A refused node (out of range, fixed, a patch reaching the support)
+        synced) and withdraws the tool's load (other loads on the solver act on). The tool position is the one the
+        servo loop last read (see the subclass for before its first tick). A refused node (out of range, fixed, a patch reaching the support)
         raises the solver's error and changes nothing."""
         tool = self._tool_position()
         if tool is not None and not np.all(np.isfinite(tool)):

@@ -39,7 +39,7 @@ class HapticLoop(Coupler):
         apply_force: callable receiving the force on the tool ``(3,) float64`` [N] (−f); the array is reused by the
             next tick: copy what you keep.
         stiffness: k_c, the virtual coupling's stiffness [N/m].
-        radius: the tool's contact radius R [m] (the load's patch, :meth:`Solver.set_load`), or None (one node).
+        radius: the tool's contact radius R [m] (the load's patch, :meth:`Solver.add_load`), or None (one node).
         rate: ticks per second [Hz].
 
     Attributes (besides :class:`~.coupling.Coupler`'s):

@@ -27,7 +27,8 @@ class LocalResponse:
     Attributes:
         node: the M_S vertex index.
         radius: the contact radius R [m] of the patch the force is spread over, or None (the node alone).
-        origin: ``(3,) float64`` x0 [m]: where the node rests without the grabbing force.
+        origin: ``(3,) float64`` x0 [m]: where the node rests without the grabbing force (measured under no other
+            load either: the response is the solver's to this tool alone).
         compliance: ``(3, 3) float64`` C [m/N]: the node's displacement per unit force, column j for a force along
             axis j (exact for the linear material, the tangent at ``around`` for a finite-strain one).
         around: ``(3,) float64`` the force [N] it was measured at.
@@ -74,6 +75,8 @@ def tangent_step(solver, radius: float | None) -> float:
 #: would have without it (a pending warm-start move included).
 _WARM_ARRAYS = ("_u", "targets", "_embedded", "_embedded_new")
 _WARM_FLAGS = ("_dirty", "_volume_settled")
+#: What a hybrid's near field rebinds when its contact moves (its window of prescribed nodes): put back as it was.
+_WINDOW = ("prescribed", "inv_mass", "_statics", "_window", "_window_slots", "_window_node")
 
 
 class _Snapshot:
@@ -86,15 +89,17 @@ class _Snapshot:
         self.loads = solver.kept_loads()
         volume = getattr(solver, "volume_displacement", None)
         self.volume = None if volume is None else volume.copy()
-        self.arrays = {name: getattr(solver, name).copy() for name in _WARM_ARRAYS if hasattr(solver, name)}
-        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS if hasattr(solver, name)}
+        self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy())
+                       for name in _WARM_ARRAYS if hasattr(solver, name)}
+        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW if hasattr(solver, name)}
 
     def restore(self, solver) -> None:
         solver.put_back_loads(self.loads)
         if self.volume is not None:
             solver.volume_displacement = self.volume
-        for name, values in self.arrays.items():
-            getattr(solver, name)[...] = values      # in place: other arrays are views of them
+        for name, (array, values) in self.arrays.items():
+            setattr(solver, name, array)    # the very array (others are views of it), which a window may have replaced
+            array[...] = values
         for name, value in self.flags.items():
             setattr(solver, name, value)
         solver.positions[:] = self.positions

@@ -43,6 +43,8 @@ class ContactPatches:
     def _remember(self, key: tuple[int, float | None], patch: tuple[np.ndarray, np.ndarray]) -> None:
         if len(self._patches) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
             self._patches.clear()
+        for array in patch:             # loads hand these out: nobody may change the cache through them
+            array.flags.writeable = False
         self._patches[key] = patch
 
     def _held_in(self, nodes: np.ndarray) -> np.ndarray:

@@ -88,12 +88,13 @@ def support_displacement(volume_points: np.ndarray, fixed_volume: np.ndarray, su
 def unstable_load_error(solver, error) -> SolverError:
     """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): the
     load, the patch's mean pressure against the shear modulus μ, and the fix."""
-    force = float(np.linalg.norm(sum(load.force for load in solver.loads))) if solver.loads else 0.0
-    area = float(solver.lumped_areas()[np.unique(solver.load_nodes)].sum())
+    loaded = np.unique(solver.load_nodes)
+    force = float(sum(np.linalg.norm(load.force) for load in solver.loads))
+    area = float(solver.lumped_areas()[loaded].sum())
     mu = solver.elasticity.shear_modulus
     pressure = force / area if area > 0 else np.inf
     return SolverError(
-        f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {solver.load_nodes.size} "
+        f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {loaded.size} "
         f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
         f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
         "a body pressed by a fixed force buckles; lower the load (the pin-head's force is such a fixed force too: a "

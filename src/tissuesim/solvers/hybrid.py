@@ -211,8 +211,8 @@ class HybridSolver(SurfaceLayerSolver):
         """§6.1: ``(M_V nodes (3p,), forces (3p, 3) [N])``, each loaded M_S node's share of its load split over
         the nodes of its coarse triangle by its barycentric weights, every load in turn."""
         split = [self._coarse_split(load) for load in self._loads]
-        return (np.concatenate([nodes for nodes, _ in split]),
-                np.concatenate([shares[:, None] * load.force[None, :] for (_, shares), load in zip(split, self._loads)]))
+        forces = [shares[:, None] * load.force[None, :] for (_, shares), load in zip(split, self._loads)]
+        return np.concatenate([nodes for nodes, _ in split]), np.concatenate(forces)
 
     def _coarse_split(self, load) -> tuple[np.ndarray, np.ndarray]:
         """``(M_V nodes (3k,), shares (3k,))`` of one load's patch (§6.1's barycentric split)."""

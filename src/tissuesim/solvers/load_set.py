@@ -28,7 +28,8 @@ class Load:
         node: the M_S vertex the force is centred on.
         force: ``(3,) float64`` the total force [N].
         radius: the contact patch's radius R [m], or None (the node alone).
-        nodes: ``(k,) int64`` the patch's vertices, ``node`` first. shares: ``(k,) float64`` their shares (sum 1).
+        nodes: ``(k,) int64`` the patch's vertices, ``node`` first (read-only).
+        shares: ``(k,) float64`` their shares of the force, summing to 1 (read-only).
     """
 
     node: int
@@ -119,8 +120,9 @@ class LoadSet:
             self._withdraw_load()
             self._on_load_changed()
 
-    def kept_loads(self) -> list:
-        """A record of the loads acting (handles and values), for :meth:`put_back_loads`."""
+    def kept_loads(self) -> list[tuple]:
+        """A record of the loads acting: ``(handle, node, force, radius, nodes, shares)`` each, for
+        :meth:`put_back_loads`."""
         return [(load, load.node, load.force, load.radius, load.nodes, load.shares) for load in self._loads]
 
     def put_back_loads(self, kept: list) -> None:
@@ -139,7 +141,7 @@ class LoadSet:
 
     def _checked_load(self, node, force, radius) -> Load:
         node = self._check_node(node)
-        force = check_force(force)
+        force = check_force(force).copy()       # the load's own: the caller may reuse its array
         nodes, shares = self.contact_patch(node, radius)
         return Load(node, force, None if radius is None else float(radius), nodes, shares)
 

@@ -238,7 +238,7 @@ class MassSpringSolver(Solver):
         if count and self.hybrid.info.get("cuts"):
             count, first = self._inside_out_beyond_flaps()
         if count:
-            load = float(np.linalg.norm(sum(held.force for held in self.loads))) if self.loads else 0.0
+            load = float(sum(np.linalg.norm(held.force) for held in self.loads))
             raise InversionError(
                 f"the mass-spring surface turned {count} triangles inside out (first: {first}) under "
                 f"{load:g} N: springs have no force that turns an "

@@ -45,7 +45,8 @@ class QuasiStaticSolve:
         directly (a linear solve, exact to round-off). The others step (with the solver's
         damping) until settled: the remaining error, extrapolated from the decay of the per-step motion, is below
         ``rtol`` × the largest displacement, or the motion is below ``tolerance`` [m] if one is given. The load
-        stays applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load (and on
+        replaces every load acting (as :meth:`set_load`; their handles, a pin-head's too, no longer act) and stays
+        applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load (and on
         where :meth:`set_fixed_positions` put the fixed set, which it keeps).
         What was done, and whether linear elasticity is valid for the answer (``last_solve.warning``), is in
         :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling, or at once when the state

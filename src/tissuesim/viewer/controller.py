@@ -188,7 +188,7 @@ class Controller:
             return
         point = camera_plane_point(ray_origin, ray_direction, self.pin.anchor)
         if point is not None:
-            self.force = self.pin.drag(point)  # raises before the load changes (solver.set_load checks first)
+            self.force = self.pin.drag(point)  # raises before the load changes (a refused load changes nothing)
             self.cursor = point
 
     def _move_blade(self, point: np.ndarray) -> None:
