@@ -22,6 +22,7 @@ import numpy as np
 
 from .errors import SolverError
 from .solvers.checks import positive_number
+from .solvers.load_set import ToolLoad
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0
@@ -62,7 +63,7 @@ class PinHead:
         self.node: int | None = None
         self.anchor: np.ndarray | None = None
         self.notice = ""
-        self._load = None     # its own load's handle: other loads on the solver act on beside it
+        self._load = ToolLoad(solver)     # its own load: other loads on the solver act on beside it
 
     @property
     def grabbed(self) -> bool:
@@ -86,7 +87,7 @@ class PinHead:
                 "a larger snap_radius"
             )
         node = self._nearest_movable(distance, nearest)
-        self._withdraw()
+        self._load.withdraw()
         self.node, self.anchor = node, point.copy()  # the caller's array (or a live node row) may change later
         self.notice = "" if node == nearest else (
             f"node {nearest}, the nearest, {self._why_not(nearest)}; holding node {node} instead, the nearest that "
@@ -122,25 +123,13 @@ class PinHead:
     def drag(self, point) -> np.ndarray:
         """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
         force = self.force(point)
-        if self._acting():
-            self.solver.move_load(self._load, node=self.node, force=force, radius=self.radius)
-        else:
-            self._load = self.solver.add_load(self.node, force, radius=self.radius)
+        self._load.apply(self.node, force, radius=self.radius)
         return force
 
     def release(self) -> None:
         """Withdraw the force; the pin-head follows the cursor again (no node held)."""
-        self._withdraw()
+        self._load.withdraw()
         self.node, self.anchor = None, None
-
-    def _acting(self) -> bool:
-        """Whether its load still acts on the solver (a reset or a set_load elsewhere withdraws it)."""
-        return self._load is not None and any(self._load is load for load in self.solver.loads)
-
-    def _withdraw(self) -> None:
-        if self._acting():
-            self.solver.remove_load(self._load)
-        self._load = None
 
 
 def checked_point(point) -> np.ndarray:

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..solvers.checks import positive_number
+from ..solvers.load_set import ToolLoad
 from .response import local_response
 
 DEFAULT_RATE = 1000.0  # Hz: what haptic devices need for hard contact to feel crisp
@@ -80,7 +81,7 @@ class Coupler(ABC):
         self.offset = None
         self._node = -1
         self._grab = 0  # the number of the latest grab, published with its coupling
-        self._load = None  # the tool's own load: other loads on the solver act on beside it
+        self._load = ToolLoad(solver)  # the tool's own load: other loads on the solver act on beside it
 
     def grab(self, node: int | None = None) -> int:
         """Hold M_S ``node``, or (None) the node a :class:`~tissuesim.PinHead` would snap to from the tool
@@ -103,7 +104,7 @@ class Coupler(ABC):
         response = local_response(self.solver, node, radius=self.radius)
         self._grab += 1
         self._hold(response, None if tool is None else tool - response.origin)
-        self._withdraw()
+        self._load.withdraw()
         return response.node
 
     def sync(self, *, relinearise: bool | None = None) -> np.ndarray:
@@ -115,10 +116,7 @@ class Coupler(ABC):
         if self._node < 0:
             return np.zeros(3)
         force = self._latest_force()
-        if self._acting():
-            self.solver.move_load(self._load, node=self._node, force=force, radius=self.radius)
-        else:
-            self._load = self.solver.add_load(self._node, force, radius=self.radius)
+        self._load.apply(self._node, force, radius=self.radius)
         if relinearise is None:
             relinearise = self.solver.material != "linear"
         if relinearise:
@@ -130,16 +128,7 @@ class Coupler(ABC):
         self._publish(None)
         self.response = self.offset = None
         self._node = -1
-        self._withdraw()
-
-    def _acting(self) -> bool:
-        """Whether the tool's load still acts on the solver (a reset or a set_load elsewhere withdraws it)."""
-        return self._load is not None and any(self._load is load for load in self.solver.loads)
-
-    def _withdraw(self) -> None:
-        if self._acting():
-            self.solver.remove_load(self._load)
-        self._load = None
+        self._load.withdraw()
 
     def _hold(self, response, offset: np.ndarray | None) -> None:
         """Couple the latest grab with ``response`` and ``offset`` a ``(3,)`` [m] (None: not known yet, the

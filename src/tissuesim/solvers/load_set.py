@@ -164,3 +164,29 @@ class LoadSet:
         for load in self._loads:
             at = np.isin(load.nodes, rows)
             np.add.at(self.forces, load.nodes[at], load.shares[at, None] * load.force[None, :])
+
+
+class ToolLoad:
+    """A tool's own load on a solver (a pin-head's, a haptic device's): applied and moved as the tool acts and
+    withdrawn when it lets go, beside any other load. A reset, or a :meth:`~LoadSet.set_load` elsewhere, withdraws
+    it; the next :meth:`apply` adds it again."""
+
+    def __init__(self, solver):
+        self.solver = solver
+        self._load: Load | None = None
+
+    @property
+    def acting(self) -> bool:
+        return self._load is not None and any(self._load is load for load in self.solver.loads)
+
+    def apply(self, node: int, force, *, radius: float | None) -> None:
+        """The tool's load at ``node``: ``force`` ``(3,)`` [N] over a patch of ``radius`` [m] (None: one node)."""
+        if self.acting:
+            self.solver.move_load(self._load, node=node, force=force, radius=radius)
+        else:
+            self._load = self.solver.add_load(node, force, radius=radius)
+
+    def withdraw(self) -> None:
+        if self.acting:
+            self.solver.remove_load(self._load)
+        self._load = None
