@@ -7,7 +7,7 @@
     scalpel.release()
 
 The cut is progressive: each ``move`` cuts at once, so the wound grows under the tool (the paper cuts at the
-release). Each call returns a :class:`~tissuesim.cutting.solver_update.CutReport`.
+release). Each call returns a :class:`~tissuesim.solvers.cut_carry.CutReport`.
 
 Choices where the paper is silent:
 
@@ -30,8 +30,7 @@ import time
 import numpy as np
 
 from .cutting.core import DEFAULT_SNAP
-from .cutting.solver_update import CutReport
-from .cutting.updaters import cut_updater
+from .solvers.cut_carry import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
 from .interaction import checked_point

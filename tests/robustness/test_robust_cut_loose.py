@@ -8,7 +8,7 @@ from scipy.sparse.csgraph import connected_components
 
 from tissuesim import HybridMesh, Scalpel, SolverError, make_solver
 from tissuesim.cutting.invariants import check_cut_invariants
-from tissuesim.cutting.updaters import anchored_nodes
+from tissuesim.solvers.cut_carry import anchored_nodes
 from tissuesim.mesh import models
 
 

@@ -6,7 +6,7 @@ import pytest
 
 from tissuesim import HybridMesh, Scalpel, SolverError, make_solver
 from tissuesim.cutting.invariants import check_cut_invariants
-from tissuesim.cutting.updaters import anchored_nodes, cut_updater
+from tissuesim.solvers.cut_carry import anchored_nodes, cut_updater
 from tissuesim.mesh import models
 
 METHODS = ["hybrid", "pbd", "mass-spring", "embedded"]

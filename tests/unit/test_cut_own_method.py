@@ -1,5 +1,5 @@
-"""A method of one's own can be cut: register a solver with ``register`` and its cut updater with ``register_cut``,
-and the scalpel carries it over a cut like the built-in methods.
+"""A method of one's own can be cut: its solver class names the updater that carries it over a cut
+(``cut_carrier``), and the scalpel cuts it like the built-in methods.
 
 The method here is a Winkler foundation: each surface vertex on a spring of its own to its rest position, so it
 settles at x = rest + f / k in one step. Its updater has nothing of its own to carry: the base updater extends the
@@ -9,22 +9,13 @@ import numpy as np
 import pytest
 
 import tissuesim
-from tissuesim.cutting.solver_update import SolverCut
-from tissuesim.cutting.updaters import _REGISTERED, register_cut
+from tissuesim.solvers.cut_carry import SolverCut
 from tissuesim.experiments.wound import incision_line
 from tissuesim.mesh import models
 from tissuesim.solvers.base import Solver
 from tissuesim.solvers.registry import _REGISTRY, register
 
 STIFFNESS = 50.0  # N/m, each vertex's spring
-
-
-class Winkler(Solver):
-    def _step(self, dt: float) -> None:
-        s = self.state
-        target = self.rest_positions + self.forces / STIFFNESS
-        s.velocities[:] = (target - s.positions) / dt
-        s.positions[:] = target
 
 
 class WinklerCut(SolverCut):
@@ -34,13 +25,21 @@ class WinklerCut(SolverCut):
         """Nothing beyond the state and the loads, which the base updater carries."""
 
 
+class Winkler(Solver):
+    cut_carrier = WinklerCut
+
+    def _step(self, dt: float) -> None:
+        s = self.state
+        target = self.rest_positions + self.forces / STIFFNESS
+        s.velocities[:] = (target - s.positions) / dt
+        s.positions[:] = target
+
+
 @pytest.fixture
 def winkler():
     register("winkler")(Winkler)
-    register_cut("winkler")(WinklerCut)
     yield
     _REGISTRY.pop("winkler")
-    _REGISTERED.pop("winkler")
 
 
 def test_a_registered_method_is_cut_by_the_scalpel_and_steps_on_the_cut_mesh(winkler):

@@ -342,7 +342,7 @@ def test_a_held_contact_patch_is_carried_across_cuts_as_a_fresh_search_finds_it(
 
 def test_the_mass_spring_stability_bound_kept_across_cuts_equals_a_full_pass(cube):
     # the Gershgorin rows are recomputed only where a cut changed a spring or a mass; a full pass must agree
-    from tissuesim.cutting.updaters import cut_updater
+    from tissuesim.solvers.cut_carry import cut_updater
     from tissuesim.solvers.mass_spring import gershgorin_rows
 
     solver = tissuesim.make_solver("mass-spring", cube)

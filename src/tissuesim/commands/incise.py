@@ -167,7 +167,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     """The table row of one model and method, and the cut surface to write: ``(positions (n, 3) [m], triangles
     (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
     from ..cutting.invariants import check_cut_invariants
-    from ..cutting.updaters import anchored_nodes, refusal
+    from ..solvers.cut_carry import anchored_nodes, refusal
     from ..experiments.wound import open_wound, pull_node, scripted_incision, unloaded_openings
     from ..experiments.inputs import check_free_node
     from ..solvers import make_solver

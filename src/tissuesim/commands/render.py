@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cutting.updaters import refusal
+    from ..solvers.cut_carry import refusal
     from ..experiments.output import check_output_folder
     from ..experiments.inputs import check_model_specs, check_resolution
     from ..io import check_scale, remove_abandoned_partials

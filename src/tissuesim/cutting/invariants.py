@@ -53,7 +53,7 @@ def check_cut_invariants(rest: np.ndarray, triangles: np.ndarray, *, positions: 
         edges, rest_length: ``(e, 2) int``, ``(e,) float64`` [m] the live stretch constraints, optional.
         masses: ``(n,) float64`` [kg] node masses and ``total_mass`` [kg] the mass before any cut, optional.
         anchored: ``(a,) int`` the nodes that hold the surface in place (a solver's fixed and control nodes:
-            :func:`~tissuesim.cutting.updaters.anchored_nodes`), optional: every piece must hold one.
+            :func:`~tissuesim.solvers.cut_carry.anchored_nodes`), optional: every piece must hold one.
     """
     triangles = np.asarray(triangles, dtype=np.int64)
     n, problems = len(rest), []

@@ -88,6 +88,11 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     materials: ClassVar[tuple[str, ...]] = ("linear",)
     #: True for methods whose step is an exact static solve (one step reaches equilibrium).
     static: ClassVar[bool] = False
+    #: How the method absorbs a cut: the :class:`~tissuesim.solvers.cut_carry.SolverCut` subclass that carries its
+    #: arrays over each move (a class, or ``"module:Class"`` imported when first needed); None: it cannot be cut,
+    #: for :attr:`cut_refusal`'s reason.
+    cut_carrier: ClassVar[type | str | None] = None
+    cut_refusal: ClassVar[str | None] = None
 
     def __init__(
         self,

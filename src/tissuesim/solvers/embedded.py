@@ -49,6 +49,7 @@ class EmbeddedSolver(Solver):
 
     static = True
     materials = ("linear", "corotated", "neo-hookean")
+    cut_carrier = "tissuesim.solvers.surface_layer_cut:EmbeddedCut"
 
     def __init__(self, hybrid_mesh, **common):
         super().__init__(hybrid_mesh, **common)

@@ -23,6 +23,9 @@ class FineFEMSolver(Solver):
 
     static = True
     materials = ("linear", "corotated", "neo-hookean")
+    cut_refusal = ("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing and "
+                   "re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, mass-spring or "
+                   "embedded solver")
 
     def __init__(self, hybrid_mesh, **common):
         super().__init__(hybrid_mesh, **common)

@@ -72,6 +72,7 @@ class HybridSolver(SurfaceLayerSolver):
     """
 
     materials = ("linear", "corotated", "neo-hookean")
+    cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
 
     def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
                  near_field: float | None = None, **options):

@@ -189,6 +189,8 @@ class MassSpringSolver(Solver):
         damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
     """
 
+    cut_carrier = "tissuesim.solvers.mass_spring_cut:MassSpringCut"
+
     def __init__(self, hybrid_mesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
                  **common):
         super().__init__(hybrid_mesh, damping=damping, **common)

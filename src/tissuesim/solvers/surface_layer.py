@@ -105,6 +105,8 @@ class SurfaceLayerSolver(Solver):
         prestress_tension: T [N/m] of the prestrain (0 without one).
     """
 
+    cut_carrier = "tissuesim.solvers.surface_layer_cut:SurfaceLayerCut"
+
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness_ratio: float | None = None, stiffness: float | None = None,
                  mass_scale: float | None = None, signed_bending: bool | None = None,

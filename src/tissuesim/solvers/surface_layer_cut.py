@@ -19,11 +19,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ..loads import triangle_areas
+from ..cutting.lengths import barycentric_distance
+from ..cutting.rows import EdgeRows, Rows
 from ..layer.rest_measures import dihedral_angles, signed_bend_angles
-from .lengths import barycentric_distance
-from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, members
+from ..loads import triangle_areas
+from .cut_carry import SolverCut, members
 
 
 class CutConstraints(SimpleNamespace):

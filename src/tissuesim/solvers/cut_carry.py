@@ -1,8 +1,10 @@
 """Carry a solver over a cut: new mesh, state renumbered, masses, constraints edited locally (§7, second half).
 
-One updater per method (:mod:`.updaters` finds it). After :meth:`SolverCut.apply` the solver holds the cut hybrid mesh
-(``solver.hybrid``), its positions and velocities follow the new numbering (old vertices keep their indices, so
-a held pin-head keeps its node), and stepping goes on without a reset.
+One updater per method: the solver class names it (:attr:`~tissuesim.solvers.base.Solver.cut_carrier`), so a
+method absorbs a cut by that class alone and the cut on arrays (:mod:`tissuesim.cutting`) knows no solver. After
+:meth:`SolverCut.apply` the solver holds the cut hybrid mesh (``solver.hybrid``), its positions and velocities
+follow the new numbering (old vertices keep their indices, so a held pin-head keeps its node), and stepping goes on
+without a reset.
 
 What every surface method gets:
 
@@ -23,15 +25,16 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+
+from ..cutting.buffers import CutSurface
+from ..cutting.edges import edge_owners, touched_edges
+from ..cutting.invariants import unanchored_pieces
+from ..cutting.remap import cut_hybrid
+from ..cutting.result import CutResult
+from ..cutting.rows import EdgeRows, Rows
+from ..cutting.warm import load_cut_kernels
 from ..errors import SolverError, TissuesimError
 from ..loads import lumped_areas, triangle_areas
-from .buffers import CutSurface
-from .edges import edge_owners, touched_edges
-from .invariants import unanchored_pieces
-from .remap import cut_hybrid
-from .result import CutResult
-from .rows import EdgeRows, Rows
-from .warm import load_cut_kernels
 
 #: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
 #: question to the whole-surface count.
@@ -328,3 +331,52 @@ def members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
         return np.zeros(np.shape(values), dtype=bool)
     where = np.minimum(np.searchsorted(sorted_set, values), len(sorted_set) - 1)
     return sorted_set[where] == values
+
+
+def cut_updater(solver) -> SolverCut:
+    """The updater that carries ``solver`` over cuts (created on first use and kept on the solver): its class's
+    :attr:`~tissuesim.solvers.base.Solver.cut_carrier`."""
+    updater = getattr(solver, "_cut_updater", None)
+    if updater is None:
+        reason = refusal(solver)
+        if reason is not None:
+            raise SolverError(reason)
+        updater = _carrier(type(solver))(solver)
+        solver._cut_updater = updater
+    return updater
+
+
+def refusal(solver_or_class) -> str | None:
+    """Why a solver (or its class, or its method's name) cannot be cut, or None if it can."""
+    from .registry import solver_class
+
+    cls = solver_class(solver_or_class) if isinstance(solver_or_class, str) else (
+        solver_or_class if isinstance(solver_or_class, type) else type(solver_or_class))
+    if cls.cut_carrier is None:
+        return cls.cut_refusal or (f"the {cls.name} method does not support cutting; cut a hybrid, pbd, mass-spring "
+                                   "or embedded solver")
+    return None
+
+
+def anchored_nodes(solver) -> np.ndarray | None:
+    """``(a,) int64`` the vertices that hold ``solver``'s surface in place (fixed, and the hybrid's control nodes):
+    every piece of a cut surface must hold one (pass them to ``check_cut_invariants(anchored=...)``); None for a
+    method that holds every vertex by its embedding (embedded), or that cannot be cut."""
+    if refusal(solver) is not None:
+        return None
+    updater = cut_updater(solver)
+    if updater.keeps_loose:
+        return None
+    return updater.held_nodes()
+
+
+def _carrier(cls) -> type:
+    """The :class:`SolverCut` subclass of solver class ``cls``: its ``cut_carrier``, a class or ``"module:Class"``
+    (the built-in methods name theirs, which import the solver modules they carry)."""
+    carrier = cls.cut_carrier
+    if isinstance(carrier, str):
+        from importlib import import_module
+
+        module, name = carrier.split(":")
+        carrier = getattr(import_module(module), name)
+    return carrier

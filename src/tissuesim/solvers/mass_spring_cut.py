@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..cutting.edges import touched_edges
+from ..cutting.rows import EdgeRows, Rows
 from ..layer.compliance import thickness_lengths
-from ..solvers.mass_spring import gershgorin_rows
-from .edges import touched_edges
-from .layer_update import new_edge_constraints, new_hinges
-from .rows import EdgeRows, Rows
-from .solver_update import SolverCut, members
+from .cut_carry import SolverCut, members
+from .mass_spring import gershgorin_rows
+from .surface_layer_cut import new_edge_constraints, new_hinges
 
 
 class MassSpringCut(SolverCut):
