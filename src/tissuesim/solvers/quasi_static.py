@@ -28,8 +28,8 @@ class QuasiStaticSolve:
 
     def solve_static(
         self,
-        node: int,
-        force,
+        node: int | None = None,
+        force=None,
         *,
         radius: float | None = None,
         tolerance: float | None = None,
@@ -38,7 +38,9 @@ class QuasiStaticSolve:
         dt: float | None = None,
         reset: bool = True,
     ) -> np.ndarray:
-        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``.
+        """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``;
+        with neither given, at equilibrium under the loads acting now (any number: several tools at once), which
+        stay as they are.
 
         ``radius`` spreads the force over a contact patch (:meth:`set_load`). Methods with a static solver of their
         own (the FEM-based ones, and the xpbd surface layer: :mod:`tissuesim.layer.static`) solve the equilibrium
@@ -59,6 +61,10 @@ class QuasiStaticSolve:
         if not is_integer(max_steps) or max_steps < 1:
             raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
+        if node is None and force is None:
+            return self._solve_under_loads(dt, tolerance, rtol, max_steps, reset)
+        if node is None or force is None:
+            raise SolverError("solve_static takes a node and a force together, or neither (the loads acting now)")
         node = self._check_node(node)
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
@@ -69,6 +75,20 @@ class QuasiStaticSolve:
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
+        try:
+            return self._settle(dt, tolerance, rtol, max_steps)
+        except UnstableLoadError as error:
+            refusal = unstable_load_error(self, error)
+            self._restore(*before)
+            raise refusal from None
+
+    def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool):
+        """:meth:`solve_static` under the loads acting: they are kept through the reset and put back if refused."""
+        loads = self.kept_loads()
+        before = self.state.positions.copy(), self.state.velocities.copy(), loads
+        if reset:
+            self._unloaded()
+            self.put_back_loads(loads)
         try:
             return self._settle(dt, tolerance, rtol, max_steps)
         except UnstableLoadError as error:

@@ -7,6 +7,11 @@ with the wall time that passed. Everything else happens here, so it is tested wi
 * **pin-head mode** (§8.2): pointer down on the surface snaps the pin-head to the nearest M_S node
   (:meth:`PinHead.grab`); moving drags the cursor in the *camera plane* (the plane through the grab point facing
   the camera), so f = k (x − x0) (eq 24) lies in the screen plane as on a haptic-free desktop; pointer up releases;
+* **a second hand**: a pin-head let go with the hold modifier (Shift in the window) keeps its load, clamped where it
+  was let go (:class:`~.tools.HeldPins`), so the user can hold a fold and then grab again or cut beside it; X lets go
+  of every held pin-head;
+* **support mode**: a stroke paints the fixed region (:class:`~.tools.SupportBrush`); when it ends the solver is
+  rebuilt over the same mesh with those vertices fixed (a region that leaves the body free is refused, saying why);
 * **scalpel mode** (§8.4): pointer down, move and up call ``Scalpel.press / move / release``, with the picked
   surface point lifted toward the camera by :data:`BLADE_LIFT` of the blade depth, so the blade (along the inward
   normal) sweeps across the surface (off the surface: the camera-plane point through the last blade point);
@@ -26,23 +31,22 @@ the pin-head free and says why in :attr:`Controller.notice`, instead of raising 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead, checked_point
-from ..solvers.registry import make_solver, solver_class, solver_options
+from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
+from .tools import HeldPins
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
 BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picked point, toward the camera, so
 # that every sweep of the blade crosses the surface (a tip exactly on it would sweep only just below it)
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
-MODES = ("pin", "scalpel")
-# settings whose change needs a new solver (the others are set on the live objects)
-_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material")
+MODES = ("pin", "scalpel", "support")
 
 
 @dataclass(frozen=True)
@@ -98,25 +102,34 @@ def scalpel_class():
     return Scalpel
 
 
-class Controller:
+class Controller(SolverBuilding):
     """Interaction logic of the simulator over one hybrid mesh.
 
     Args:
         hybrid: the :class:`~tissuesim.mesh.hybrid.HybridMesh` to simulate (kept for :meth:`reset`).
         settings: initial :class:`Settings`.
+        solver_options: further keyword options of :func:`~tissuesim.solvers.registry.make_solver` given to every
+            solver the controller builds (e.g. ``fixed``, ``gravity``, ``attachments``, ``density`` from a scene
+            file); the options :class:`Settings` holds (E, ν, dt, ...) are refused here.
         scalpel_factory: ``solver -> scalpel`` with press / move / release (and, optionally, prepare: called when
             the scalpel is picked up); default: ``tissuesim.Scalpel`` where
             installed, else scalpel mode is unavailable.
         clock: seconds, monotonic (injectable for tests).
 
     Attributes:
-        solver, pin (PinHead), scalpel (or None), mode ("pin" or "scalpel"), paused, settings, notice (a line for
+        solver, pin (PinHead), scalpel (or None), mode (one of :data:`MODES`), paused, settings, notice (a line for
         the user or ""), cursor (``(3,)`` pin-head position [m] or None), force (``(3,)`` current pin-head force [N]),
-        last_cut (the last report the scalpel returned, or None).
+        last_cut (the last report the scalpel returned, or None), held (:class:`~.tools.HeldPins`: pin-heads left
+        holding), brush (:class:`~.tools.SupportBrush`), support (``(k,) int32`` the painted fixed vertices, or None:
+        the ``fixed`` of ``solver_options``, else the model's bottom).
     """
 
-    def __init__(self, hybrid, *, settings: Settings = Settings(), scalpel_factory=None, clock=time.perf_counter):
+    def __init__(self, hybrid, *, settings: Settings = Settings(), solver_options=None, scalpel_factory=None,
+                 clock=time.perf_counter):
         self.hybrid = hybrid
+        self.solver_options = extra_options(solver_options)
+        self.held = HeldPins()
+        self.support: np.ndarray | None = None
         self.clock = clock
         self._scalpel_factory = scalpel_class() if scalpel_factory is None else scalpel_factory
         self.mode = "pin"
@@ -157,6 +170,8 @@ class Controller:
                 self.pin.grab(hit)
                 self.notice = self.pin.notice  # the grab may have held a farther node than the one clicked: say so
                 self.cursor, self.force = hit, np.zeros(3)
+            elif self.mode == "support":
+                self.brush.paint(hit)
             else:
                 tip = self._lifted(hit, ray_direction)
                 self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
@@ -172,6 +187,9 @@ class Controller:
         try:
             if self.mode == "pin":
                 self._drag_pin(hit, ray_origin, ray_direction)
+            elif self.mode == "support":
+                if self.brush.painting and hit is not None:
+                    self.brush.paint(hit)
             elif self._cutting:
                 if hit is not None:
                     point = self._lifted(checked_point(hit), ray_direction)
@@ -203,20 +221,29 @@ class Controller:
             return
         self._blade = point
 
-    def pointer_up(self) -> None:
-        """Button up: release the pin-head (the force goes) or lift the blade."""
+    def pointer_up(self, *, hold: bool = False) -> None:
+        """Button up: release the pin-head (the force goes; with ``hold``, it stays clamped where it is and a new
+        pin-head takes the next grab), fix the painted region, or lift the blade."""
         if self.mode == "pin":
-            self.pin.release()
+            if hold and self.pin.grabbed and self.cursor is not None:
+                self.held.hold(self.pin, self.cursor)
+                self.pin = PinHead(self.solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
+            else:
+                self.pin.release()
             self.force = np.zeros(3)
+        elif self.mode == "support":
+            if self.brush.painting:
+                self.set_support(self.brush.finish())
         elif self._cutting:
             self.last_cut = self.scalpel.release()
             self._cutting = False
 
     def key(self, name: str) -> None:
-        """Keyboard: "s" switches pin-head / scalpel, "r" resets, "space" pauses and resumes."""
-        actions = {"s": self.toggle_mode, "r": self.reset, "space": self.toggle_pause}
+        """Keyboard: "s" switches pin-head / scalpel, "x" lets go of every held pin-head, "r" resets, "space" pauses
+        and resumes."""
+        actions = {"s": self.toggle_mode, "x": self.release_held, "r": self.reset, "space": self.toggle_pause}
         if not isinstance(name, str):
-            self.notice = f"a key is named by a string (s, r, space), got {name!r}; ignored"
+            self.notice = f"a key is named by a string (s, x, r, space), got {name!r}; ignored"
         elif name in actions:  # every key of a keyboard arrives here: other names are ignored quietly
             actions[name]()
 
@@ -238,38 +265,14 @@ class Controller:
     def toggle_pause(self) -> None:
         self.paused = not self.paused
 
+    def release_held(self) -> None:
+        """Every pin-head left holding lets go."""
+        self.held.release_all()
+
     def reset(self) -> None:
         """Back to the uncut mesh at rest, without load."""
         self._build(self.hybrid)
 
-    def configure(self, **changes) -> None:
-        """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
-        names = [field.name for field in fields(Settings)]
-        unknown = [name for name in changes if name not in names]
-        if unknown:
-            raise SolverError(f"unknown setting {', '.join(map(repr, unknown))}; the settings are {', '.join(names)}")
-        settings, old = checked_settings(replace(self.settings, **changes)), self.settings
-        rebuild = any(getattr(settings, name) != getattr(old, name) for name in _REBUILD)
-        self.settings = settings
-        try:
-            if rebuild:
-                self._build(self.solver.hybrid, carry=True)
-            else:
-                self._apply_live()
-        except TissuesimError:  # e.g. a contact radius reaching the fixed region
-            self.settings = old
-            if not rebuild:
-                self._apply_live()
-            raise
-
-    def _apply_live(self) -> None:
-        """The settings that need no new solver: dt, k, the contact radius (re-applied to a held pin-head)."""
-        self.solver.dt = self.settings.dt
-        self.pin.stiffness, self.pin.radius = self.settings.stiffness, self.settings.radius
-        if self.pin.grabbed and self.cursor is not None:
-            self.force = self.pin.drag(self.cursor)
-
-    # ---------------------------------------------------------------------------------------------- time
     def advance(self, elapsed: float) -> FrameStats:
         """Run the simulation steps that ``elapsed`` [s] of wall time ask for (at most MAX_STEPS_PER_FRAME).
 
@@ -288,6 +291,7 @@ class Controller:
             except SolverError as error:  # a blow-up, or a mass-spring surface turned inside out: say so, restart
                 self.notice = str(error)
                 self.pin.release()
+                self.held.forget()
                 self.solver.reset()
                 self.force = np.zeros(3)
                 self._debt = 0.0
@@ -319,71 +323,3 @@ class Controller:
     def _lifted(self, point: np.ndarray, direction) -> np.ndarray:
         """``point`` moved back along the camera ray by BLADE_LIFT × the blade depth."""
         return point - BLADE_LIFT * self.scalpel.depth * unit_ray(direction)
-
-    def _solver_options(self, hybrid) -> dict:
-        s = self.settings
-        options = {"youngs_modulus": s.youngs_modulus, "poisson_ratio": s.poisson_ratio, "dt": s.dt}
-        if s.iterations is not None and "iterations" in solver_options(s.method):
-            options["iterations"] = int(s.iterations)
-        if s.prestrain > 0.0 and "prestrain" in solver_options(s.method):
-            options["prestrain"] = float(s.prestrain)
-        if s.near_field is not None and self.near_field_available(hybrid):
-            options["near_field"] = float(s.near_field)
-        if self.finite_strain_available():
-            options["material"] = s.material
-        return options
-
-    def finite_strain_available(self) -> bool:
-        """Whether the current method takes the ``material`` setting."""
-        return self.settings.material in solver_class(self.settings.method).materials
-
-    def near_field_available(self, hybrid=None) -> bool:
-        """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
-        volume."""
-        mesh = self.solver.hybrid if hybrid is None else hybrid
-        return ("near_field" in solver_options(self.settings.method) and mesh.fine_volume is not None
-                and not mesh.info.get("cuts"))
-
-    def _build(self, hybrid, *, carry: bool = False) -> None:
-        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is
-        built first and swapped in only then, so a refusal (a method that cannot run here, a contact radius that
-        reaches the fixed region from the held node) leaves the controller as it was."""
-        held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
-        solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))
-        pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
-        force = np.zeros(3)
-        if held is not None:
-            pin.node, pin.anchor = held
-            if self.cursor is not None:
-                force = pin.drag(self.cursor)  # on the new solver, not yet the live one
-        else:
-            solver.step(self.settings.dt)  # at rest: builds what the first step needs (a factorisation) while loading
-        scalpel, no_scalpel = self._new_scalpel(solver)
-        if self._cutting:  # the new solver's scalpel is not pressed: the cut so far stays, the blade is lifted
-            self.pointer_up()
-        self.solver, self.pin, self.force = solver, pin, force
-        self.scalpel, self._no_scalpel = scalpel, no_scalpel
-        if self.scalpel is None and self.mode == "scalpel":
-            self.mode = "pin"
-        elif self.mode == "scalpel":
-            self._prepare_scalpel()
-        self._debt = 0.0
-        self._step_seconds = 0.0
-        if held is None and self.mode == "pin":
-            self.cursor = None
-
-    def _prepare_scalpel(self) -> None:
-        """Let the scalpel get ready while the user aims (the first cut's factor); a scalpel without ``prepare``
-        needs none."""
-        prepare = getattr(self.scalpel, "prepare", None)
-        if prepare is not None:
-            prepare()
-
-    def _new_scalpel(self, solver):
-        """``(scalpel or None, why there is none)`` over ``solver``."""
-        if self._scalpel_factory is None:
-            return None, "scalpel mode needs tissuesim.Scalpel, which this installation lacks"
-        try:
-            return self._scalpel_factory(solver), ""
-        except TissuesimError as error:  # e.g. a method that cannot be cut
-            return None, f"no scalpel with the {solver.name} method: {error}"

@@ -1,0 +1,106 @@
+"""The simulator's second hand (pin-heads left holding), its support brush and the solver options a scene gives it,
+driven through the controller's pointer events as the window drives them."""
+
+import numpy as np
+import pytest
+
+from tissuesim import HybridMesh, SolverError
+from tissuesim.mesh import models
+from tissuesim.viewer.controller import Controller, Settings
+
+DOWN = np.array([0.0, 0.0, -1.0])  # a camera looking straight down
+EYE = np.array([0.0, 0.0, 1.0])
+
+
+@pytest.fixture(scope="module")
+def hybrid():
+    return HybridMesh.build(models.sphere(resolution=300))
+
+
+def surface_point(controller, direction):
+    """The current surface vertex farthest along ``direction`` (3,)."""
+    x = controller.solver.positions
+    return x[np.argmax(x @ np.asarray(direction, dtype=float))].copy()
+
+
+def grab_and_pull(controller, point, pull):
+    """Click at ``point``, drag the cursor by ``pull`` (3,) m in the camera plane (seen from straight above)."""
+    controller.pointer_down(point, EYE + point, DOWN)
+    target = point + np.asarray(pull, dtype=float)
+    controller.pointer_move(None, target + [0.0, 0.0, 1.0], DOWN)
+
+
+def test_a_pin_head_let_go_with_hold_keeps_its_load_beside_a_second_grab(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid", stiffness=20.0))
+    first = surface_point(c, [1.0, 0.0, 1.0])
+    grab_and_pull(c, first, [0.01, 0.0, 0.0])
+    held_node, held_force = c.pin.node, c.force.copy()
+    c.pointer_up(hold=True)
+    assert len(c.held) == 1 and len(c.solver.loads) == 1
+    np.testing.assert_allclose(c.solver.loads[0].force, held_force, rtol=0, atol=1e-15)  # assigned, not computed
+
+    second = surface_point(c, [-1.0, 0.0, 1.0])
+    grab_and_pull(c, second, [-0.01, 0.0, 0.0])
+    assert c.pin.node != held_node and len(c.solver.loads) == 2
+    c.pointer_up()                                             # the live pin-head lets go; the held one acts on
+    assert [load.node for load in c.solver.loads] == [held_node]
+    c.key("x")
+    assert len(c.held) == 0 and c.solver.loads == ()
+
+
+def test_held_pin_heads_follow_a_change_of_method_and_of_stiffness(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid", stiffness=20.0))
+    point = surface_point(c, [0.0, 1.0, 1.0])
+    grab_and_pull(c, point, [0.0, 0.01, 0.0])
+    c.pointer_up(hold=True)
+    node = c.held.nodes[0]
+    c.configure(method="embedded")
+    assert c.solver.name == "embedded" and [load.node for load in c.solver.loads] == [node]
+    np.testing.assert_allclose(np.linalg.norm(c.solver.loads[0].force), 0.2, rtol=1e-12)   # 20 N/m × 1 cm
+    c.configure(stiffness=40.0)
+    np.testing.assert_allclose(np.linalg.norm(c.solver.loads[0].force), 0.4, rtol=1e-12)
+    c.reset()
+    assert len(c.held) == 0 and c.solver.loads == ()
+
+
+def test_two_pin_heads_held_at_once_give_the_sum_of_each_alone(hybrid):
+    """The hybrid is linear: the two held loads superpose (equilibria by solve_static, to round-off)."""
+    displacements = []
+    for pulls in ([0], [1], [0, 1]):
+        c = Controller(hybrid, settings=Settings(method="hybrid", stiffness=20.0))
+        spots = [surface_point(c, [1.0, 0.2, 1.0]), surface_point(c, [-1.0, -0.2, 1.0])]
+        for which in pulls:
+            grab_and_pull(c, spots[which], [0.0, 0.0, 0.01] if which == 0 else [0.01, 0.0, 0.0])
+            c.pointer_up(hold=True)
+        displacements.append(c.solver.solve_static() - c.solver.rest_positions)
+    first, second, both = displacements
+    np.testing.assert_allclose(both, first + second, rtol=0, atol=1e-9 * np.abs(both).max())
+
+
+def test_painting_the_support_fixes_the_painted_vertices_and_keeps_a_held_pin_head(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid", stiffness=20.0))
+    point = surface_point(c, [1.0, 0.0, 1.0])
+    grab_and_pull(c, point, [0.01, 0.0, 0.0])
+    c.pointer_up(hold=True)
+    c.set_mode("support")
+    side = surface_point(c, [0.0, -1.0, 0.0])
+    c.pointer_down(side, side + [0.0, -1.0, 0.0], [0.0, 1.0, 0.0])
+    c.pointer_move(side + [0.0, 0.0, 0.01], side + [0.0, -1.0, 0.01], [0.0, 1.0, 0.0])
+    c.pointer_up()
+    painted = c.support
+    assert painted is not None and painted.size >= 3
+    np.testing.assert_array_equal(c.solver.fixed, painted)
+    near = np.linalg.norm(hybrid.surface.vertices - side, axis=1) <= c.brush.radius
+    assert set(np.flatnonzero(near)) <= set(painted.tolist())
+    assert len(c.solver.loads) == 1 and len(c.held) == 1      # the held pin-head came over to the new solver
+    c.set_support(None)
+    assert c.support is None and c.solver.fixed.size and not np.array_equal(c.solver.fixed, painted)
+
+
+def test_solver_options_reach_every_solver_built_and_settings_own_theirs(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"), solver_options={"density": 600.0})
+    assert c.solver.density == 600.0
+    c.configure(method="pbd")
+    assert c.solver.density == 600.0
+    with pytest.raises(SolverError, match="youngs_modulus.*Settings"):
+        Controller(hybrid, solver_options={"youngs_modulus": 9000.0})
