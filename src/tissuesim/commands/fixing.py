@@ -1,4 +1,4 @@
-"""``--fix``: the fixed region of a command, as text → the plain-data spec of :func:`tissuesim.mesh.regions.fixed_region`.
+"""``--fix``: a command's fixed region, as text → the plain-data spec of :func:`tissuesim.mesh.regions.fixed_region`.
 
 Forms (lengths in metres, after ``--scale``; coordinates separated by commas):
 

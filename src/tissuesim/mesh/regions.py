@@ -97,8 +97,8 @@ def node_indices(indices, *, node_count: int) -> np.ndarray:
 def nodes_behind_plane(points: np.ndarray, point, normal) -> np.ndarray:
     """``(k,) int32`` indices of ``points`` ``(n, 3)`` [m] on or behind the plane through ``point`` ``(3,)`` [m]
     with outward ``normal`` ``(3,)`` (any length but zero; it points out of the held region, toward the free
-    part): the nodes with (x − point) · n ≤ 0, so normal (0, 0, 1) holds what lies below the plane. Nodes within 1e-9 of
-    the model's size of the plane count as on it, so a plane through a flat face takes the whole face."""
+    part): the nodes with (x − point) · n ≤ 0, so normal (0, 0, 1) holds what lies below the plane. Nodes within
+    1e-9 of the model's size of the plane count as on it, so a plane through a flat face takes the whole face."""
     point = _vector(point, "plane point")
     normal = _vector(normal, "plane normal")
     length = float(np.linalg.norm(normal))
