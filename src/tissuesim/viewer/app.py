@@ -4,7 +4,8 @@ Each frame polyscope calls :meth:`ViewerApp.frame`, which (1) turns the mouse in
 on the surface grabs (pin-head) or starts a cut (scalpel) and turns the camera's mouse handling off until the
 button is released; a click beside the surface turns the camera as usual — (2) lets the controller run the steps
 the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a recording frame, (5) draws
-the panel (:mod:`.panel`). Keys: S switches pin-head / scalpel, R resets, space pauses.
+the panel (:mod:`.panel`). Keys: S switches pin-head / scalpel, X lets go of the held pin-heads, R resets, space
+pauses; releasing the button with Shift held leaves the pin-head holding (a second hand).
 
 :class:`ReplayApp` plays a recording (``tissuesim view --replay FILE.pvd``) with a frame slider.
 """
@@ -59,6 +60,7 @@ class ViewerApp(PanelWidgets):
         self._coarse_for, self._coarse = None, None  # cache of _coarse_nodes
         self._shown = {}  # optional layer name -> its polyscope structure
         self._dragging = False
+        self._held_count = 0
         self._mouse = None
         self._last = None
         self.headless = headless
@@ -161,6 +163,30 @@ class ViewerApp(PanelWidgets):
         self._layer("spring", held, np.array([x[c.pin.node], c.cursor]) if held else None,  # eq 24's spring
                     lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
                                                         radius=0.002))
+        self._held_layers(x)
+        fixed = c.brush.painted if c.brush.painting else c.solver.fixed
+        self._layer("support", c.mode == "support" or c.support is not None, x[fixed],
+                    lambda p: ps.register_point_cloud("support", p, color=(0.1, 0.3, 0.95), radius=0.006))
+
+    def _held_layers(self, x) -> None:
+        """The pin-heads left holding: each cursor and its spring, re-registered when their number changes."""
+        ps, held = self.ps, self.controller.held
+        count = len(held)
+        if count != self._held_count:
+            for name in ("held pin-heads", "held springs"):
+                if name in self._shown:
+                    self._shown.pop(name).remove()
+            self._held_count = count
+        if not count:
+            return
+        cursors, nodes = held.cursors, held.nodes
+        self._layer("held pin-heads", True, cursors,
+                    lambda p: ps.register_point_cloud("held pin-heads", p, color=(0.95, 0.55, 0.1), radius=0.01))
+        ends = np.concatenate([x[nodes], cursors])
+        pairs = np.stack([np.arange(count), count + np.arange(count)], axis=1)
+        self._layer("held springs", True, ends,
+                    lambda p: ps.register_curve_network("held springs", p, pairs, color=(0.95, 0.55, 0.1),
+                                                        radius=0.002))
 
     def _layer(self, name: str, shown: bool, points, register) -> None:
         layer = self._shown.get(name)
@@ -197,14 +223,14 @@ class ViewerApp(PanelWidgets):
         if psim.IsMouseClicked(0):
             hit, ray = self._pick(mouse)
             c.pointer_down(hit, *ray)
-            self._dragging = hit is not None and (c.pin.grabbed or c.mode == "scalpel")
+            self._dragging = hit is not None and (c.pin.grabbed or c.mode != "pin")
             self.ps.set_do_default_mouse_interaction(not self._dragging)
         elif psim.IsMouseReleased(0) and self._dragging:
-            c.pointer_up()
+            c.pointer_up(hold=io.KeyShift)
             self._dragging = False
             self.ps.set_do_default_mouse_interaction(True)
         elif moved and (self._dragging or c.mode == "pin"):
-            hit, ray = self._pick(mouse) if (c.mode == "scalpel" or not self._dragging) else (None, self._ray(mouse))
+            hit, ray = self._pick(mouse) if (c.mode != "pin" or not self._dragging) else (None, self._ray(mouse))
             c.pointer_move(hit, *ray)
 
     def _pick(self, mouse):
@@ -220,7 +246,8 @@ class ViewerApp(PanelWidgets):
     def _keys(self, psim) -> None:
         if psim.GetIO().WantCaptureKeyboard:
             return
-        for key, name in ((psim.ImGuiKey_S, "s"), (psim.ImGuiKey_R, "r"), (psim.ImGuiKey_Space, "space")):
+        for key, name in ((psim.ImGuiKey_S, "s"), (psim.ImGuiKey_X, "x"), (psim.ImGuiKey_R, "r"),
+                          (psim.ImGuiKey_Space, "space")):
             if psim.IsKeyPressed(key, False):
                 self.controller.key(name)
                 if name == "r":

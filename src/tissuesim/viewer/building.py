@@ -12,7 +12,6 @@ from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead
 from ..solvers.registry import make_solver, solver_class, solver_options
 from .settings import Settings, checked_settings
-from .tools import SupportBrush
 
 # settings whose change needs a new solver (the others are set on the live objects)
 _REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material")
@@ -115,7 +114,6 @@ class SolverBuilding:
             self.pointer_up()
         self.solver, self.pin, self.force = solver, pin, force
         self.held.adopt(holding)
-        self.brush = SupportBrush(solver)
         self.scalpel, self._no_scalpel = scalpel, no_scalpel
         if self.scalpel is None and self.mode == "scalpel":
             self.mode = "pin"

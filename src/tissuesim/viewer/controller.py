@@ -39,7 +39,7 @@ from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead, checked_point
 from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
-from .tools import HeldPins
+from .tools import HeldPins, SupportBrush
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
@@ -129,6 +129,7 @@ class Controller(SolverBuilding):
         self.hybrid = hybrid
         self.solver_options = extra_options(solver_options)
         self.held = HeldPins()
+        self.brush = SupportBrush(hybrid.surface)
         self.support: np.ndarray | None = None
         self.clock = clock
         self._scalpel_factory = scalpel_class() if scalpel_factory is None else scalpel_factory
@@ -171,7 +172,7 @@ class Controller(SolverBuilding):
                 self.notice = self.pin.notice  # the grab may have held a farther node than the one clicked: say so
                 self.cursor, self.force = hit, np.zeros(3)
             elif self.mode == "support":
-                self.brush.paint(hit)
+                self.brush.paint(hit, self.solver.positions)
             else:
                 tip = self._lifted(hit, ray_direction)
                 self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
@@ -189,7 +190,7 @@ class Controller(SolverBuilding):
                 self._drag_pin(hit, ray_origin, ray_direction)
             elif self.mode == "support":
                 if self.brush.painting and hit is not None:
-                    self.brush.paint(hit)
+                    self.brush.paint(hit, self.solver.positions)
             elif self._cutting:
                 if hit is not None:
                     point = self._lifted(checked_point(hit), ray_direction)

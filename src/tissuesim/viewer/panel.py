@@ -13,6 +13,7 @@ from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES
 
+MODE_LABELS = {"pin": "pin-head", "scalpel": "scalpel", "support": "support"}
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 
@@ -32,10 +33,11 @@ class PanelWidgets:
         if self.title:
             psim.TextUnformatted(self.title)
         for mode in MODES:
-            if psim.RadioButton("pin-head" if mode == "pin" else "scalpel", c.mode == mode):
+            if psim.RadioButton(MODE_LABELS[mode], c.mode == mode):
                 c.set_mode(mode)
             psim.SameLine()
         psim.TextUnformatted("(S)")
+        self._tools(psim)
         methods = list(available_solvers())
         changed, index = psim.Combo("method", methods.index(s.method), methods)
         if changed:
@@ -56,6 +58,27 @@ class PanelWidgets:
         if c.notice:
             psim.TextWrapped(c.notice)
         psim.PopItemWidth()
+
+    def _tools(self, psim) -> None:
+        """The held pin-heads and the support: what acts, and how to let go or go back."""
+        c = self.controller
+        if len(c.held):
+            psim.TextUnformatted(f"holding {len(c.held)} pin-head{'s' * (len(c.held) > 1)}")
+            psim.SameLine()
+            if psim.Button("let go (X)"):
+                c.release_held()
+        elif c.mode == "pin":
+            psim.TextUnformatted("Shift + release: leave the pin-head holding")
+        if c.mode == "support":
+            changed, brush_mm = psim.SliderFloat("brush [mm]", 1e3 * c.brush.radius, 1.0, 50.0, "%.1f")
+            if changed:
+                c.brush.radius = 1e-3 * brush_mm
+            psim.TextUnformatted("paint the fixed region (blue)")
+            if c.support is not None:
+                psim.SameLine()
+                if psim.Button("default support"):
+                    c.set_support(None)
+                    self._topology = None
 
     def _finite_strain(self, psim, s) -> None:
         """The material selector where the method has finite strain; a line saying so where it has not."""

@@ -87,18 +87,15 @@ class SupportBrush:
     """Paints the fixed region: the M_S vertices within :attr:`radius` of the pointer, gathered over a stroke.
 
     Args:
-        solver: the live solver (its current positions are what the brush touches; its vertex count bounds the
-            indices).
-        radius: brush radius [m]; default :data:`BRUSH_EDGES` mean rest edge lengths of M_S.
+        surface: the M_S :class:`~tissuesim.mesh.surface.SurfaceMesh` at rest (it sets the default radius).
+        radius: brush radius [m]; default :data:`BRUSH_EDGES` mean rest edge lengths of ``surface``.
 
     Attributes:
         painted: ``(k,) int32`` sorted vertices painted in the stroke so far (empty before one).
     """
 
-    def __init__(self, solver, *, radius: float | None = None):
-        self.solver = solver
+    def __init__(self, surface, *, radius: float | None = None):
         if radius is None:
-            surface = solver.hybrid.surface
             edges = surface.vertices[surface.edges]
             radius = BRUSH_EDGES * float(np.linalg.norm(edges[:, 0] - edges[:, 1], axis=1).mean())
         self.radius = positive_number("brush radius", radius, "m")
@@ -108,9 +105,10 @@ class SupportBrush:
     def painting(self) -> bool:
         return self.painted.size > 0
 
-    def paint(self, point) -> None:
-        """Add the vertices within the brush radius of ``point`` ``(3,)`` [m] (current positions)."""
-        distance = np.linalg.norm(self.solver.positions - checked_point(point), axis=1)
+    def paint(self, point, positions: np.ndarray) -> None:
+        """Add the vertices within the brush radius of ``point`` ``(3,)`` [m], at ``positions`` ``(n, 3)`` [m]
+        (the current ones)."""
+        distance = np.linalg.norm(positions - checked_point(point), axis=1)
         touched = np.flatnonzero(distance <= self.radius).astype(np.int32)
         self.painted = np.union1d(self.painted, touched).astype(np.int32)
 
