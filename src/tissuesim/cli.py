@@ -28,6 +28,7 @@ COMMANDS = {
     "incise": "incise",
     "view": "view",
     "render": "render",
+    "run": "run",
 }
 
 

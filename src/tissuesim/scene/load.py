@@ -1,0 +1,160 @@
+"""Reading a scene file: TOML → the validated :class:`~.schema.Scene`, or one :class:`SceneError` naming every
+defect by its key (``tools[1].path[3].time``), what is wrong and the fix."""
+
+from __future__ import annotations
+
+import sys
+import types
+import typing
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydantic import BaseModel, ValidationError
+
+from ..errors import TissuesimError
+from .schema import LOCATED, TOOL_CLASSES, TOOL_KINDS, Scene
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - the dependency is declared for these versions
+    import tomli as tomllib
+
+#: At most this many defects are listed in one message; the rest are counted.
+MAX_LISTED = 8
+
+
+class SceneError(TissuesimError, ValueError):
+    """A scene file is unreadable, or a key in it is missing, unknown or out of range."""
+
+
+@dataclass(frozen=True)
+class SceneFile:
+    """A validated scene and where it came from.
+
+    Attributes:
+        scene: the validated :class:`~.schema.Scene`.
+        path: the scene file. folder: its folder, against which the file names in it are resolved.
+    """
+
+    scene: Scene
+    path: Path
+
+    @property
+    def folder(self) -> Path:
+        return self.path.parent
+
+    def resolve(self, name: str) -> Path:
+        """``name`` (a file named in the scene) as a path: relative names are relative to the scene file."""
+        path = Path(name).expanduser()
+        return path if path.is_absolute() else self.folder / path
+
+
+def read_scene(path) -> SceneFile:
+    """The scene in the TOML file ``path``, validated; SceneError for an unreadable file or any invalid key (all of
+    them, one per line of the message), and for a model file that does not exist."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise SceneError(f"cannot read the scene file {str(path)!r}: {error}") from None
+    return parse_scene(text, path)
+
+
+def parse_scene(text: str, path) -> SceneFile:
+    """The scene in the TOML ``text`` of the file ``path`` (which names its folder), validated as
+    :func:`read_scene` does."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise SceneError(f"{path.name} is not valid TOML: {error}; see docs/scenes.md for the format") from None
+    try:
+        scene = Scene.model_validate(data)
+    except ValidationError as error:
+        raise SceneError(describe(error, path.name)) from None
+    loaded = SceneFile(scene, path)
+    if scene.model.file is not None and not loaded.resolve(scene.model.file).is_file():
+        raise SceneError(f"{path.name}: model.file: no file {str(loaded.resolve(scene.model.file))!r} (a file name "
+                         "is relative to the scene file's folder); fix the name or the path")
+    return loaded
+
+
+def describe(error: ValidationError, name: str) -> str:
+    """One message for every defect pydantic found in the scene file ``name``."""
+    lines = [_line(item) for item in error.errors(include_url=False)]
+    lines = list(dict.fromkeys(lines))   # a union's members may report the same defect twice
+    more = len(lines) - MAX_LISTED
+    listed = " | ".join(lines[:MAX_LISTED]) + (f" | and {more} more" if more > 0 else "")
+    count = f"{len(lines)} problems" if len(lines) > 1 else "1 problem"
+    return f"{name}: {count}: {listed}"
+
+
+def _line(item: dict) -> str:
+    """``key: what is wrong; the fix`` for one pydantic error."""
+    loc, message, kind = list(item["loc"]), item["msg"], item["type"]
+    message = message.removeprefix("Value error, ")
+    if message.startswith(LOCATED):
+        _, below, message = message.split(LOCATED, 2)
+        loc += _split(below)
+    model, field = _field(loc)
+    where = _key([part for part in loc if part not in TOOL_KINDS])     # the tag pydantic adds inside a tool
+    if kind == "extra_forbidden":
+        accepted = ", ".join(model.model_fields) if model is not None else "see docs/scenes.md"
+        return f"{where}: unknown key; the keys accepted here are {accepted}"
+    if kind == "missing":
+        return f"{where}: missing; add it: {_described(field)}"
+    if kind in ("union_tag_not_found", "union_tag_invalid"):
+        return f"{where}: a tool needs kind = one of {', '.join(map(repr, TOOL_KINDS))}"
+    hint = "" if field is None or kind in ("value_error", "assertion_error") else f"; give {_described(field)}"
+    return f"{where}: {message[0].lower() + message[1:]}{hint}"
+
+
+def _split(below: str) -> list:
+    """``"tools[0].path[2].time"`` or ``"[3].time"`` → ``["tools", 0, "path", 2, "time"]``."""
+    parts: list = []
+    for word in below.replace("[", ".[").split("."):
+        if word.startswith("["):
+            parts.append(int(word[1:-1]))
+        elif word:
+            parts.append(word)
+    return parts
+
+
+def _key(loc: list) -> str:
+    text = ""
+    for part in loc:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text or "the scene"
+
+
+def _field(loc: list):
+    """The model holding the last key of ``loc`` (None where it is not a model's) and that key's FieldInfo."""
+    model, field = Scene, None
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        if part in TOOL_CLASSES:
+            model, field = TOOL_CLASSES[part], None
+            continue
+        if model is None or part not in model.model_fields:
+            return model, None
+        field = model.model_fields[part]
+        model = _model_of(field.annotation)
+    return (model if field is None else None), field
+
+
+def _model_of(annotation):
+    """The model class inside an annotation such as ``list[Keyframe]`` or ``Region | None`` (the first found)."""
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    origin = typing.get_origin(annotation)
+    if origin in (typing.Union, types.UnionType, list, typing.Annotated):
+        for arg in typing.get_args(annotation):
+            found = _model_of(arg)
+            if found is not None:
+                return found
+    return None
+
+
+def _described(field) -> str:
+    return field.description if field is not None and field.description else "a value as docs/scenes.md says"
