@@ -113,15 +113,16 @@ def compose(images, captions, title: str, vmax: float, path) -> Path:
 
 
 def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = FIGURE_FORCE,
-                       radius: float | None = None) -> Path:
+                       radius: float | None = None, fixed=None) -> Path:
     """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
-    or spread over a contact patch of ``radius`` [m] around it)."""
+    or spread over a contact patch of ``radius`` [m] around it), held at ``fixed`` (the solvers' option; None: the
+    bottom)."""
     from ..experiments.inputs import check_free_node
     from ..solvers.registry import make_solver
 
     surface = hybrid.surface
     node = load_node(surface.vertices, surface.triangles)
-    solver = make_solver(method, hybrid)
+    solver = make_solver(method, hybrid, fixed=fixed)
     check_free_node(solver, node, name, role="the figure's load at its top centre")
     frames = [surface.vertices] + [solver.solve_static(node, force * np.asarray(LOAD_DIRECTIONS[kind]), radius=radius)
                                    for kind in ("tension", "pressure")]
@@ -133,19 +134,25 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
     return compose(images, captions, title, vmax, path)
 
 
-def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE) -> Path:
+def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE,
+                    fixed=None, length: float | None = None, depth: float | None = None,
+                    offset: float | None = None) -> Path:
     """Fig 16 for one model: the scripted incision (:mod:`tissuesim.experiments.wound`), closed, then pulled open by
-    ``force`` [N] beside its middle; the camera frames the wound."""
+    ``force`` [N] beside its middle; the camera frames the wound. ``fixed``: the solvers' option (None: the bottom);
+    the incision's ``length`` and ``depth`` [m] and the pull's ``offset`` [m] beside it (None: the experiment's)."""
     from ..experiments.wound import open_wound, pull_node, scripted_incision, wound_gap
     from ..experiments.inputs import check_free_node
     from ..solvers.registry import make_solver
 
-    solver = make_solver(method, hybrid)
-    line = scripted_incision(solver)["line"]
-    check_free_node(solver, pull_node(solver.rest_positions, line), name, role="the pull beside the incision")
+    stroke = {k: v for k, v in (("length", length), ("depth", depth)) if v is not None}
+    offset = {} if offset is None else {"offset": offset}
+    solver = make_solver(method, hybrid, fixed=fixed)
+    line = scripted_incision(solver, **stroke)["line"]
+    check_free_node(solver, pull_node(solver.rest_positions, line, **offset), name,
+                    role="the pull beside the incision")
     cut_surface = solver.hybrid.surface
     closed = solver.positions.copy()
-    opened = open_wound(solver, line, force=force)
+    opened = open_wound(solver, line, force=force, **offset)
     edges = border_edges(cut_surface.triangles)
     length = float(np.linalg.norm(line[1] - line[0]))
     middle = 0.5 * (line[0] + line[1])
