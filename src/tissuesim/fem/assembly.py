@@ -234,3 +234,12 @@ def lumped_mass(mesh: TetMesh, density: float = 1000.0) -> np.ndarray:
         raise MaterialError(f"density must be finite and > 0 kg/m^3, got {density:g} (soft tissue is ~1000)")
     share = np.repeat(mesh.volumes * (density / 4.0), 4)
     return np.bincount(mesh.tets.ravel(), weights=share, minlength=mesh.node_count)
+
+
+def body_force(mesh: TetMesh, density: float, acceleration) -> np.ndarray:
+    """``(n, 3) float64`` consistent nodal load [N] of the body force ρ g on linear tets: each node of a tet gets
+    ρ g V/4 from it (the integral of ρ g against its linear shape function, exact for a constant g). ``density`` ρ
+    [kg/m³], ``acceleration`` g ``(3,)`` [m/s²], e.g. gravity (0, 0, −9.81)."""
+    share = mesh.volumes * (float(density) / 4.0)
+    nodal = np.bincount(mesh.tets.ravel(), weights=np.repeat(share, 4), minlength=mesh.node_count)
+    return nodal[:, None] * np.asarray(acceleration, dtype=np.float64)[None, :]

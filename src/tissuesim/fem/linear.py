@@ -2,8 +2,10 @@
 plus a fast path for point loads from cached columns of K⁻¹.
 
 Boundary conditions are homogeneous Dirichlet (zero displacement) on fixed nodes or fixed dofs, imposed by
-eliminating those dofs: the reduced system K_ff u_f = f_f is symmetric positive definite when the constraints
-remove all six rigid-body modes of every connected piece of the mesh, which the constructor checks.
+eliminating those dofs, and optionally elastic springs from points of the mesh to fixed anchors (ligaments, option
+``springs``), whose stiffness is added to K: the reduced system K_ff u_f = f_f is symmetric positive definite when
+the fixed dofs and the springs remove all six rigid-body modes of every connected piece of the mesh, which the
+constructor checks.
 
 K_ff is factorised once (:mod:`.factorise`: METIS ordering, CHOLMOD or SuperLU).
 """
@@ -20,10 +22,7 @@ from ..mesh.tetmesh import TetMesh
 from .assembly import assemble_stiffness
 from .factorise import factorise_spd
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
-
-# A piece of the mesh keeps a rigid mode free when the Gram matrix of the rigid modes restricted to its fixed
-# dofs has an eigenvalue below this fraction of its largest (collinear fixed nodes give ~1e-16).
-RIGID_MODE_TOLERANCE = 1e-10
+from .rigid_modes import free_rigid_modes
 #: Contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps (72 n bytes each).
 PATCH_CACHE = 8
 
@@ -51,18 +50,25 @@ class LinearFEM:
               dofs of those nodes are fixed;
             * ``(n,)`` bool mask of fixed nodes;
             * ``(n, 3)`` bool mask of fixed dofs (x, y, z per node), for roller-type supports.
+        springs: None, or isotropic springs to fixed anchors ``(nodes (p, r) int, weights (p, r) float64,
+            stiffness (p,) float64 [N/m])``: spring j holds the point whose displacement is
+            Σ_a weights[j, a] u[nodes[j, a]] (a node, or a point interpolated in a triangle or tet; weights sum to
+            1) with stiffness k_j, adding k_j w_j w_jᵀ ⊗ I₃ to K. A spring holds its point as a fixed node does,
+            so ``fixed`` may be empty where springs hold every piece.
 
     Raises:
-        BoundaryConditionError: no fixed dof, indices out of range, or a piece of the mesh left free to move
-            rigidly (no fixed node in it, a single fixed node, or all its fixed nodes on one line).
+        BoundaryConditionError: no fixed dof and no spring, indices out of range, or a piece of the mesh left free
+            to move rigidly (nothing held in it, a single held point, or all its held points on one line).
         MeshError: nodes that belong to no tet and are not fixed (they have no stiffness).
 
     Attributes:
         mesh, material: the inputs.
         fixed_dofs: ``(n, 3) bool`` mask of fixed dofs (read-only).
         free_dofs: ``(f,) int64`` indices of the free dofs in node-major order.
-        stiffness: the unconstrained global K [N/m], ``(3n, 3n)`` CSR float64, node-major dof order.
-        reduced_stiffness: K_ff [N/m], ``(f, f)`` CSC, the rows and columns of the free dofs.
+        stiffness: the unconstrained global K [N/m], ``(3n, 3n)`` CSR float64, node-major dof order (elastic
+            part only).
+        spring_stiffness: the springs' ``(3n, 3n)`` CSR part [N/m] (None without springs).
+        reduced_stiffness: K_ff [N/m], ``(f, f)`` CSC, the rows and columns of the free dofs (springs included).
     """
 
     def __init__(
@@ -72,20 +78,24 @@ class LinearFEM:
         youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
         poisson_ratio: float = DEFAULT_POISSON_RATIO,
         fixed,
+        springs=None,
     ):
         if not isinstance(mesh, TetMesh):
             raise MeshError(f"mesh must be a tissuesim TetMesh, got {type(mesh).__name__}")
         self.mesh = mesh
         self.material = Material(youngs_modulus, poisson_ratio)
         n = mesh.node_count
-        mask = _fixed_mask(fixed, n)
+        springs = _check_springs(springs, n)
+        mask = _fixed_mask(fixed, n, sprung=springs is not None)
         _check_orphans(mesh, mask)
-        _check_rigid_modes(mesh, mask)
+        _check_rigid_modes(mesh, mask, springs)
         mask.flags.writeable = False
         self.fixed_dofs = mask
         self.free_dofs = np.flatnonzero(~mask.ravel())
         self.stiffness = assemble_stiffness(mesh, self.material)
-        self.reduced_stiffness = self.stiffness[self.free_dofs][:, self.free_dofs].tocsc()
+        self.spring_stiffness = None if springs is None else spring_stiffness(n, *springs)
+        full = self.stiffness if springs is None else self.stiffness + self.spring_stiffness
+        self.reduced_stiffness = full[self.free_dofs][:, self.free_dofs].tocsc()
         self._lu = factorise_spd(self.reduced_stiffness, self.free_dofs // 3)
         self._columns: dict[int, np.ndarray] = {}
         self._patches: dict[tuple[bytes, bytes], np.ndarray] = {}     # insertion order = least recently used first
@@ -292,8 +302,43 @@ class _PatchResponse:
         return columns
 
 
-def _fixed_mask(fixed, n: int) -> np.ndarray:
-    """``(n, 3) bool`` fixed-dof mask from node indices, a node mask or a dof mask (see :class:`LinearFEM`)."""
+def spring_stiffness(n: int, nodes: np.ndarray, weights: np.ndarray, stiffness: np.ndarray) -> sp.csr_matrix:
+    """``(3n, 3n)`` CSR Σ_j k_j w_j w_jᵀ ⊗ I₃ [N/m] of springs holding the points Σ_a w_ja u[nodes_ja] (see
+    :class:`LinearFEM`'s ``springs``): ``nodes`` ``(p, r) int``, ``weights`` ``(p, r)``, ``stiffness`` ``(p,)``."""
+    r = nodes.shape[1]
+    a = np.repeat(nodes, r, axis=1)                       # (p, r²) row node, column node
+    b = np.tile(nodes, (1, r))
+    value = stiffness[:, None] * np.repeat(weights, r, axis=1) * np.tile(weights, (1, r))
+    rows = (3 * a[..., None] + np.arange(3)).ravel()
+    cols = (3 * b[..., None] + np.arange(3)).ravel()
+    return sp.csr_matrix((np.repeat(value.ravel(), 3), (rows, cols)), shape=(3 * n, 3 * n))
+
+
+def _check_springs(springs, n: int):
+    """``(nodes (p, r) int64, weights (p, r), stiffness (p,))`` checked, or None for no spring."""
+    if springs is None:
+        return None
+    nodes, weights, stiffness = (np.asarray(a) for a in springs)
+    if nodes.ndim != 2 or nodes.dtype.kind not in "iu" or weights.shape != nodes.shape \
+            or stiffness.shape != (len(nodes),):
+        raise BoundaryConditionError(f"springs are (nodes (p, r) int, weights (p, r), stiffness (p,) N/m), got "
+                                     f"shapes {nodes.shape}, {weights.shape}, {stiffness.shape}")
+    if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
+        bad = np.flatnonzero(np.any((nodes < 0) | (nodes >= n), axis=1))
+        raise BoundaryConditionError(f"{bad.size} springs hold nodes outside 0..{n - 1} (first springs: "
+                                     f"{first_indices(bad)})")
+    if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(stiffness)) and np.all(stiffness > 0.0)):
+        raise BoundaryConditionError("springs need finite weights and positive, finite stiffnesses [N/m]")
+    if len(nodes) == 0:
+        return None
+    return nodes.astype(np.int64), weights.astype(np.float64), stiffness.astype(np.float64)
+
+
+def _fixed_mask(fixed, n: int, *, sprung: bool = False) -> np.ndarray:
+    """``(n, 3) bool`` fixed-dof mask from node indices, a node mask or a dof mask (see :class:`LinearFEM`); empty
+    only where springs hold the mesh (``sprung``)."""
+    if fixed is None and sprung:
+        fixed = np.zeros(0, dtype=np.int64)
     if fixed is None:
         raise BoundaryConditionError(
             "no fixed node given: without supports K is singular (the body can move rigidly); pass fixed=, e.g. "
@@ -320,7 +365,7 @@ def _fixed_mask(fixed, n: int) -> np.ndarray:
             )
         mask = np.zeros((n, 3), dtype=bool)
         mask[fixed] = True
-    if not mask.any():
+    if not mask.any() and not sprung:
         raise BoundaryConditionError(
             "no fixed node: without supports K is singular (the body can move rigidly); fix some nodes, e.g. "
             "nodes_below(points, bottom_height(points)) from tissuesim.mesh.regions"
@@ -339,11 +384,11 @@ def _check_orphans(mesh: TetMesh, mask: np.ndarray) -> None:
         )
 
 
-def _check_rigid_modes(mesh: TetMesh, mask: np.ndarray) -> None:
+def _check_rigid_modes(mesh: TetMesh, mask: np.ndarray, springs=None) -> None:
     """Refuse constraints that leave a rigid-body mode free in some connected piece of the mesh.
 
-    The six rigid modes (3 translations, 3 rotations ω × x) restricted to the fixed dofs of a piece must have rank
-    6; the 6×6 Gram matrix of that restriction costs O(fixed dofs)."""
+    The six rigid modes (3 translations, 3 rotations ω × x) restricted to the fixed dofs of a piece and to the
+    points its springs hold (every axis) must have rank 6 (:func:`~.rigid_modes.free_rigid_modes`, O(held dofs))."""
     n = mesh.node_count
     t = mesh.tets
     chain = sp.coo_matrix(
@@ -352,36 +397,37 @@ def _check_rigid_modes(mesh: TetMesh, mask: np.ndarray) -> None:
     count, label = csgraph.connected_components(chain, directed=False)
     used = np.zeros(n, dtype=bool)
     used[t.ravel()] = True
-    scale = float(np.linalg.norm(np.ptp(mesh.points, axis=0))) or 1.0
+    if springs is not None:
+        nodes, weights, _ = springs
+        spring_points = np.einsum("pr,prk->pk", weights, mesh.points[nodes])
+        spring_piece = label[nodes[np.arange(len(nodes)), np.argmax(np.abs(weights), axis=1)]]
     for piece in np.unique(label[used]):
-        nodes = np.flatnonzero((label == piece) & used)
-        where = " in the mesh" if count == 1 else f" in a piece of the mesh ({nodes.size} nodes, first: " + (
-            f"{first_indices(nodes)})"
+        nodes_in = np.flatnonzero((label == piece) & used)
+        where = " in the mesh" if count == 1 else f" in a piece of the mesh ({nodes_in.size} nodes, first: " + (
+            f"{first_indices(nodes_in)})"
         )
-        fixed_nodes, axis = np.nonzero(mask[nodes])
-        if fixed_nodes.size == 0:
+        fixed_nodes, axis = np.nonzero(mask[nodes_in])
+        held, axes = mesh.points[nodes_in[fixed_nodes]], axis
+        sprung = 0
+        if springs is not None:
+            on = spring_points[spring_piece == piece]
+            sprung = len(on)
+            held = np.concatenate([held, np.repeat(on, 3, axis=0)])
+            axes = np.concatenate([axes, np.tile(np.arange(3), len(on))])
+        if len(held) == 0:
             raise BoundaryConditionError(
                 f"no fixed node{where}: that piece can move rigidly and K is singular; fix at least three "
-                "non-collinear nodes of it"
+                "non-collinear nodes of it" + (" or attach it" if springs is not None else "")
             )
-        x = (mesh.points[nodes] - mesh.points[nodes].mean(axis=0)) / scale
-        modes = np.zeros((nodes.size, 3, 6))
-        modes[:, [0, 1, 2], [0, 1, 2]] = 1.0
-        xs, ys, zs = x[:, 0], x[:, 1], x[:, 2]
-        modes[:, 1, 3], modes[:, 2, 3] = -zs, ys  # rotation about x
-        modes[:, 0, 4], modes[:, 2, 4] = zs, -xs  # rotation about y
-        modes[:, 0, 5], modes[:, 1, 5] = -ys, xs  # rotation about z
-        restricted = modes[fixed_nodes, axis]  # (k, 6)
-        eigenvalues = np.linalg.eigvalsh(restricted.T @ restricted)
-        free = int(np.sum(eigenvalues <= RIGID_MODE_TOLERANCE * eigenvalues[-1]))
+        free = free_rigid_modes(mesh.points[nodes_in], held, axes)
         if free:
             detail = (
                 "a single fixed node leaves rotations about it free"
-                if np.unique(nodes[fixed_nodes]).size == 1
-                else "the fixed nodes are collinear (rotation about their line is free) or the fixed dofs do not "
+                if np.unique(nodes_in[fixed_nodes]).size == 1 and not sprung
+                else "the held points are collinear (rotation about their line is free) or the fixed dofs do not "
                 "block every translation and rotation"
             )
             raise BoundaryConditionError(
-                f"the fixed dofs leave {free} rigid-body mode(s) free{where}: {detail}; fix at least three "
-                "non-collinear nodes"
+                f"the fixed dofs{' and springs' if sprung else ''} leave {free} rigid-body mode(s) free{where}: "
+                f"{detail}; fix at least three non-collinear nodes"
             )

@@ -27,6 +27,15 @@ Common options (keyword-only, the same for every method):
 * ``damping``: fraction of the velocity removed per step, in [0, 1);
 * ``material``: ``"linear"`` (default: the paper's small-strain elasticity), ``"corotated"`` or ``"neo-hookean"``
   (finite strain, :mod:`tissuesim.fem.hyperelastic`), for the methods that list it in :attr:`Solver.materials`.
+* ``gravity``: None (default: no gravity, the paper's) or the acceleration g ``(3,)`` [m/s²], e.g. (0, 0, −9.81):
+  the body's weight ρ g, part of the model (not a load: :attr:`Solver.forces` stays the user's loads, and
+  :meth:`Solver.reset` keeps it). Each method puts it where its mass is (:mod:`.gravity`);
+* ``attachments``: elastic :class:`~.attachments.Attachment` springs (ligaments) from M_S vertices to fixed points,
+  default none; they add stiffness, and with ``fixed`` they must hold the body (refused otherwise, see below).
+
+The supports must hold the body: the fixed vertices plus the attached ones must leave no rigid motion of any
+connected piece free (:func:`~.attachments.check_supports_hold`); every method refuses such supports up front with
+a BoundaryConditionError. ``fixed`` may be empty where attachments hold the body.
 
 ``set_fixed_positions(x)`` moves the fixed set (finite-strain materials): a base that a grasper carries or turns.
 """
@@ -42,7 +51,8 @@ from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from .contact import ContactPatches
-from .checks import fraction, is_integer, node_set, positive_number, time_step
+from .attachments import attachment_springs, check_supports_hold
+from .checks import fraction, gravity_vector, is_integer, node_set, positive_number, time_step
 from .finite_strain import check_method_material, unstable_load_error
 from .load_set import Load, LoadSet
 from .quasi_static import QuasiStaticSolve
@@ -70,6 +80,10 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         hybrid: the static hybrid mesh.
         rest_positions: ``(n, 3) float64`` M_S rest positions [m] (read-only).
         fixed: ``(k,) int32`` sorted M_S vertex indices held at rest.
+        gravity: ``(3,) float64`` the gravitational acceleration [m/s²] (read-only), or None.
+        attachments: the :class:`~.attachments.Attachment` s; ``attached_nodes`` ``(p,) int64``,
+            ``attached_stiffness`` ``(p,)`` [N/m] and ``attached_anchors`` ``(p, 3)`` [m]: their springs, one per
+            attached node.
         forces: ``(n, 3) float64`` external nodal forces [N] on M_S, the sum of the loads (zero elsewhere);
             read-only to users, change it through the loads (:meth:`set_load`, :meth:`add_load`, ...).
         state: the :class:`State`.
@@ -105,6 +119,8 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         dt: float = DEFAULT_DT,
         damping: float = 0.0,
         material: str = "linear",
+        gravity=None,
+        attachments=(),
     ):
         from ..fem.material import Material  # validates E and ν with MaterialError
 
@@ -123,13 +139,22 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.damping = fraction("damping", damping)
         self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
         n = len(self.rest_positions)
+        self.gravity = gravity_vector(gravity)
+        self.attachments = tuple(attachments) if isinstance(attachments, (tuple, list)) else attachments
+        self.attached_nodes, self.attached_stiffness, self.attached_anchors = attachment_springs(
+            self.attachments, self.rest_positions)
+        if self.attachments and self.material != "linear":
+            raise SolverError(f"attachments need material='linear' for now: the {self.material} volume has no "
+                              "spring term; hold the body by fixed= alone, or use the linear material")
         self.fixed_from_height = fixed is None
         if fixed is None:
             self.fixed_height = bottom_height(self.rest_positions)
             self.fixed = nodes_below(self.rest_positions, self.fixed_height)
         else:
             self.fixed_height = None
-            self.fixed = node_set("fixed", fixed, n)
+            self.fixed = node_set("fixed", fixed, n, allow_empty=bool(self.attachments))
+        check_supports_hold(self.rest_positions, hybrid_mesh.surface.triangles, self.fixed, self.attached_nodes,
+                            self.name)
         self.forces = np.zeros((n, 3))
         self._loads: list[Load] = []
         self._patches: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
@@ -289,6 +314,16 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
             )
         return index
 
+    def attachment_forces(self) -> np.ndarray:
+        """``(p, 3) float64`` the force [N] each attachment spring exerts on the body now, k_i (a_i − x_i), one row
+        per attached node (attachments in turn, as :attr:`attached_nodes`); their sum balances the weight and the
+        loads that the fixed vertices do not carry."""
+        return self.attached_stiffness[:, None] * (self.attached_anchors - self._attached_positions())
+
+    def _attached_positions(self) -> np.ndarray:
+        """``(p, 3)`` where the attachment springs hold the body now [m]: the attached M_S vertices."""
+        return self.state.positions[self.attached_nodes]
+
     def _check_dt(self, dt) -> float:
         return self.dt if dt is None else time_step(dt)
 
@@ -303,7 +338,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
             return nodes_below(volume_points, self.fixed_height)
         mapped = surface_to_volume[self.fixed]
         mapped = np.unique(mapped[mapped >= 0]).astype(np.int32)
-        if mapped.size == 0:
+        if mapped.size == 0 and not self.attachments:
             raise BoundaryConditionError(
                 f"none of the {self.fixed.size} fixed M_S vertices (first: {first_indices(self.fixed)}) is a node "
                 f"of the {self.name} solver's volume mesh, so the volume would float freely; include control "

@@ -76,7 +76,24 @@ def check_force(force) -> np.ndarray:
     return force
 
 
-def node_set(name: str, nodes, count: int) -> np.ndarray:
+def gravity_vector(value) -> np.ndarray | None:
+    """``value`` as a read-only ``(3,) float64`` acceleration [m/s²], None for None, or a :class:`SolverError`."""
+    if value is None:
+        return None
+    try:
+        vector = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        vector = np.zeros(0)
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        raise SolverError(f"gravity is an acceleration (gx, gy, gz) [m/s²] of 3 finite numbers, e.g. (0, 0, -9.81), "
+                          f"or None for none; got {value!r}")
+    vector.flags.writeable = False
+    return vector
+
+
+def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.ndarray:
+    """``(k,) int32`` sorted unique vertex indices from indices or a ``(count,)`` bool mask; BoundaryConditionError
+    for bad ones, or an empty set unless ``allow_empty`` (attachments hold the body)."""
     nodes = np.asarray(nodes)
     if nodes.dtype == bool:
         if nodes.shape != (count,):
@@ -85,7 +102,7 @@ def node_set(name: str, nodes, count: int) -> np.ndarray:
     if nodes.size and not np.issubdtype(nodes.dtype, np.integer):
         raise BoundaryConditionError(f"{name} must be integer M_S vertex indices, got dtype {nodes.dtype}")
     nodes = nodes.astype(np.int64).ravel()
-    if nodes.size == 0:
+    if nodes.size == 0 and not allow_empty:
         raise BoundaryConditionError(
             f"{name} is empty: the body would move freely; pass M_S vertex indices or leave it at its default "
             "(the model's bottom)"

@@ -18,6 +18,7 @@ from numba import njit
 
 from .base import Solver
 from .finite_strain import finite_volume, support_displacement
+from .gravity import volume_constant_load, volume_springs
 from .registry import register
 
 
@@ -59,11 +60,12 @@ class EmbeddedSolver(Solver):
         surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
         surface_to_volume[hybrid_mesh.control] = hybrid_mesh.control_volume
         self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
-        self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                             fixed=self.fixed_volume)
         self.tet_of = np.ascontiguousarray(hybrid_mesh.embedding_tet, dtype=np.int64)
         self.weights = np.ascontiguousarray(hybrid_mesh.embedding_barycentric, dtype=np.float64)
         tets = volume.tets
+        springs = volume_springs(self, tets[self.tet_of], self.weights)     # through each vertex's tet
+        self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                             fixed=self.fixed_volume, springs=springs)
         # Only the M_V nodes of tets that hold a surface vertex matter: solve for those alone.
         self.carrier_nodes = np.unique(tets[self.tet_of]).astype(np.int64)
         self.node_slot = np.full(volume.node_count, -1, dtype=np.int64)
@@ -76,6 +78,10 @@ class EmbeddedSolver(Solver):
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
+        #: ``(N, 3)`` M_V's constant load [N] (weight, attachments' pull; :mod:`.gravity`) or None; its response.
+        self._constant_load = volume_constant_load(self, volume, springs)
+        self._constant_u = None if self._constant_load is None or self.finite is not None else (
+            self.fem.solve(self._constant_load))
 
     def _on_load_changed(self) -> None:
         self._dirty = True
@@ -92,6 +98,8 @@ class EmbeddedSolver(Solver):
                                     output_nodes=self.carrier_nodes, out=one)
             if one is not self._u:
                 self._u += one
+        if self._constant_u is not None:
+            self._u += self._constant_u[self.carrier_nodes]
 
     def _tet_loads(self) -> tuple[np.ndarray, np.ndarray]:
         """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's share of its load split over its tet's
@@ -107,6 +115,8 @@ class EmbeddedSolver(Solver):
         forces[:] = 0.0
         if self._loads:
             np.add.at(forces, *self._tet_loads())
+        if self._constant_load is not None:
+            forces += self._constant_load
         self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
         self._u[:] = self.volume_displacement[self.carrier_nodes]
 

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import SolverError
 from .base import Solver
 from .finite_strain import finite_volume, support_displacement
+from .gravity import volume_constant_load, volume_springs
 from .registry import register
 
 
@@ -47,9 +48,12 @@ class FineFEMSolver(Solver):
         self.surface_nodes = np.asarray(hybrid_mesh.fine_surface_nodes, dtype=np.int64)
         surface_to_volume = self.surface_nodes
         self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        springs = volume_springs(self, surface_to_volume[:, None], np.ones((self.node_count, 1)))
         self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                             fixed=self.fixed_volume)
+                             fixed=self.fixed_volume, springs=springs)
         self._volume_forces = np.zeros((volume.node_count, 3))
+        #: ``(N, 3)`` the fine volume's constant load [N] (weight, attachments' pull; :mod:`.gravity`) or None.
+        self._constant_load = volume_constant_load(self, volume, springs)
         self.finite = finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
@@ -67,6 +71,8 @@ class FineFEMSolver(Solver):
         self._volume_forces[:] = 0.0
         loaded = np.unique(self.load_nodes)
         self._volume_forces[self.surface_nodes[loaded]] = self.forces[loaded]
+        if self._constant_load is not None:
+            self._volume_forces += self._constant_load
         if self.finite is None:
             return self.fem.solve(self._volume_forces)
         self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)

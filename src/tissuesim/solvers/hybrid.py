@@ -44,6 +44,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
+from .gravity import volume_constant_load, volume_springs
 from .surface_layer import SurfaceLayerSolver
 
 DEFAULT_WARM_START = True
@@ -73,6 +74,7 @@ class HybridSolver(SurfaceLayerSolver):
 
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
+    body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it
 
     def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
                  near_field: float | None = None, **options):
@@ -88,8 +90,16 @@ class HybridSolver(SurfaceLayerSolver):
         surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
         surface_to_volume[control] = control_volume
         self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle (loads and attachments reach M_V through it).
+        coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
+        coarse_volume = np.asarray(h.coarse_volume_nodes, dtype=np.int64)     # control_volume until a cut
+        self.load_volume_nodes = coarse_volume[coarse_nodes[np.asarray(h.coarse_triangle, dtype=np.int64)]]
+        self.load_weights = np.asarray(h.coarse_barycentric, dtype=np.float64)
+        springs = volume_springs(self, self.load_volume_nodes, self.load_weights)
         self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                             fixed=self.fixed_volume)
+                             fixed=self.fixed_volume, springs=springs)
+        #: ``(N, 3)`` M_V's constant load [N] (weight, attachments' pull; :mod:`.gravity`) or None; its response.
+        self._constant_load = volume_constant_load(self, volume, springs)
         # Prescribed M_S nodes: control nodes (FEM positions) first, then fixed non-control nodes (rest).
         is_control = np.zeros(self.node_count, dtype=bool)
         is_control[control] = True
@@ -105,11 +115,6 @@ class HybridSolver(SurfaceLayerSolver):
         self._init_near_field(near_field)
         self.control = control
         self.control_count = control.size
-        # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle.
-        coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
-        coarse_volume = np.asarray(h.coarse_volume_nodes, dtype=np.int64)     # control_volume until a cut
-        self.load_volume_nodes = coarse_volume[coarse_nodes[np.asarray(h.coarse_triangle, dtype=np.int64)]]
-        self.load_weights = np.asarray(h.coarse_barycentric, dtype=np.float64)
         # M_V nodes whose displacement a step needs: control nodes first, then (warm start) the embedding tets.
         tets = volume.tets.astype(np.int64)
         self._tet_of = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
@@ -124,7 +129,9 @@ class HybridSolver(SurfaceLayerSolver):
         self._embedded = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
         self._embedded_new = np.array(self.rest_positions)
         self._delta = np.zeros_like(self._embedded)
-        self._dirty = False
+        self._constant_u = None if self._constant_load is None or self.finite is not None else (
+            self.fem.solve(self._constant_load))
+        self._dirty = self._constant_load is not None    # the first step moves M_V under its weight
 
     def _init_near_field(self, near_field) -> None:
         self.near_field = None
@@ -133,6 +140,9 @@ class HybridSolver(SurfaceLayerSolver):
         self._window_node = -1
         if near_field is None:
             return
+        if self.gravity is not None or self.attachments:
+            raise SolverError("near_field does not take gravity or attachments yet: its fine volume responds to the "
+                              "contact's load alone; drop near_field, or the gravity and attachments")
         if isinstance(near_field, bool) or not isinstance(near_field, (int, float, np.floating, np.integer)) \
                 or not np.isfinite(near_field) or near_field <= 0:
             raise SolverError(f"near_field must be None or a positive, finite distance in metres (e.g. 0.015), "
@@ -199,6 +209,8 @@ class HybridSolver(SurfaceLayerSolver):
         forces[:] = 0.0
         if self._loads:
             np.add.at(forces, *self._coarse_loads())
+        if self._constant_load is not None:
+            forces += self._constant_load
         if exact:
             self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
             self._volume_settled = True
@@ -249,6 +261,14 @@ class HybridSolver(SurfaceLayerSolver):
             self.fem.patch_response(*self._coarse_split(load), load.force, output_nodes=self.output_nodes, out=one)
             if one is not self._u:
                 self._u += one
+        if self._constant_u is not None:
+            self._u += self._constant_u[self.output_nodes]
+
+    def _attached_positions(self) -> np.ndarray:
+        """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle."""
+        nodes = self.attached_nodes
+        u = self._u[self._slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
+        return self.rest_positions[nodes] + np.einsum("pj,pjk->pk", self.load_weights[nodes], u)
 
     def _admit(self, load) -> None:
         if self._near is not None and self._loads:

@@ -70,7 +70,8 @@ DEFAULT_DAMPING = 0.3
 
 @njit(cache=True)
 def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, rest, stiffness, dt, substeps,
-                     keep):
+                     keep, attached=np.zeros(0, np.int64), attached_stiffness=np.zeros(0),
+                     anchors=np.zeros((0, 3)), gravity=np.zeros(3), weighed=False):
     """One time step ``dt`` [s] of ``substeps`` symplectic-Euler substeps, in place, allocating nothing.
 
     Args:
@@ -80,9 +81,13 @@ def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, re
         forces: ``(n, 3) float64`` external forces [N].
         springs: ``(s, 2) int32`` node pairs; rest: ``(s,)`` rest lengths [m]; stiffness: ``(s,)`` [N/m].
         keep: velocity factor per substep, (1 − damping)^(1/substeps).
+        attached: ``(p,) int64`` nodes held by attachment springs of ``attached_stiffness`` ``(p,)`` [N/m] toward
+            ``anchors`` ``(p, 3)`` [m] (zero rest length: force k (a − x)).
+        gravity: ``(3,)`` [m/s²] the acceleration every unpinned node gets (its weight m g) when ``weighed``.
     """
     n = positions.shape[0]
     h = dt / substeps
+    h0, h1, h2 = h * gravity[0], h * gravity[1], h * gravity[2]
     for _ in range(substeps):
         for i in range(n):
             accel[i, 0] = forces[i, 0]
@@ -104,10 +109,18 @@ def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, re
             accel[j, 0] -= c * d0
             accel[j, 1] -= c * d1
             accel[j, 2] -= c * d2
+        for a in range(attached.shape[0]):
+            i = attached[a]
+            for k in range(3):
+                accel[i, k] += attached_stiffness[a] * (anchors[a, k] - positions[i, k])
         for i in range(n):
             w = inv_mass[i]
             if w == 0.0:
                 continue
+            if weighed:
+                velocities[i, 0] += h0
+                velocities[i, 1] += h1
+                velocities[i, 2] += h2
             for k in range(3):
                 v = (velocities[i, k] + h * w * accel[i, k]) * keep
                 velocities[i, k] = v
@@ -206,8 +219,10 @@ class MassSpringSolver(Solver):
         self.mass = surface_lumped_mass(surface, self.density)
         self.inv_mass = 1.0 / self.mass
         self.inv_mass[self.fixed] = 0.0
-        self.omega_max = _omega_bound(self.springs, self.stiffness, self.inv_mass)
+        self.omega_max = _omega_bound(self.springs, self.stiffness, self.inv_mass, self.attached_nodes,
+                                      self.attached_stiffness)
         self._accel = np.zeros_like(self.state.positions)
+        self._gravity = np.zeros(3) if self.gravity is None else np.array(self.gravity)
 
     @Solver.dt.setter
     def dt(self, value) -> None:
@@ -235,7 +250,8 @@ class MassSpringSolver(Solver):
         substeps = self.substeps(dt)
         keep = (1.0 - self.damping) ** (1.0 / substeps)
         mass_spring_step(self.state.positions, self.state.velocities, self._accel, self.inv_mass, self.forces,
-                         self.springs, self.rest_lengths, self.stiffness, dt, substeps, keep)
+                         self.springs, self.rest_lengths, self.stiffness, dt, substeps, keep, self.attached_nodes,
+                         self.attached_stiffness, self.attached_anchors, self._gravity, self.gravity is not None)
         count, first = inverted_triangles(self.rest_positions, self.state.positions, self.hybrid.surface.triangles)
         if count and self.hybrid.info.get("cuts"):
             count, first = self._inside_out_beyond_flaps()
@@ -284,9 +300,13 @@ def swung_flaps(triangles: np.ndarray, turned: np.ndarray, now: np.ndarray, rest
     return open_vertex[triangles[turned]].any(axis=1) & ~folded
 
 
-def _omega_bound(springs, stiffness, inv_mass) -> float:
-    """Upper bound [rad/s] of the highest natural frequency (Gershgorin on M^{-1/2} K M^{-1/2}, block norms)."""
-    return float(np.sqrt(gershgorin_rows(springs, stiffness, inv_mass).max()))
+def _omega_bound(springs, stiffness, inv_mass, attached=np.zeros(0, np.int64), attached_stiffness=np.zeros(0)) \
+        -> float:
+    """Upper bound [rad/s] of the highest natural frequency (Gershgorin on M^{-1/2} K M^{-1/2}, block norms; an
+    attachment spring k to a fixed point adds k w_i to its node's row)."""
+    rows = gershgorin_rows(springs, stiffness, inv_mass)
+    np.add.at(rows, attached, attached_stiffness * inv_mass[attached])
+    return float(np.sqrt(rows.max()))
 
 
 @njit(cache=True)

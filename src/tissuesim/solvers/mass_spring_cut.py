@@ -41,6 +41,8 @@ class MassSpringCut(SolverCut):
         self.bend_row = EdgeRows(interior, len(edges) + np.arange(len(interior)))
         self._bind()
         self.gershgorin = gershgorin_rows(solver.springs, solver.stiffness, solver.inv_mass)
+        np.add.at(self.gershgorin, solver.attached_nodes, solver.attached_stiffness
+                  * solver.inv_mass[solver.attached_nodes])
 
     def _bind(self) -> None:
         s, a = self.solver, self.rows.arrays
@@ -103,3 +105,6 @@ class MassSpringCut(SolverCut):
         for end in (0, 1):
             at = members(springs[:, end], vertices)
             np.add.at(row, springs[at, end], stiffness[at] * (w[springs[at, end]] + cross[at]))
+        # an attachment spring to a fixed point adds k w_i to its node's row (attachments hold old vertices only)
+        at = members(s.attached_nodes, vertices)
+        np.add.at(row, s.attached_nodes[at], s.attached_stiffness[at] * w[s.attached_nodes[at]])

@@ -35,6 +35,8 @@ The ``pbd`` method prescribes the fixed nodes only; the hybrid adds its control 
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import numpy as np
 
 from ..errors import SolverError, warn
@@ -106,6 +108,9 @@ class SurfaceLayerSolver(Solver):
     """
 
     cut_carrier = "tissuesim.solvers.surface_layer_cut:SurfaceLayerCut"
+    #: Whether the layer stands for the whole body, so that it carries the weight (``gravity``) and the attachments
+    #: (the pbd method); the hybrid's M_V carries them instead (:mod:`.gravity`).
+    body_on_layer: ClassVar[bool] = True
 
     def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness_ratio: float | None = None, stiffness: float | None = None,
@@ -163,6 +168,9 @@ class SurfaceLayerSolver(Solver):
         self._lambda_bend = np.zeros(self.constraints.bending_count)
         if form == "xpbd" and integrator == "xpbd":
             warn(XPBD_OFF_EQUILIBRIUM)
+        if self.body_on_layer and self.attachments and (form, integrator) != ("xpbd", "implicit"):
+            raise SolverError(f"attachments on the {self.name} method need form='xpbd' with integrator='implicit' (the "
+                              "defaults): the position projections have no spring term; drop form or integrator")
 
     def _init_xpbd(self, thickness_ratio) -> None:
         from ..layer.compliance import relative_shell_compliance, thickness_lengths
@@ -179,8 +187,8 @@ class SurfaceLayerSolver(Solver):
 
         self.prestrain = check_prestrain(prestrain)
         self.prestress_tension = 0.0
-        self._release = (None, None)    # (the cut hybrid mesh, its release forces (n, 3) [N])
-        self._applied, self._applied_stale = None, True     # forces + release, redone when either changes
+        self._constant = (None, None)    # (the hybrid mesh, its constant forces (n, 3) [N] or None)
+        self._applied, self._applied_stale = None, True     # forces + constant, redone when either changes
         if self.prestrain == 0.0:
             return
         if self.form != "xpbd":
@@ -196,24 +204,41 @@ class SurfaceLayerSolver(Solver):
                                                    prestrain=self.prestrain)
 
     def applied_forces(self) -> np.ndarray:
-        """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus, with a
-        prestrain, the tension a cut released at its lips (:func:`tissuesim.layer.prestress.release_forces`,
-        recomputed once per cut, added once per change of the load)."""
-        if self.prestress_tension == 0.0 or not self.hybrid.info.get("cuts"):
+        """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus what never
+        changes between cuts (:meth:`constant_forces`), added once per change of the load."""
+        constant = self.constant_forces()
+        if constant is None:
             return self.forces
-        mesh, release = self._release
-        if mesh is not self.hybrid:
-            from ..layer.prestress import copy_origin, release_forces
-
-            release = release_forces(self.rest_positions, self.hybrid.surface.triangles,
-                                     copy_origin(self.rest_positions), self.prestress_tension)
-            self._release = (self.hybrid, release)
-            self._applied = np.empty_like(release)
-            self._applied_stale = True
         if self._applied_stale:
-            np.add(self.forces, release, out=self._applied)
+            if self._applied is None or self._applied.shape != constant.shape:
+                self._applied = np.empty_like(constant)
+            np.add(self.forces, constant, out=self._applied)
             self._applied_stale = False
         return self._applied
+
+    def constant_forces(self) -> np.ndarray | None:
+        """``(n, 3) float64`` [N] the layer's forces other than the loads, or None where there are none (the paper's
+        model): with a prestrain, the tension a cut released at its lips
+        (:func:`tissuesim.layer.prestress.release_forces`); where the layer is the body (:attr:`body_on_layer`), the
+        weight of its physical masses and the attachments' pull at rest (:func:`.gravity.surface_constant_load`).
+        Recomputed once per cut."""
+        mesh, constant = self._constant
+        if mesh is self.hybrid:
+            return constant
+        constant = None
+        if self.prestress_tension != 0.0 and self.hybrid.info.get("cuts"):
+            from ..layer.prestress import copy_origin, release_forces
+
+            constant = release_forces(self.rest_positions, self.hybrid.surface.triangles,
+                                      copy_origin(self.rest_positions), self.prestress_tension)
+        if self.body_on_layer:
+            from .gravity import surface_constant_load
+
+            body = surface_constant_load(self, self.mass / self.mass_scale)
+            constant = body if constant is None else (constant if body is None else constant + body)
+        self._constant = (self.hybrid, constant)
+        self._applied_stale = True
+        return constant
 
     def _on_load_changed(self) -> None:
         self._applied_stale = True
@@ -315,6 +340,11 @@ class SurfaceLayerSolver(Solver):
             stiffness = layer_stiffness(self.rest_positions, edges=c.edges, stretch_compliance=self.stretch_compliance,
                                         hinges=c.bending, bend_compliance=self.bend_compliance,
                                         signed_bending=self.signed_bending)
+            if self.body_on_layer and self.attachments:
+                from .attachments import attachment_matrix
+
+                stiffness = stiffness + attachment_matrix(len(self.rest_positions), self.attached_nodes,
+                                                          self.attached_stiffness)
             self._statics = LayerStatics(stiffness, prescribed=self.prescribed)
         return self._statics
 
@@ -339,6 +369,6 @@ class SurfaceLayerSolver(Solver):
                       self.stretch_compliance, c.bending, self._rest_angle, self.bend_compliance,
                       self._lambda_stretch, self._lambda_bend, self.signed_bending)
         else:
-            pbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.forces, self.prescribed,
+            pbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.applied_forces(), self.prescribed,
                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length, self.stiffness,
                      c.bending, self._rest_angle, self.stiffness, self.signed_bending)
