@@ -1,6 +1,8 @@
 """``tissuesim view [MODEL]``: the interactive simulator (§8.2 pin-head, §8.4 scalpel) in a polyscope window.
 
-MODEL is a built-in model (default: liver), a surface file or a saved hybrid bundle. ``--record FILE.pvd`` records
+MODEL is a built-in model (default: liver), a surface file, a saved hybrid bundle or a scene file (``.toml``, see
+``docs/scenes.md``): a scene sets the model, material, method, supports and gravity, and its first pin-head's
+stiffness and radius. ``--record FILE.pvd`` records
 the session for ParaView (a frame whenever something moved); ``--replay FILE.pvd`` plays a recording back instead of
 simulating.
 """
@@ -16,8 +18,8 @@ HELP = "open the interactive simulator: drag with the pin-head, cut with the sca
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("model", nargs="?", default="liver", metavar="MODEL",
-                        help="built-in model (cube, sphere, liver, steak), surface file or hybrid bundle "
-                             "(default: liver)")
+                        help="built-in model (cube, sphere, liver, steak), surface file, hybrid bundle or scene "
+                             "file (.toml) (default: liver)")
     parser.add_argument("--method", default="hybrid", help="solver at start (switchable in the panel; default hybrid)")
     parser.add_argument("--scale", type=float, default=1.0,
                         help="factor from a surface file's unit to metres (0.01 for cm); default 1")
@@ -66,6 +68,8 @@ def run(args: argparse.Namespace) -> int:
         polyscope(headless=False)
         ReplayApp(frames, title=args.replay.name).run()
         return 0
+    if args.model.lower().endswith(".toml"):
+        return _run_scene(args)
     # every argument is checked before minutes of mesh building; a given value is never replaced by a default
     stiffness = DEFAULT_STIFFNESS if args.stiffness is None else positive_number("--stiffness", args.stiffness, "N/m")
     near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
@@ -83,3 +87,58 @@ def run(args: argparse.Namespace) -> int:
         if app.recorded is not None:  # the last recording (the panel may have started others)
             print(f"recorded {app.recorded}", file=sys.stderr)
     return 0
+
+
+#: Options of this command that a scene file sets itself, with their defaults (a changed one is refused).
+SCENE_SETS = {"method": "hybrid", "scale": 1.0, "repair": False, "resolution": None, "stiffness": None,
+              "prestrain": 0.0, "near_field": None}
+
+
+def _run_scene(args: argparse.Namespace) -> int:
+    """The simulator on a scene file: its model, material, method, supports and gravity, and its first pin-head."""
+    from ..recording import check_target
+    from ..scene import SceneError, read_scene, solver_options
+    from ..scene.build import check_method, material_options
+    from ..viewer.app import ViewerApp
+    from ..viewer.controller import Controller
+    from ..viewer.gl import polyscope
+    from .run import _hybrid
+
+    given = [name for name, default in SCENE_SETS.items() if getattr(args, name) != default]
+    if given:
+        raise SceneError(f"--{given[0].replace('_', '-')} is set by the scene file {args.model}; remove it from the "
+                         "command line (or change the scene)")
+    loaded = read_scene(args.model)
+    check_method(loaded)
+    material_options(loaded)
+    record = None if args.record is None else check_target(args.record)
+    polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
+    hybrid, name = _hybrid(loaded, load_hybrid, progress=True)
+    options = solver_options(loaded, hybrid)
+    settings = _scene_settings(loaded, options)
+    extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
+    controller = Controller(hybrid, settings=settings, solver_options=extra)
+    title = loaded.scene.title or f"{name}: {hybrid.surface.vertex_count} M_S nodes"
+    app = ViewerApp(controller, title=title, record=record)
+    try:
+        app.run()
+    finally:
+        if app.recorded is not None:
+            print(f"recorded {app.recorded}", file=sys.stderr)
+    return 0
+
+
+#: The solver options the viewer's Settings hold (the panel changes them live); a scene's others go to the
+#: controller's solver_options.
+SETTINGS_FIELDS = ("youngs_modulus", "poisson_ratio", "material", "dt", "iterations", "prestrain", "near_field")
+
+
+def _scene_settings(loaded, options: dict):
+    """The viewer's Settings from a scene's solver ``options`` and its first pin-head (stiffness, radius)."""
+    from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings
+
+    pins = [tool for tool in loaded.scene.tools if tool.kind == "pin-head"]
+    fields = {key: options[key] for key in SETTINGS_FIELDS if key in options}
+    return checked_settings(Settings(method=loaded.scene.method.name,
+                                     stiffness=pins[0].stiffness if pins else DEFAULT_STIFFNESS,
+                                     radius=pins[0].radius if pins else None, **fields))
