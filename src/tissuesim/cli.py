@@ -12,10 +12,11 @@ import argparse
 import signal
 import sys
 import threading
+import warnings
 from importlib import import_module
 
 from . import __version__
-from .errors import TissuesimError
+from .errors import TissuesimError, TissuesimWarning
 
 DESCRIPTION = ("Soft-tissue surface deformation with the hybrid FEM + PBD method: build hybrid meshes, run the "
                "paper's experiments, calibrate the free scalars.")
@@ -60,6 +61,16 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
+def _one_line_warning(name: str, default):
+    """A ``warnings.showwarning`` that prints this package's warnings as one line, as errors are (others as
+    ``default`` does)."""
+    def show(message, category, filename, lineno, file=None, line=None):
+        if not issubclass(category, TissuesimWarning):
+            return default(message, category, filename, lineno, file, line)
+        print(f"{name}: warning: {message}", file=sys.stderr if file is None else file)
+    return show
+
+
 def main(argv: list[str] | None = None) -> int:
     in_main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if in_main_thread else None
@@ -67,7 +78,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args = build_parser().parse_args(argv)
         name = f"tissuesim {args.command}"
-        return int(args.run(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line_warning(name, warnings.showwarning)
+            return int(args.run(args) or 0)
     except (TissuesimError, OSError) as error:
         print(f"{name}: error: {error}", file=sys.stderr)
         return 1
