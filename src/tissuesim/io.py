@@ -79,6 +79,18 @@ def check_model_size(vertices: np.ndarray, *, scale: float, source: str) -> None
                     "factor from the file's unit to metres (0.01 for cm, 0.001 for mm)")
 
 
+def warn_model_size(vertices: np.ndarray, *, scale: float, source: str) -> None:
+    """Warn (:class:`~tissuesim.errors.TissuesimWarning`) when a model's ``(n, 3)`` vertices [m], already scaled by
+    ``scale``, span less than 5 mm or more than 2 m (:func:`tissuesim.mesh.sizes.size_warning`): a mesh in cm read
+    as metres builds as a 100 times too large organ, which nothing else would tell."""
+    from .errors import warn
+    from .mesh.sizes import size_warning
+
+    message = size_warning(vertices, scale=scale, source=source)
+    if message is not None:
+        warn(message)
+
+
 def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
     """Read a closed triangle surface from ``path`` (OBJ, STL, PLY, OFF, VTK, VTU) and validate it.
 
@@ -96,12 +108,17 @@ def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMe
         MeshError: ``path`` is not a path (e.g. None), unknown extension, unreadable file, no triangles, a model
             outside 1 µm to 100 m across once scaled (:func:`check_model_size`), or a defect that validation finds
             (and, with ``repair=True``, that repair could not fix).
+
+    Warns:
+        TissuesimWarning: the model is smaller than 5 mm or larger than 2 m across once scaled
+            (:func:`warn_model_size`): likely a forgotten ``scale``.
     """
     check_scale(scale)
     vertices, polygons = read_polygons(_file_path(path, "read_surface"))
     surface = surface_from_polygons(vertices, polygons, source=str(path))
     check_model_size(surface.vertices, scale=scale, source=str(path))
     surface = surface.with_vertices(surface.vertices * float(scale))
+    warn_model_size(surface.vertices, scale=scale, source=str(path))
     from .mesh.validate import validate_surface
 
     if repair:

@@ -61,14 +61,14 @@ def _numbers(text: str, group: str, count: int) -> list[float]:
     return values
 
 
-def fixed_option(text: str, hybrid) -> tuple[np.ndarray | None, str]:
-    """The solver option ``fixed=`` for ``--fix`` ``text`` on ``hybrid`` (a HybridMesh), and a line saying what is
-    held. The default region gives None, the solvers' own bottom (which also fixes the volume nodes below the same
-    height), so the default is bit-identical to a solver made without ``fixed``."""
+def fixed_option(text: str, points: np.ndarray) -> tuple[np.ndarray | None, str]:
+    """The solver option ``fixed=`` for ``--fix`` ``text`` on a model with M_S rest positions ``points``
+    ``(n, 3) float64`` [m], and a line saying what is held. The default region gives None, the solvers' own bottom
+    (which also fixes the volume nodes below the same height), so the default is bit-identical to a solver made
+    without ``fixed``. A file is read relative to the current folder."""
     from ..mesh.regions import fixed_region
 
     spec = parse_fix(text)
-    points = hybrid.surface.vertices
     if spec == {"bottom": BOTTOM_FRACTION}:
         count = fixed_region(spec, points).size
         return None, f"fixed: the bottom {BOTTOM_FRACTION:g} of the height ({count} surface vertices)"

@@ -20,6 +20,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from .fixing import add_fix_argument
+
 HELP = "render the paper's figures (Fig 11 deformation, Fig 16 incision) offscreen into PNG files"
 SECTION = "## Figures"
 
@@ -31,10 +33,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder for the PNG files, created if absent (default: results)")
     parser.add_argument("--method", default="hybrid", help="solver drawn (default: hybrid)")
     parser.add_argument("--force", type=float, default=None, metavar="N",
-                        help="load of the deformation figure in newtons (default: 5)")
+                        help="load of the deformation figure in newtons (default: sized to the model and its "
+                             "material, so the figure stays in the small-strain range; printed)")
     parser.add_argument("--radius", type=float, default=None, metavar="MM",
-                        help="spread the load over a pin-head contact patch of this radius in mm (default: one node, "
-                             "as the experiments)")
+                        help="spread the load over a pin-head contact patch of this radius in mm (default: 5 %% of "
+                             "the model's size)")
+    add_fix_argument(parser)
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of the built-in models")
     parser.add_argument("--scale", type=float, default=1.0,
                         help="factor from a surface file's unit to metres, applied to a built-in model too (a bundle "
@@ -55,7 +59,9 @@ def run(args: argparse.Namespace) -> int:
     from ..io import check_scale, remove_abandoned_partials
     from ..solvers.checks import positive_number
     from ..viewer.controller import scalpel_class
-    from ..viewer.figures import FIGURE_FORCE, deformation_figure, incision_figure
+    from ..experiments.wound import TOOL_HEIGHT
+    from ..viewer.figures import deformation_figure, incision_figure
+    from .fixing import check_fix
     from ..viewer.gl import NoOpenGLError, polyscope
     from ..solvers.registry import solver_class
 
@@ -65,8 +71,9 @@ def run(args: argparse.Namespace) -> int:
     check_scale(args.scale)
     if args.resolution is not None:
         check_resolution(args.resolution)
-    force = FIGURE_FORCE if args.force is None else positive_number("--force", args.force, "N")
+    force = None if args.force is None else positive_number("--force", args.force, "N")
     radius_mm = None if args.radius is None else positive_number("--radius", args.radius, "mm")
+    check_fix(args.fix)
     report = None if args.report is None else check_report(args.report)
     output = check_output_folder(args.output)
     if output.is_dir():
@@ -79,16 +86,20 @@ def run(args: argparse.Namespace) -> int:
         print(f"tissuesim render: figures skipped: {error}", file=sys.stderr)
         return 0
     models = _load_models(args)     # every model read and checked before the first is drawn
+    models = [(hybrid, name, *_sized(args, hybrid, name, force=force, radius_mm=radius_mm))
+              for hybrid, name in models]
     cutting = _cutting(scalpel_class() is not None, refusal(args.method))
     created = not output.exists()
     output.mkdir(exist_ok=True)
     try:
         written = []
-        for hybrid, name in models:
+        for hybrid, name, fixed, loads in models:
             written.append(deformation_figure(hybrid, name, output / f"deformation_{name}.png", method=args.method,
-                                              force=force, radius=None if radius_mm is None else 1e-3 * radius_mm))
+                                              force=loads.force, radius=loads.radius, fixed=fixed))
             if cutting:
-                written.append(incision_figure(hybrid, name, output / f"incision_{name}.png", method=args.method))
+                written.append(incision_figure(hybrid, name, output / f"incision_{name}.png", method=args.method,
+                                               force=loads.pull, fixed=fixed, length=loads.stroke,
+                                               depth=TOOL_HEIGHT + loads.depth, offset=loads.offset))
             print(f"rendered {name}", file=sys.stderr)
     except BaseException:
         if created and not any(output.iterdir()):
@@ -114,6 +125,54 @@ def _load_models(args) -> list:
             check_fine_volume(hybrid, spec)
         models.append((hybrid, name))
     return models
+
+
+def _sized(args, hybrid, name: str, *, force: float | None, radius_mm: float | None) -> tuple:
+    """``(fixed, LoadDefaults)`` of one model: the solvers' ``fixed`` option from ``--fix``, and the figures' loads
+    and tool sizes, each given one used as given and the others sized to the model (:mod:`tissuesim.mesh.sizes`),
+    said in one line."""
+    from dataclasses import replace
+
+    from ..experiments.inputs import check_free_node
+    from ..experiments.protocol import LOAD_DIRECTIONS, load_node
+    from ..experiments.wound import incision_line, pull_node
+    from ..mesh.sizes import fitted_force, load_defaults
+    from ..solvers.registry import make_solver
+    from .fixing import fixed_option
+
+    fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
+    solver = make_solver(args.method, hybrid, fixed=fixed)
+    loads = load_defaults(solver.rest_positions, youngs_modulus=solver.youngs_modulus,
+                          poisson_ratio=solver.poisson_ratio)
+    if radius_mm is not None:
+        loads = replace(loads, radius=1e-3 * radius_mm)
+    notes = []
+    node = load_node(solver.rest_positions, hybrid.surface.triangles)
+    check_free_node(solver, node, name, role="the figure's load at its top centre")
+    if force is None:
+        fitted, moved = fitted_force(solver, node, loads.force, LOAD_DIRECTIONS.values(), radius=loads.radius)
+        notes += [] if fitted == loads.force else [_capped("force", loads.force, moved)]
+        loads = replace(loads, force=fitted)
+    else:
+        loads = replace(loads, force=force)
+    pulled = pull_node(solver.rest_positions, incision_line(solver.rest_positions, length=loads.stroke),
+                       offset=loads.offset)
+    if pulled not in solver.fixed:      # else the incision figure refuses the pull, saying why
+        pull, moved = fitted_force(solver, pulled, loads.pull, [(0.0, 1.0, 0.0)])
+        notes += [] if pull == loads.pull else [_capped("pull", loads.pull, moved)]
+        loads = replace(loads, pull=pull)
+    given = [f"--{option}" for option, value in (("force", force), ("radius", radius_mm)) if value is not None]
+    print(f"tissuesim render: {name}: {held}; {loads.describe()}" + (f" ({', '.join(given)} as given)" if given
+                                                                     else "") + "".join(f"; {n}" for n in notes),
+          file=sys.stderr)
+    return fixed, loads
+
+
+def _capped(what: str, estimate: float, moved: float) -> str:
+    from ..mesh.sizes import DISPLACEMENT_CAP
+
+    return (f"the {what} lowered from {estimate:.3g} N, which moves this model {moved:.2g} of its size on its "
+            f"support, to move it {DISPLACEMENT_CAP:g}")
 
 
 def _cutting(installed: bool, refused: str | None) -> bool:

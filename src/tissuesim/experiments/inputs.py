@@ -17,15 +17,18 @@ MAX_RESOLUTION = 100_000
 
 def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):
     """The built-in model ``name`` at ``resolution`` vertices (None: its Table-1 size), its coordinates multiplied
-    by ``scale`` as a surface file's are (refused, naming the scale, outside 1 µm to 100 m across)."""
-    from ..io import check_model_size, check_scale
+    by ``scale`` as a surface file's are (refused, naming the scale, outside 1 µm to 100 m across; warned of outside
+    5 mm to 2 m)."""
+    from ..io import check_model_size, check_scale, warn_model_size
 
     scale = check_scale(scale)
     surface = builtin_models.model(name, None if resolution is None else check_resolution(resolution))
     if scale == 1.0:
         return surface
     check_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
-    return surface.with_vertices(surface.vertices * scale)
+    surface = surface.with_vertices(surface.vertices * scale)
+    warn_model_size(surface.vertices, scale=scale, source=f"the built-in {name}")
+    return surface
 
 
 def check_resolution(resolution) -> int:
