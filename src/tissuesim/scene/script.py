@@ -91,7 +91,7 @@ class ScriptedTool:
             return None
         if self.kind == "pin-head":
             return self.tool.force(self._position)
-        return np.asarray(self.tool.force, dtype=np.float64).copy()
+        return -np.asarray(self.tool.force, dtype=np.float64)     # the probe reports the force on itself
 
 
 def make_tools(loaded: SceneFile, solver) -> list[ScriptedTool]:
