@@ -27,13 +27,13 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import Recorder, check_target, solver_frame
     from ..scene import Simulation, read_scene
     from ..scene.build import check_method, material_options
-    from .view import load_hybrid
+    from .view import scene_hybrid
 
     loaded = read_scene(args.scene)
     check_method(loaded)           # every key of the scene is checked before minutes of mesh building
     material_options(loaded)
     record = None if args.record is None else check_target(args.record)
-    hybrid, name = _hybrid(loaded, load_hybrid, progress=not args.quiet)
+    hybrid, name = scene_hybrid(loaded, progress=not args.quiet)
     simulation = Simulation(loaded, hybrid)
     scene = loaded.scene
     print(f"{scene.title or loaded.path.name}: {name}, {hybrid.surface.vertex_count} surface nodes, method "
@@ -52,10 +52,3 @@ def run(args: argparse.Namespace) -> int:
         print(f"recorded {recorder.frame_count} frames to {record}")
     return 0
 
-
-def _hybrid(loaded, load_hybrid, *, progress: bool):
-    """The hybrid mesh of the scene's model and its name."""
-    model = loaded.scene.model
-    spec = model.name if model.name is not None else str(loaded.resolve(model.file))
-    print(f"building the hybrid mesh of {spec}", file=sys.stderr)
-    return load_hybrid(spec, resolution=model.resolution, scale=model.scale, repair=model.repair, progress=progress)

@@ -55,6 +55,15 @@ def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool 
     return load_model(spec, config, progress=progress), model_name(spec)
 
 
+def scene_hybrid(loaded, *, progress: bool = True):
+    """The hybrid mesh of a scene's model (built as :func:`load_hybrid` builds a model named on the command line)
+    and its name."""
+    model = loaded.scene.model
+    spec = model.name if model.name is not None else str(loaded.resolve(model.file))
+    print(f"building the hybrid mesh of {spec}", file=sys.stderr)
+    return load_hybrid(spec, resolution=model.resolution, scale=model.scale, repair=model.repair, progress=progress)
+
+
 def run(args: argparse.Namespace) -> int:
     from ..recording import check_target, read_recording
     from ..solvers.checks import positive_number
@@ -102,7 +111,6 @@ def _run_scene(args: argparse.Namespace) -> int:
     from ..viewer.app import ViewerApp
     from ..viewer.controller import Controller
     from ..viewer.gl import polyscope
-    from .run import _hybrid
 
     given = [name for name, default in SCENE_SETS.items() if getattr(args, name) != default]
     if given:
@@ -113,7 +121,7 @@ def _run_scene(args: argparse.Namespace) -> int:
     material_options(loaded)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
-    hybrid, name = _hybrid(loaded, load_hybrid, progress=True)
+    hybrid, name = scene_hybrid(loaded, progress=True)
     options = solver_options(loaded, hybrid)
     settings = _scene_settings(loaded, options)
     extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
