@@ -1,7 +1,10 @@
 """``tissuesim incise [MODELS] --output DIR``: the paper's Fig 16 incision on every surface method.
 
-For each model and method: a scripted 3 cm incision across the top (:mod:`tissuesim.experiments.wound`), cut
-progressively in 15 moves, then a small force beside the cut, solved to equilibrium. Written to DIR:
+For each model and method: a scripted incision across the top (:mod:`tissuesim.experiments.wound`), cut
+progressively in 15 moves, then a small force beside the cut, solved to equilibrium. The stroke, its depth, the
+force and its distance from the cut are sized to the model (:func:`tissuesim.mesh.sizes.load_defaults`: 0.15 of its
+size long; the force lowered where the model's support lets it rock) and said in one line per model; ``--fix``
+chooses the region held (default: the bottom tenth). Written to DIR:
 
 * ``<model>_<method>.obj``: the cut surface at its deformed positions;
 * ``<model>_<method>.vtu``: the same with the cut's edges as line cells (``cut`` = 1) and the displacement;
@@ -9,7 +12,7 @@ progressively in 15 moves, then a small force beside the cut, solved to equilibr
   invariant checks; ``incision.json``: the same figures.
 
 MODELS are built-in model names, surface files or saved hybrid bundles (``tissuesim build ... -o FILE.npz``). Every
-argument is checked and every model read before the first cut: a bad one, or a model the 3 cm incision does not fit,
+argument is checked and every model read before the first cut: a bad one, or a model the incision does not fit,
 is refused at once. DIR is written all or nothing (:mod:`tissuesim.experiments.output`): the results are staged on
 its file system and moved in at the end, so an interrupted run leaves DIR as it was; a finished run replaces the files
 of an earlier one (those its ``incision.json`` lists) as a whole and says in one line which; no other file in DIR is
@@ -31,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .fixing import add_fix_argument
+
 HELP = "cut each model's top with the scalpel (Fig 16) on every surface method; surfaces, gaps, timings, checks"
 METHODS = ("hybrid", "pbd", "mass-spring", "embedded")
 
@@ -51,6 +56,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--repair", action="store_true",
                         help="repair safe defects of a surface file (orientation, self-intersections) instead of "
                              "refusing them")
+    add_fix_argument(parser)
     parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
                         help="in-plane prestrain of the surface (e.g. 0.05), so the wound gapes without force; "
                              "methods without a surface layer take none (default: 0)")
@@ -66,6 +72,7 @@ def run(args) -> int:
     from ..mesh.models import MODELS
     from ..layer.prestress import check_prestrain
     from ..solvers.registry import available_solvers
+    from .fixing import check_fix
 
     # every argument is checked, and every model read, before the first (minutes long) cut
     output = check_output_folder(args.output)
@@ -75,19 +82,20 @@ def run(args) -> int:
     prestrain = check_prestrain(args.prestrain)
     check_scale(args.scale)         # for bundles too, which it does not scale: a bad value is never ignored
     check_model_names(args.models)
-    sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair)
+    check_fix(args.fix)
+    sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair, fix=args.fix)
                for spec in args.models or list(MODELS)]
-    names = ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, _ in sources
+    names = ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, *_ in sources
                                                for method in args.methods for ext in ("obj", "vtu"))]
     check_no_folder(output, names)
     _check_inputs_kept(args.models, output, names)
     rows, cuts = [], {}
-    for name, source in sources:
+    for name, source, fixed, loads in sources:
         if not isinstance(source, HybridMesh):
             print(f"{name}: building the hybrid mesh", file=sys.stderr)
             source = HybridMesh.build(source, fine_volume=False)
         for method in args.methods:
-            row, cut = _one(name, method, source, prestrain)
+            row, cut = _one(name, method, source, prestrain, fixed=fixed, loads=loads)
             rows.append(row)
             if cut is not None:
                 cuts[f"{name}_{method}"] = cut
@@ -104,14 +112,17 @@ def run(args) -> int:
     return 0
 
 
-def _source(spec: str, *, scale: float, resolution, repair: bool):
-    """``(name, SurfaceMesh or HybridMesh)`` of a built-in model, a surface file or a saved bundle, checked to fit
-    the incision."""
+def _source(spec: str, *, scale: float, resolution, repair: bool, fix: str):
+    """``(name, SurfaceMesh or HybridMesh, fixed, LoadDefaults)`` of a built-in model, a surface file or a saved
+    bundle: the solvers' ``fixed`` option from ``--fix`` and the incision's sizes (:mod:`tissuesim.mesh.sizes`),
+    said in one line, checked to fit the incision."""
     from ..experiments.inputs import model_name
     from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
+    from ..mesh.sizes import load_defaults
     from .build import load_mesh
+    from .fixing import fixed_option
 
     path = Path(spec)
     if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_EXTENSIONS:
@@ -120,8 +131,11 @@ def _source(spec: str, *, scale: float, resolution, repair: bool):
     else:
         source = surface = load_mesh(spec, scale=scale, resolution=resolution, repair=repair)
     name = model_name(spec)
-    _check_fits(name, surface)
-    return name, source
+    fixed, held = fixed_option(fix, surface.vertices)
+    loads = load_defaults(surface.vertices)
+    print(f"tissuesim incise: {name}: {held}; {loads.describe()}", file=sys.stderr)
+    _check_fits(name, surface, loads)
+    return name, source, fixed, loads
 
 
 def _check_inputs_kept(specs, output: Path, names: list[str]) -> None:
@@ -137,38 +151,43 @@ def _check_inputs_kept(specs, output: Path, names: list[str]) -> None:
                               "give another --output or move the model file")
 
 
-def _check_fits(name: str, surface) -> None:
-    """Refuse a model the scripted incision cannot start on, by the test :meth:`Scalpel.press` makes: the blade,
-    pressed where the incision starts, must reach the surface."""
-    from ..experiments.wound import INCISION_DEPTH, INCISION_LENGTH, incision_line
+def _check_fits(name: str, surface, loads) -> None:
+    """Refuse a model the scripted incision of ``loads`` (its stroke and depth) cannot start on, by the test
+    :meth:`Scalpel.press` makes: the blade, pressed where the incision starts, must reach the surface."""
+    from ..experiments.wound import TOOL_HEIGHT, incision_line
     from ..errors import SolverError
     from ..mesh.maps import closest_on_surface
 
+    reach, stroke = TOOL_HEIGHT + loads.depth, loads.stroke
     vertices = surface.vertices
-    start, _ = incision_line(vertices)
+    start, _ = incision_line(vertices, length=stroke)
     triangle, weights = closest_on_surface(surface, start[None])
     distance = float(np.linalg.norm(weights[0] @ vertices[surface.triangles[triangle[0]]] - start))
-    if distance <= INCISION_DEPTH:
+    if distance <= reach:
         return
     length = float(np.ptp(vertices[:, 0]))
     where = (f"where the incision starts the surface is {1e2 * distance:.3g} cm from the blade, beyond its "
-             f"{1e2 * INCISION_DEPTH:g} cm reach")
-    if length < INCISION_LENGTH:
+             f"{1e2 * reach:.3g} cm reach")
+    if length < stroke:
         why = (f"the model is {1e2 * length:.3g} cm long along x, shorter than the incision, so {where}; give a "
                "longer model (a surface file in cm or mm needs --scale 0.01 or 0.001)")
     else:
         why = (f"the model is {1e2 * length:.3g} cm long along x, but its top is not flat there: "
-               f"{1e2 * INCISION_LENGTH / 2:g} cm from the top's centre along x, {where}; give a model with a broader "
+               f"{1e2 * stroke / 2:.3g} cm from the top's centre along x, {where}; give a model with a broader "
                "top (the incision runs across it along x, centred)")
-    raise SolverError(f"the scripted {1e2 * INCISION_LENGTH:g} cm incision does not fit {name}: {why}")
+    raise SolverError(f"the scripted {1e2 * stroke:.3g} cm incision does not fit {name}: {why}")
 
 
-def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple | None]:
+def _one(model: str, method: str, hybrid, prestrain: float, *, fixed, loads) -> tuple[dict, tuple | None]:
     """The table row of one model and method, and the cut surface to write: ``(positions (n, 3) [m], triangles
-    (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut."""
+    (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut. ``fixed``: the solvers' option;
+    ``loads``: the incision's :class:`~tissuesim.mesh.sizes.LoadDefaults` (its pull lowered where the model's
+    support lets it rock, :func:`~tissuesim.mesh.sizes.fitted_force`)."""
     from ..cutting.invariants import check_cut_invariants
     from ..solvers.cut_carry import anchored_nodes, refusal
-    from ..experiments.wound import open_wound, pull_node, scripted_incision, unloaded_openings
+    from ..experiments.wound import TOOL_HEIGHT, incision_line, open_wound, pull_node, scripted_incision, \
+        unloaded_openings
+    from ..mesh.sizes import fitted_force
     from ..experiments.inputs import check_free_node
     from ..solvers import make_solver
     from ..solvers.registry import solver_options
@@ -177,10 +196,15 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     if refusal(method):
         return {"model": model, "method": method, "refused": refusal(method)}, None
     prestressed = prestrain > 0.0 and "prestrain" in solver_options(method)
-    solver = make_solver(method, hybrid, **({"prestrain": prestrain} if prestressed else {}))
-    run = scripted_incision(solver)
-    check_free_node(solver, pull_node(solver.rest_positions, run["line"]), model,
-                    role="the pull beside the incision")
+    solver = make_solver(method, hybrid, fixed=fixed, **({"prestrain": prestrain} if prestressed else {}))
+    pulled = pull_node(solver.rest_positions, incision_line(solver.rest_positions, length=loads.stroke),
+                       offset=loads.offset)
+    check_free_node(solver, pulled, model, role="the pull beside the incision")
+    pull, moved = fitted_force(solver, pulled, loads.pull, [(0.0, 1.0, 0.0)])
+    if pull != loads.pull:
+        print(f"tissuesim incise: {model}: {method}: the pull lowered from {loads.pull:.3g} N, which moves this model "
+              f"{moved:.2g} of its size on its support, to {pull:.3g} N", file=sys.stderr)
+    run = scripted_incision(solver, length=loads.stroke, depth=TOOL_HEIGHT + loads.depth)
     unloaded = unloaded_openings(solver, run["line"]) if prestressed else None
     # a linear answer beyond linear validity is measured, not dropped, and says so in the table
     beyond = [solver.last_solve.warning] if prestressed and solver.last_solve.warning else []
@@ -189,7 +213,7 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
     mass = getattr(solver, "mass", None)
     total = None if mass is None else float(mass.sum())
     start = time.perf_counter()
-    wound = open_wound(solver, run["line"])
+    wound = open_wound(solver, run["line"], force=pull, offset=loads.offset)
     beyond += [solver.last_solve.warning] if solver.last_solve.warning else []
     cut = solver.hybrid.surface
     problems = check_cut_invariants(cut.vertices, cut.triangles, masses=getattr(solver, "mass", None),
@@ -198,7 +222,8 @@ def _one(model: str, method: str, hybrid, prestrain: float) -> tuple[dict, tuple
            "move_ms_max": float(move_ms.max()), "triangles_split": sum(r.triangles_split for r in moves),
            "vertices_added": sum(r.vertices_added for r in moves),
            "control_released": sum(r.control_released for r in moves),
-           "prestrain": prestrain if prestressed else 0.0,
+           "prestrain": prestrain if prestressed else 0.0, "stroke_mm": 1e3 * loads.stroke,
+           "depth_mm": 1e3 * loads.depth, "pull_N": pull, "pull_offset_mm": 1e3 * loads.offset,
            "unloaded_gap_mm": None if unloaded is None else [1e3 * float(np.median(unloaded)),
                                                              1e3 * float(unloaded.max())],
            "gap_mm": 1e3 * wound["gap"],
