@@ -7,6 +7,8 @@ would rebuild it on every pixel of a drag waits until the slider is let go.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ..errors import TissuesimError
 from ..fem.hyperelastic import MATERIALS
 from ..solvers.near_field import NEAR_FIELD_WINDOW
@@ -63,7 +65,8 @@ class PanelWidgets:
         """The held pin-heads and the support: what acts, and how to let go or go back."""
         c = self.controller
         if len(c.held):
-            psim.TextUnformatted(f"holding {len(c.held)} pin-head{'s' * (len(c.held) > 1)}")
+            pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
+            psim.TextUnformatted(f"holding {len(c.held)} pin-head{'s' * (len(c.held) > 1)}, {pulling:.2f} N")
             psim.SameLine()
             if psim.Button("let go (X)"):
                 c.release_held()
