@@ -54,10 +54,10 @@ def test_incise_bad_prestrain_is_one_line(tmp_path, capsys):
 
 
 def test_incise_flags_answers_beyond_small_strain(tmp_path):
-    # a coarse sphere: the released tension swings a lip vertex further than the model is wide (measured 0.21 m)
+    # a coarse sphere pulled by 2 N (the default pull, sized to the model, stays in small strain)
     out = tmp_path / "cut"
     assert main(["incise", "sphere", "--resolution", "300", "--methods", "pbd", "--prestrain", "0.05",
-                 "--output", str(out)]) == 0
+                 "--pull", "2", "--output", str(out)]) == 0
     row = json.loads((out / "incision.json").read_text())[0]
     assert row["beyond_linear"] and "linear elasticity is not valid" in row["beyond_linear"][0]
     assert "**beyond small strain**" in (out / "incision.md").read_text()

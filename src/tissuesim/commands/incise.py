@@ -57,6 +57,9 @@ def add_arguments(parser) -> None:
                         help="repair safe defects of a surface file (orientation, self-intersections) instead of "
                              "refusing them")
     add_fix_argument(parser)
+    parser.add_argument("--pull", type=float, default=None, metavar="N",
+                        help="force beside the incision that opens the wound, in newtons (default: sized to the "
+                             "model, printed)")
     parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
                         help="in-plane prestrain of the surface (e.g. 0.05), so the wound gapes without force; "
                              "methods without a surface layer take none (default: 0)")
@@ -72,6 +75,7 @@ def run(args) -> int:
     from ..mesh.models import MODELS
     from ..layer.prestress import check_prestrain
     from ..solvers.registry import available_solvers
+    from ..solvers.checks import positive_number
     from .fixing import check_fix
 
     # every argument is checked, and every model read, before the first (minutes long) cut
@@ -83,19 +87,22 @@ def run(args) -> int:
     check_scale(args.scale)         # for bundles too, which it does not scale: a bad value is never ignored
     check_model_names(args.models)
     check_fix(args.fix)
+    pull = None if args.pull is None else positive_number("--pull", args.pull, "N")
     sources = [_source(spec, scale=args.scale, resolution=args.resolution, repair=args.repair, fix=args.fix)
                for spec in args.models or list(MODELS)]
     names = ["incision.json", "incision.md", *(f"{name}_{method}.{ext}" for name, *_ in sources
                                                for method in args.methods for ext in ("obj", "vtu"))]
     check_no_folder(output, names)
     _check_inputs_kept(args.models, output, names)
+    for *_, said in sources:        # once every model is checked: a refusal stays one line
+        print(said, file=sys.stderr)
     rows, cuts = [], {}
-    for name, source, fixed, loads in sources:
+    for name, source, fixed, loads, _ in sources:
         if not isinstance(source, HybridMesh):
             print(f"{name}: building the hybrid mesh", file=sys.stderr)
             source = HybridMesh.build(source, fine_volume=False)
         for method in args.methods:
-            row, cut = _one(name, method, source, prestrain, fixed=fixed, loads=loads)
+            row, cut = _one(name, method, source, prestrain, fixed=fixed, loads=loads, pull=pull)
             rows.append(row)
             if cut is not None:
                 cuts[f"{name}_{method}"] = cut
@@ -113,9 +120,9 @@ def run(args) -> int:
 
 
 def _source(spec: str, *, scale: float, resolution, repair: bool, fix: str):
-    """``(name, SurfaceMesh or HybridMesh, fixed, LoadDefaults)`` of a built-in model, a surface file or a saved
-    bundle: the solvers' ``fixed`` option from ``--fix`` and the incision's sizes (:mod:`tissuesim.mesh.sizes`),
-    said in one line, checked to fit the incision."""
+    """``(name, SurfaceMesh or HybridMesh, fixed, LoadDefaults, line)`` of a built-in model, a surface file or a
+    saved bundle: the solvers' ``fixed`` option from ``--fix`` and the incision's sizes (:mod:`tissuesim.mesh.sizes`),
+    checked to fit the incision, and the line that says them."""
     from ..experiments.inputs import model_name
     from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
@@ -133,9 +140,8 @@ def _source(spec: str, *, scale: float, resolution, repair: bool, fix: str):
     name = model_name(spec)
     fixed, held = fixed_option(fix, surface.vertices)
     loads = load_defaults(surface.vertices)
-    print(f"tissuesim incise: {name}: {held}; {loads.describe()}", file=sys.stderr)
     _check_fits(name, surface, loads)
-    return name, source, fixed, loads
+    return name, source, fixed, loads, f"tissuesim incise: {name}: {held}; {loads.describe()}"
 
 
 def _check_inputs_kept(specs, output: Path, names: list[str]) -> None:
@@ -178,11 +184,12 @@ def _check_fits(name: str, surface, loads) -> None:
     raise SolverError(f"the scripted {1e2 * stroke:.3g} cm incision does not fit {name}: {why}")
 
 
-def _one(model: str, method: str, hybrid, prestrain: float, *, fixed, loads) -> tuple[dict, tuple | None]:
+def _one(model: str, method: str, hybrid, prestrain: float, *, fixed, loads,
+         pull: float | None) -> tuple[dict, tuple | None]:
     """The table row of one model and method, and the cut surface to write: ``(positions (n, 3) [m], triangles
     (m, 3), displacements (n, 3) [m])``, or None where the method refuses to cut. ``fixed``: the solvers' option;
     ``loads``: the incision's :class:`~tissuesim.mesh.sizes.LoadDefaults` (its pull lowered where the model's
-    support lets it rock, :func:`~tissuesim.mesh.sizes.fitted_force`)."""
+    support lets it rock, :func:`~tissuesim.mesh.sizes.fitted_force`); ``pull`` [N]: ``--pull``, used as given."""
     from ..cutting.invariants import check_cut_invariants
     from ..solvers.cut_carry import anchored_nodes, refusal
     from ..experiments.wound import TOOL_HEIGHT, incision_line, open_wound, pull_node, scripted_incision, \
@@ -200,10 +207,11 @@ def _one(model: str, method: str, hybrid, prestrain: float, *, fixed, loads) -> 
     pulled = pull_node(solver.rest_positions, incision_line(solver.rest_positions, length=loads.stroke),
                        offset=loads.offset)
     check_free_node(solver, pulled, model, role="the pull beside the incision")
-    pull, moved = fitted_force(solver, pulled, loads.pull, [(0.0, 1.0, 0.0)])
-    if pull != loads.pull:
-        print(f"tissuesim incise: {model}: {method}: the pull lowered from {loads.pull:.3g} N, which moves this model "
-              f"{moved:.2g} of its size on its support, to {pull:.3g} N", file=sys.stderr)
+    if pull is None:
+        pull, moved = fitted_force(solver, pulled, loads.pull, [(0.0, 1.0, 0.0)])
+        if pull < loads.pull:
+            print(f"tissuesim incise: {model}: {method}: the pull lowered from {loads.pull:.3g} N, which moves this "
+                  f"model {moved:.2g} of its size on its support, to {pull:.3g} N", file=sys.stderr)
     run = scripted_incision(solver, length=loads.stroke, depth=TOOL_HEIGHT + loads.depth)
     unloaded = unloaded_openings(solver, run["line"]) if prestressed else None
     # a linear answer beyond linear validity is measured, not dropped, and says so in the table
