@@ -5,6 +5,7 @@ for looking at what users see:
 
 * ``two-tools``: a pin-head pulls a fold up and is let go with the hold modifier, so it keeps holding; then the
   scalpel cuts beside it (``viewer_two_tools.png``);
+* ``probe``: a rigid sphere pressed into the top and held there (``viewer_probe.png``);
 * ``support``: the support brush paints a patch on one end (blue); a pull on the front then swings the model about
   it (``viewer_support.png``).
 
@@ -89,7 +90,19 @@ def support(app) -> None:
     frames(app, SETTLE_FRAMES)
 
 
-SCENARIOS = {"two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
+def probe(app) -> None:
+    c = app.controller
+    c.set_mode("probe")
+    c.probe.radius = 0.06 * c.solver.size
+    c.probe.depth = 0.5 * c.probe.radius
+    top = vertex_towards(c, [0.2, 0.0, 1.0])
+    c.pointer_down(top, top - DOWN, DOWN)
+    frames(app, SETTLE_FRAMES)
+    c.pointer_up(hold=True)
+    frames(app, 2)
+
+
+SCENARIOS = {"probe": (probe, "viewer_probe.png"), "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
 
 
 def main() -> None:

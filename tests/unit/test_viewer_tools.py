@@ -104,3 +104,36 @@ def test_solver_options_reach_every_solver_built_and_settings_own_theirs(hybrid)
     assert c.solver.density == 600.0
     with pytest.raises(SolverError, match="youngs_modulus.*Settings"):
         Controller(hybrid, solver_options={"youngs_modulus": 9000.0})
+
+
+def press_probe(controller, *, frames=40):
+    top = surface_point(controller, [0.0, 0.0, 1.0])
+    controller.set_mode("probe")
+    controller.pointer_down(top, EYE + top, DOWN)
+    for _ in range(frames):
+        controller.advance(controller.settings.dt)
+    return top
+
+
+def test_the_probe_presses_where_it_is_put_pushes_up_on_itself_and_lets_go(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"))
+    press_probe(c)
+    probe = c.probe.probe
+    assert probe is not None and probe.contacts.size >= 1
+    force = probe.force
+    assert force[2] > 2.0 * np.linalg.norm(force[:2])   # the tissue pushes it back up (the coarse top is not flat)
+    assert probe.gaps().min() > -0.05 * c.probe.radius       # nothing deep inside after the frames' updates
+    c.pointer_up()
+    assert c.probe.probe is None and c.solver.loads == ()
+
+
+def test_a_held_probe_stays_through_a_mode_switch_and_a_change_of_method_and_x_withdraws_it(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"))
+    press_probe(c)
+    c.pointer_up(hold=True)
+    c.set_mode("pin")
+    assert c.probe.pressing and len(c.solver.loads) >= 1
+    c.configure(method="embedded")
+    assert c.solver.name == "embedded" and c.probe.probe.solver is c.solver and len(c.solver.loads) >= 1
+    c.key("x")
+    assert not c.probe.pressing and c.solver.loads == ()

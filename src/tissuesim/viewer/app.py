@@ -164,6 +164,11 @@ class ViewerApp(PanelWidgets):
                     lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
                                                         radius=0.002))
         self._held_layers(x)
+        probe = c.probe.probe
+        self._layer("probe", probe is not None, None if probe is None else probe.center[None],
+                    lambda p: ps.register_point_cloud("probe", p, color=(0.7, 0.72, 0.78), material="wax"))
+        if probe is not None:
+            self._shown["probe"].set_radius(c.probe.radius, relative=False)
         fixed = c.brush.painted if c.brush.painting else c.solver.fixed
         self._layer("support", c.mode == "support" or c.support is not None, x[fixed],
                     lambda p: ps.register_point_cloud("support", p, color=(0.1, 0.3, 0.95), radius=0.006))

@@ -102,6 +102,7 @@ class SolverBuilding:
         pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         holding = self.held.moved_to(solver, stiffness=self.settings.stiffness, radius=self.settings.radius) \
             if carry else []
+        probe = self.probe.moved_to(solver) if carry else None
         force = np.zeros(3)
         if held is not None:
             pin.node, pin.anchor = held
@@ -114,6 +115,7 @@ class SolverBuilding:
             self.pointer_up()
         self.solver, self.pin, self.force = solver, pin, force
         self.held.adopt(holding)
+        self.probe.adopt(probe)
         self.scalpel, self._no_scalpel = scalpel, no_scalpel
         if self.scalpel is None and self.mode == "scalpel":
             self.mode = "pin"

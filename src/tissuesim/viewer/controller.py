@@ -10,6 +10,8 @@ with the wall time that passed. Everything else happens here, so it is tested wi
 * **a second hand**: a pin-head let go with the hold modifier (Shift in the window) keeps its load, clamped where it
   was let go (:class:`~.tools.HeldPins`), so the user can hold a fold and then grab again or cut beside it; X lets go
   of every held pin-head;
+* **probe mode**: a rigid sphere (:class:`~.tools.ProbeTool`) pressed where the pointer touches the surface and slid
+  across it while the button is down; with Shift on release it stays pressing;
 * **support mode**: a stroke paints the fixed region (:class:`~.tools.SupportBrush`); when it ends the solver is
   rebuilt over the same mesh with those vertices fixed (a region that leaves the body free is refused, saying why);
 * **scalpel mode** (§8.4): pointer down, move and up call ``Scalpel.press / move / release``, with the picked
@@ -39,14 +41,16 @@ from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead, checked_point
 from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
-from .tools import HeldPins, SupportBrush
+from .rays import camera_plane_point, unit_ray
+from .tools import BRUSH_EDGES, HeldPins, ProbeTool, SupportBrush
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
 BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picked point, toward the camera, so
 # that every sweep of the blade crosses the surface (a tip exactly on it would sweep only just below it)
+PROBE_EDGES = 3.0  # the probe's default radius in mean rest edge lengths: larger than the triangles it presses
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
-MODES = ("pin", "scalpel", "support")
+MODES = ("pin", "probe", "scalpel", "support")
 
 
 @dataclass(frozen=True)
@@ -63,34 +67,6 @@ class FrameStats:
     step_seconds: float
     behind: bool
     dropped: float
-
-
-def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
-    """``(3,)`` point [m] where the ray ``origin + t direction`` meets the plane through ``anchor`` facing it.
-
-    The plane's normal is the ray direction, so moving the cursor moves the point parallel to the screen. Returns
-    None when the anchor lies behind the camera; SolverError for a ray that is not 3 finite numbers, not all zero.
-    """
-    origin, anchor = checked_point(origin), checked_point(anchor)
-    direction = unit_ray(direction)
-    t = float(np.dot(anchor - origin, direction))
-    return None if t <= 0.0 else origin + t * direction
-
-
-def unit_ray(direction) -> np.ndarray:
-    """``direction`` ``(3,)`` of a camera ray as a unit vector, or SolverError (a window that hands over a zero or
-    NaN ray would otherwise put NaN into a drag or a blade)."""
-    try:
-        vector = np.asarray(direction, dtype=np.float64)
-    except (TypeError, ValueError):
-        vector = np.full(3, np.nan)
-    with np.errstate(over="ignore"):  # a ray of 1e200 is a direction all the same: scaled by its largest part
-        largest = float(np.max(np.abs(vector))) if vector.shape == (3,) else np.nan
-        if np.isfinite(largest) and largest > 0.0:
-            vector = vector / largest
-            return vector / np.linalg.norm(vector)
-    raise SolverError(f"the camera ray's direction must be 3 finite numbers, not all zero, got {direction!r}; "
-                      "the pointer event is ignored")
 
 
 def scalpel_class():
@@ -130,6 +106,7 @@ class Controller(SolverBuilding):
         self.solver_options = extra_options(solver_options)
         self.held = HeldPins()
         self.brush = SupportBrush(hybrid.surface)
+        self.probe = ProbeTool(radius=PROBE_EDGES * self.brush.radius / BRUSH_EDGES)
         self.support: np.ndarray | None = None
         self.clock = clock
         self._scalpel_factory = scalpel_class() if scalpel_factory is None else scalpel_factory
@@ -173,6 +150,8 @@ class Controller(SolverBuilding):
                 self.cursor, self.force = hit, np.zeros(3)
             elif self.mode == "support":
                 self.brush.paint(hit, self.solver.positions)
+            elif self.mode == "probe":
+                self.probe.press(self.solver, hit, ray_direction)
             else:
                 tip = self._lifted(hit, ray_direction)
                 self.last_cut = self.scalpel.press(tip)  # the blade along the inward normal there
@@ -188,6 +167,8 @@ class Controller(SolverBuilding):
         try:
             if self.mode == "pin":
                 self._drag_pin(hit, ray_origin, ray_direction)
+            elif self.mode == "probe":
+                self.probe.drag(ray_origin, ray_direction)
             elif self.mode == "support":
                 if self.brush.painting and hit is not None:
                     self.brush.paint(hit, self.solver.positions)
@@ -235,6 +216,8 @@ class Controller(SolverBuilding):
         elif self.mode == "support":
             if self.brush.painting:
                 self.set_support(self.brush.finish())
+        elif self.mode == "probe":
+            self.probe.let_go(hold=hold)
         elif self._cutting:
             self.last_cut = self.scalpel.release()
             self._cutting = False
@@ -267,8 +250,9 @@ class Controller(SolverBuilding):
         self.paused = not self.paused
 
     def release_held(self) -> None:
-        """Every pin-head left holding lets go."""
+        """Every pin-head left holding lets go, and the probe."""
         self.held.release_all()
+        self.probe.release()
 
     def reset(self) -> None:
         """Back to the uncut mesh at rest, without load."""
@@ -288,11 +272,13 @@ class Controller(SolverBuilding):
         while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
             start = self.clock()
             try:
+                self.probe.before_step()
                 self.solver.step(dt)
             except SolverError as error:  # a blow-up, or a mass-spring surface turned inside out: say so, restart
                 self.notice = str(error)
                 self.pin.release()
                 self.held.forget()
+                self.probe.adopt(None)
                 self.solver.reset()
                 self.force = np.zeros(3)
                 self._debt = 0.0

@@ -15,7 +15,7 @@ from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES
 
-MODE_LABELS = {"pin": "pin-head", "scalpel": "scalpel", "support": "support"}
+MODE_LABELS = {"pin": "pin-head", "probe": "probe", "scalpel": "scalpel", "support": "support"}
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 
@@ -34,11 +34,12 @@ class PanelWidgets:
         psim.PushItemWidth(PANEL_ITEM_WIDTH)
         if self.title:
             psim.TextUnformatted(self.title)
-        for mode in MODES:
+        for number, mode in enumerate(MODES):      # two to a row: four in one would run past the panel
             if psim.RadioButton(MODE_LABELS[mode], c.mode == mode):
                 c.set_mode(mode)
-            psim.SameLine()
-        psim.TextUnformatted("(S)")
+            if number % 2 == 0:
+                psim.SameLine()
+        psim.TextUnformatted("S: pin-head / scalpel")
         self._tools(psim)
         methods = list(available_solvers())
         changed, index = psim.Combo("method", methods.index(s.method), methods)
@@ -72,6 +73,8 @@ class PanelWidgets:
                 c.release_held()
         elif c.mode == "pin":
             psim.TextUnformatted("Shift + release: leave the pin-head holding")
+        if c.mode == "probe":
+            self._probe(psim, c.probe)
         if c.mode == "support":
             changed, brush_mm = psim.SliderFloat("brush [mm]", 1e3 * c.brush.radius, 1.0, 50.0, "%.1f")
             if changed:
@@ -82,6 +85,21 @@ class PanelWidgets:
                 if psim.Button("default support"):
                     c.set_support(None)
                     self._topology = None
+
+    @staticmethod
+    def _probe(psim, tool) -> None:
+        """The probe's radius and press depth, and its contact force."""
+        changed, radius_mm = psim.SliderFloat("probe radius [mm]", 1e3 * tool.radius, 1.0, 40.0, "%.1f")
+        if changed and not tool.pressing:     # a pressing probe keeps its size: let go first
+            tool.radius = 1e-3 * radius_mm
+        changed, depth_mm = psim.SliderFloat("press depth [mm]", 1e3 * tool.depth, 0.0, 1e3 * tool.radius, "%.1f")
+        if changed:
+            tool.depth = 1e-3 * depth_mm      # the next press
+        if tool.pressing:
+            psim.TextUnformatted(f"probe force {np.linalg.norm(tool.force):.3f} N on {tool.probe.contacts.size} "
+                                 "vertices")
+        else:
+            psim.TextUnformatted("press on the surface; Shift + release keeps it pressing")
 
     def _finite_strain(self, psim, s) -> None:
         """The material selector where the method has finite strain; a line saying so where it has not."""

@@ -93,3 +93,38 @@ def checked_settings(settings: Settings) -> Settings:
                                   check_prestrain(value)),
         near_field=None if near_field is None else _setting_number("near_field (near field W)", near_field, "m"),
         material=check_material(settings.material))
+
+
+#: The cursor's travel, as a fraction of the model's size, that loads the pin-head with the sized default force.
+DRAG_FRACTION = 0.1
+
+
+@dataclass(frozen=True)
+class SizedDefaults:
+    """The simulator's tool defaults for one model (:func:`sized_defaults`). SI units.
+
+    Attributes:
+        stiffness: pin-head k [N/m]: a drag of :data:`DRAG_FRACTION` of the model's size gives the default force of
+            :func:`tissuesim.mesh.sizes.load_defaults`, which keeps the answer in the small-strain range.
+        radius: the pin-head's (and the probe's) contact radius [m].
+        depth: the scalpel's blade length [m].
+        line: one sentence saying what was chosen and why.
+    """
+
+    stiffness: float
+    radius: float
+    depth: float
+    line: str
+
+
+def sized_defaults(points, *, youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3) -> SizedDefaults:
+    """Tool defaults sized to a model with rest points ``points`` ``(n, 3) float64`` [m] and the material's E [Pa]
+    and ν: the same reasoning as ``render`` and ``incise`` (:func:`~tissuesim.mesh.sizes.load_defaults`)."""
+    from ..mesh.sizes import load_defaults
+
+    loads = load_defaults(points, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
+    stiffness = float(f"{loads.force / (DRAG_FRACTION * loads.size):.3g}")
+    line = (f"pin-head k = {stiffness:.3g} N/m ({loads.force:.3g} N for a drag of {1e3 * DRAG_FRACTION * loads.size:.0f}"
+            f" mm) over a {1e3 * loads.radius:.3g} mm tip, blade {1e3 * loads.depth:.3g} mm: sized to the model "
+            f"({1e3 * loads.size:.0f} mm across) and E = {youngs_modulus:g} Pa, so that a drag stays in small strain")
+    return SizedDefaults(stiffness=stiffness, radius=loads.radius, depth=loads.depth, line=line)

@@ -5,7 +5,10 @@ the fixed region. Both are headless, driven by :class:`~tissuesim.viewer.control
   where it was let go, while the user grabs again or cuts beside it; each holds its own load on the solver
   (:class:`~tissuesim.solvers.load_set.ToolLoad`), so any number act together;
 * :class:`SupportBrush`: the vertices within a brush radius of the pointer, gathered over a stroke, become the
-  fixed region when the stroke ends (a new solver over the same mesh with ``fixed=`` those vertices).
+  fixed region when the stroke ends (a new solver over the same mesh with ``fixed=`` those vertices);
+* :class:`ProbeTool`: the rigid probe (:class:`~tissuesim.probe.Probe`) pressed where the pointer touches the
+  surface, :attr:`ProbeTool.depth` beyond it along the view, and slid in the plane facing the camera; its contact is
+  updated before every step.
 """
 
 from __future__ import annotations
@@ -14,10 +17,14 @@ import numpy as np
 
 from ..errors import SolverError
 from ..interaction import PinHead, checked_point
+from ..probe import Probe
 from ..solvers.checks import positive_number
+from .rays import camera_plane_point, unit_ray
 
 #: The support brush's default radius, in mean rest edge lengths of M_S.
 BRUSH_EDGES = 2.0
+#: How far the probe presses beyond the surface it touches, as a fraction of its radius (δ ≪ R: Hertz's range).
+PRESS_FRACTION = 0.3
 
 
 class HeldPins:
@@ -116,3 +123,81 @@ class SupportBrush:
         """End the stroke: returns its vertices ``(k,) int32`` and forgets them."""
         painted, self.painted = self.painted, np.zeros(0, dtype=np.int32)
         return painted
+
+
+class ProbeTool:
+    """The simulator's rigid sphere (see the module docstring).
+
+    Args:
+        radius: the probe's radius R [m].
+
+    Attributes:
+        radius: R [m]; depth: how far it presses beyond the surface point it was put on, along the view [m]
+            (default :data:`PRESS_FRACTION` × R).
+        probe: the :class:`~tissuesim.probe.Probe` pressing now, or None.
+        held: whether it was let go with the hold modifier (it presses on until pressed elsewhere or released).
+    """
+
+    def __init__(self, *, radius: float):
+        self.radius = positive_number("probe radius", radius, "m")
+        self.depth = PRESS_FRACTION * self.radius
+        self.probe: Probe | None = None
+        self.held = False
+
+    @property
+    def pressing(self) -> bool:
+        return self.probe is not None
+
+    @property
+    def force(self) -> np.ndarray:
+        """``(3,) float64`` the contact force on the probe [N] (zero when it does not press)."""
+        return np.zeros(3) if self.probe is None else self.probe.force
+
+    def press(self, solver, hit, ray_direction) -> None:
+        """Put the probe on ``solver``'s surface at ``hit`` ``(3,)`` [m], pressed :attr:`depth` into it along the
+        camera ray; refused (SolverError, nothing pressed) where the probe is smaller than the triangles there or
+        reaches the support."""
+        ray = unit_ray(ray_direction)
+        probe = Probe(solver, radius=self.radius)
+        probe.move_to(checked_point(hit) + (self.depth - self.radius) * ray)
+        self.release()
+        self.probe = probe
+
+    def let_go(self, *, hold: bool) -> None:
+        """The button was released: with ``hold`` the probe presses on where it is, else it is withdrawn (a held
+        probe stays: the release that ends a mode is no release of it)."""
+        if hold and self.probe is not None:
+            self.held = True
+        elif not self.held:
+            self.release()
+
+    def drag(self, ray_origin, ray_direction) -> None:
+        """Slide the probe to where the camera ray meets the plane through its centre facing the camera."""
+        if self.probe is None:
+            return
+        point = camera_plane_point(ray_origin, ray_direction, self.probe.center)
+        if point is not None:
+            self.probe.move_to(point)
+
+    def before_step(self) -> None:
+        """One contact update at the current positions (the step that follows moves the surface)."""
+        if self.probe is not None:
+            self.probe.update()
+
+    def release(self) -> None:
+        if self.probe is not None:
+            self.probe.release()
+        self.probe, self.held = None, False
+
+    def moved_to(self, solver) -> Probe | None:
+        """The pressing probe rebuilt on ``solver`` (a new solver over the same vertices), at the same place; the
+        live one is untouched (:meth:`adopt` swaps)."""
+        if self.probe is None:
+            return None
+        again = Probe(solver, radius=self.radius)
+        again.move_to(self.probe.center, self.probe.end)
+        return again
+
+    def adopt(self, probe: Probe | None) -> None:
+        self.probe = probe
+        self.held = self.held and probe is not None
