@@ -5,8 +5,11 @@ import json
 
 import meshio
 import numpy as np
+import pytest
 
 from tissuesim.cli import main
+from tissuesim.mesh.models import cube
+from tissuesim.mesh.sizes import load_defaults
 
 
 def _one_line(capsys, command: str) -> str:
@@ -44,7 +47,9 @@ def test_incise_holds_the_region_given_and_says_so(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "fixed: --fix plane:0,0,0.03:0,0,1 (" in err and "sized to a model 13.9 cm across" in err
     row, = json.loads((out / "incision.json").read_text())
-    assert row["stroke_mm"] == 20.8 and row["pull_N"] > 0
+    surface = cube(300)
+    sized = load_defaults(surface.vertices, edge_length=surface.mean_edge_length)
+    assert row["stroke_mm"] == pytest.approx(1e3 * sized.stroke, rel=1e-12) and 0 < row["pull_N"] <= sized.pull
     cut = meshio.read(out / "cube_embedded.vtu")
     moved = np.linalg.norm(cut.point_data["displacement"], axis=1)
     rest_height = cut.points[:, 2] - cut.point_data["displacement"][:, 2]

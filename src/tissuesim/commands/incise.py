@@ -139,7 +139,7 @@ def _source(spec: str, *, scale: float, resolution, repair: bool, fix: str):
         source = surface = load_mesh(spec, scale=scale, resolution=resolution, repair=repair)
     name = model_name(spec)
     fixed, held = fixed_option(fix, surface.vertices)
-    loads = load_defaults(surface.vertices)
+    loads = load_defaults(surface.vertices, edge_length=surface.mean_edge_length)
     _check_fits(name, surface, loads)
     return name, source, fixed, loads, f"tissuesim incise: {name}: {held}; {loads.describe()}"
 
@@ -232,8 +232,8 @@ def _one(model: str, method: str, hybrid, prestrain: float, *, fixed, loads,
            "control_released": sum(r.control_released for r in moves),
            "prestrain": prestrain if prestressed else 0.0, "stroke_mm": 1e3 * loads.stroke,
            "depth_mm": 1e3 * loads.depth, "pull_N": pull, "pull_offset_mm": 1e3 * loads.offset,
-           "unloaded_gap_mm": None if unloaded is None else [1e3 * float(np.median(unloaded)),
-                                                             1e3 * float(unloaded.max())],
+           "unloaded_gap_mm": None if unloaded is None or not unloaded.size else [1e3 * float(np.median(unloaded)),
+                                                                                  1e3 * float(unloaded.max())],
            "gap_mm": 1e3 * wound["gap"],
            "settled": wound["settled"], "steps": wound["steps"], "solve_s": time.perf_counter() - start,
            "beyond_linear": list(dict.fromkeys(beyond)),

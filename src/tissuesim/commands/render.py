@@ -142,8 +142,8 @@ def _sized(args, hybrid, name: str, *, force: float | None, radius_mm: float | N
 
     fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
     solver = make_solver(args.method, hybrid, fixed=fixed)
-    loads = load_defaults(solver.rest_positions, youngs_modulus=solver.youngs_modulus,
-                          poisson_ratio=solver.poisson_ratio)
+    loads = load_defaults(solver.rest_positions, edge_length=hybrid.surface.mean_edge_length,
+                          youngs_modulus=solver.youngs_modulus, poisson_ratio=solver.poisson_ratio)
     if radius_mm is not None:
         loads = replace(loads, radius=1e-3 * radius_mm)
     notes = []

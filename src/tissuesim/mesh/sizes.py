@@ -40,6 +40,10 @@ STROKE_FRACTION = 0.15              # 21 mm on the cube, 39 mm on the liver; a q
 DEPTH_FRACTION = 0.06               # the cut's depth below the top: 8 mm on the cube, 12 mm on the 25 mm steak
 PULL_OFFSET_FRACTION = 0.025        # the pull's distance beside the cut: a sixth of the stroke, as 5 mm of 30 mm
 PULL_DENT_FRACTION = 0.01           # the pull opens the wound by about this fraction of L over its offset
+#: Floors in mean edge lengths of the surface, for a coarse mesh: a pin-head that covers a few nodes (one node is a
+#: point load, whose answer depends on the mesh), and a stroke that crosses a few edges (a shorter one may cut none).
+RADIUS_EDGES = 1.5
+STROKE_EDGES = 3.0
 #: The largest displacement a default load may cause, as a fraction of the model's size: half of where linear
 #: elasticity stops (0.1, ``Solver.warning``), so a picture drawn with the defaults is a small-strain one.
 DISPLACEMENT_CAP = 0.05
@@ -124,23 +128,28 @@ class LoadDefaults:
                 "range")
 
 
-def load_defaults(points, *, youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3) -> LoadDefaults:
-    """The default loads and tool sizes for a model with rest points ``points`` ``(n, 3) float64`` [m] of a material
-    with Young's modulus ``youngs_modulus`` [Pa] and Poisson ratio ``poisson_ratio``.
+def load_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
+                  poisson_ratio: float = 0.3) -> LoadDefaults:
+    """The default loads and tool sizes for a model with rest points ``points`` ``(n, 3) float64`` [m] and surface
+    mean edge length ``edge_length`` [m] (``SurfaceMesh.mean_edge_length``; 0: no floor), of a material with
+    Young's modulus ``youngs_modulus`` [Pa] and Poisson ratio ``poisson_ratio``.
 
-    Lengths are fractions of the size L; each force dents an elastic half-space by a fixed fraction of L under its
-    tip (Boussinesq, module docstring): ``force`` by :data:`DENT_FRACTION` under ``radius``, ``pull`` by
+    Lengths are fractions of the size L, the radius and the stroke at least :data:`RADIUS_EDGES` and
+    :data:`STROKE_EDGES` edges; each force dents an elastic half-space by a fixed fraction of L under its tip
+    (Boussinesq, module docstring): ``force`` by :data:`DENT_FRACTION` under ``radius``, ``pull`` by
     :data:`PULL_DENT_FRACTION` under a tip of ``offset``. A finite body held at its bottom moves somewhat more than
-    a half-space; the tests check the small-strain range with the solvers' own warning.
+    a half-space, and a body held on a small patch much more (:func:`fitted_force`); the tests check the
+    small-strain range with the solvers' own warning.
     """
     size = model_size(points)
     if not size > 0.0:
         raise MeshError("the model has no extent (all its points coincide), so no load can be sized to it")
     compliance = 2.0 * (1.0 - poisson_ratio**2) / (math.pi * youngs_modulus)     # u a / F of the disc [m²/N]
-    radius = CONTACT_RADIUS_FRACTION * size
+    radius = max(CONTACT_RADIUS_FRACTION * size, RADIUS_EDGES * edge_length)
     offset = PULL_OFFSET_FRACTION * size
+    stroke = max(STROKE_FRACTION * size, STROKE_EDGES * edge_length)
     return LoadDefaults(size=size, force=_rounded(DENT_FRACTION * size * radius / compliance),
-                        radius=_rounded(radius), stroke=_rounded(STROKE_FRACTION * size),
+                        radius=_rounded(radius), stroke=_rounded(stroke),
                         depth=_rounded(DEPTH_FRACTION * size),
                         pull=_rounded(PULL_DENT_FRACTION * size * offset / compliance), offset=_rounded(offset))
 
