@@ -132,3 +132,14 @@ def test_a_pin_head_grabs_drags_and_lets_go_as_its_path_says(tmp_path):
     assert tool.tool.calls == [("grab", [0.0, 0.0, 0.0]), ("drag", [0.0, 0.0, 0.0]), ("drag", [0.01, 0.0, 0.0]),
                                ("drag", [0.02, 0.0, 0.0]), ("release",)]
     assert not tool.pressed and tool.force is None
+
+
+def test_a_capsule_probe_carries_its_shaft_along_its_path(tmp_path):
+    loaded = _scene(MINIMAL + '[[tools]]\nkind = "probe"\nradius = 0.005\nshaft = [0.0, 0.0, 0.05]\n'
+                              'path = [{time = 0.0, position = [0, 0, 0.09]}, {time = 0.1, position = [0.01, 0, 0.09]},'
+                              ' {time = 0.2, position = [0.01, 0, 0.09], pressed = false}]\n', tmp_path)
+    tool = ScriptedTool(loaded.scene.tools[0], _Recorder(), name="probe")
+    for time in (0.0, 0.05, 0.2):
+        tool.update(time)
+    assert tool.tool.calls == [("move_to", [0.0, 0.0, 0.09], [0.0, 0.0, 0.14]),
+                               ("move_to", [0.005, 0.0, 0.09], [0.005, 0.0, 0.14]), ("release",)]
