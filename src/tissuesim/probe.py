@@ -1,2 +1,285 @@
 """A rigid probe (a sphere, or a capsule: a probe tip or an instrument shaft) that pushes the surface by
-frictionless unilateral contact."""
+frictionless unilateral contact.
+
+    probe = Probe(solver, radius=0.005)                 # a sphere of 5 mm
+    positions = probe.press_static([0, 0, 0.0395])      # static equilibrium with the probe held there
+    probe.force                                         # (3,) N on the probe, equal and opposite to the tissue's
+    probe.move_to(center, end=tip)                      # a capsule from center to tip: one contact update
+    solver.step()
+
+The contact acts on the surface's vertices: vertex i at x_i has the gap g_i = |x_i − p_i| − R to the probe (p_i
+the nearest point of its core: the centre, or the segment of a capsule) and is pushed along n_i = (x_i − p_i)/|·|
+by a force λ_i n_i, λ_i ≥ 0 (push only, no friction), each vertex's force a load of its own on the solver
+(:meth:`~tissuesim.solvers.base.Solver.add_load`), beside any other tool's. The forces solve the complementarity
+conditions λ ≥ 0, g ≥ 0, λ·g = 0, to :attr:`Probe.tolerance` [m] in the residual max |min(λ_i w_ii, g_i)|.
+
+Algorithm (a semi-smooth Newton iteration with an approximate Jacobian): each iteration takes the gaps of the
+vertices near the probe (the active set is found again each time), predicts their motion under a change of the
+forces by the normal compliance W of an elastic half-space of the solver's E and ν (Boussinesq,
+:func:`~tissuesim.probe_contact.half_space_compliance`, times a scalar learned by secant from the solver's own
+answers), solves that linear complementarity problem exactly (:func:`~tissuesim.probe_contact.complementary_forces`)
+and applies the forces; one solve of the solver then gives the true gaps. The converged answer is the solver's own
+equilibrium under contact: the model only sets how fast it is reached, so it does not change with dt, the
+iteration caps or the masses. :meth:`Probe.press_static` iterates to the tolerance (methods whose step is a static
+solve take one step per iteration; the others step until settled). The interactive path is one contact update per
+:meth:`Probe.move_to` or :meth:`Probe.update`, each followed by the caller's ``solver.step()``.
+
+Contact on vertices only lets the surface between vertices cut into the probe: a triangle of circumradius ρ lets a
+sphere of radius R sink R − √(R² − ρ²) ≈ ρ²/2R before any vertex touches it. A probe no larger than the triangles
+under it (ρ ≥ R) could pass between vertices, so :meth:`Probe.move_to` refuses it there; where the sink exceeds
+:data:`SINK_WARNING` × R it warns once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import BoundaryConditionError, SolverError, first_indices, warn
+from .probe_contact import (complementary_forces, gaps_and_normals, half_space_compliance, undetected_depth,
+                            vertex_spans)
+from .solvers.checks import is_integer, positive_number
+from .solvers.state import remaining_error
+
+#: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
+TOLERANCE_FRACTION = 1e-3
+#: Vertices whose gap is below this fraction of R are the candidates of each contact update.
+MARGIN_FRACTION = 0.5
+#: A warning when the surface between vertices can sink this fraction of R into the probe undetected.
+SINK_WARNING = 0.05
+DEFAULT_MAX_ITERATIONS = 60
+DEFAULT_MAX_STEPS = 20000
+#: Bounds of the secant scale of the half-space model (the solver's compliance over Boussinesq's).
+SCALE_RANGE = (1e-3, 1e3)
+
+
+class Probe:
+    """A rigid sphere or capsule of radius R pressing a solver's surface (see the module docstring).
+
+    Args:
+        solver: any :class:`~tissuesim.solvers.base.Solver`.
+        radius: R [m], positive.
+        tolerance: largest complementarity residual [m] a static press accepts; default
+            :data:`TOLERANCE_FRACTION` × R.
+
+    Attributes:
+        center: ``(3,) float64`` the sphere's centre or the capsule's first end [m], or None (not placed).
+        end: ``(3,) float64`` the capsule's second end [m], or None (a sphere).
+        scale: the solver's normal compliance over the half-space model's, learned by :meth:`press_static`.
+        iterations, steps, residual: of the last :meth:`press_static`: Newton iterations, solver steps, and the
+            final residual [m].
+    """
+
+    def __init__(self, solver, *, radius: float, tolerance: float | None = None):
+        for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads", "step"):
+            if not hasattr(solver, needed):
+                raise SolverError(f"Probe needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
+        self.solver = solver
+        self.radius = positive_number("probe radius", radius, "m")
+        self.tolerance = (TOLERANCE_FRACTION * self.radius if tolerance is None
+                          else positive_number("contact tolerance", tolerance, "m"))
+        self.center: np.ndarray | None = None
+        self.end: np.ndarray | None = None
+        self.scale = 1.0
+        self.iterations, self.steps, self.residual = 0, 0, np.inf
+        self._loads: dict[int, object] = {}     # vertex -> its Load handle on the solver
+        self._surface = None                    # the surface the cached arrays below belong to
+        self._spans = self._areas = None
+        self._warned = False
+
+    # ------------------------------------------------------------------------------------------------ reading
+    @property
+    def force(self) -> np.ndarray:
+        """``(3,) float64`` the contact force on the probe [N]: minus the sum of what it puts on the tissue."""
+        self._forget_withdrawn()
+        total = np.zeros(3)
+        for load in self._loads.values():
+            total -= load.force
+        return total
+
+    @property
+    def contacts(self) -> np.ndarray:
+        """``(k,) int64`` sorted surface vertices the probe pushes now."""
+        self._forget_withdrawn()
+        return np.array(sorted(self._loads), dtype=np.int64)
+
+    def gaps(self) -> np.ndarray:
+        """``(n,) float64`` each surface vertex's gap to the probe at the current positions [m] (negative: inside)."""
+        self._require_placed()
+        return gaps_and_normals(self.solver.positions, self.center, self.end, self.radius)[0]
+
+    # ----------------------------------------------------------------------------------------------- driving
+    def move_to(self, center, end=None) -> np.ndarray:
+        """Move the probe: a sphere at ``center`` ``(3,)`` [m], or with ``end`` ``(3,)`` [m] a capsule from
+        ``center`` to ``end``; one contact update at the current positions (call ``solver.step()`` next). Returns
+        :attr:`force`. Refused (SolverError, nothing changed) where the probe is no larger than the triangles
+        under it or would reach the fixed region."""
+        self._place(center, end)
+        self.update()
+        return self.force
+
+    def update(self) -> None:
+        """One contact update at the probe's place and the current positions: the vertices near it found again,
+        their forces from one Newton step (see the module docstring). A held probe calls it each frame."""
+        self._require_placed()
+        self._newton_step()
+
+    def press_static(self, center, end=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
+                     max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
+        """``(n, 3) float64`` the surface at static equilibrium with the probe held at ``center`` (a capsule to
+        ``end``) [m], every other load acting too; the probe's loads stay applied (read :attr:`force`).
+
+        Iterates contact updates and solves until the complementarity residual is within :attr:`tolerance`;
+        between two updates a method whose step is not a static solve steps until the remaining motion is below a
+        tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first."""
+        for name, value in (("max_iterations", max_iterations), ("max_steps", max_steps)):
+            if not is_integer(value) or value < 1:
+                raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
+        self._place(center, end)
+        self.steps = 0
+        for iteration in range(1, int(max_iterations) + 1):
+            nodes, gaps, predicted = self._newton_step()
+            self.steps += self._solve(int(max_steps))
+            self._learn_scale(nodes, gaps, predicted)
+            self.iterations, self.residual = iteration, self._residual()
+            if self.residual <= self.tolerance:
+                return self.solver.positions.copy()
+        raise SolverError(
+            f"the probe's contact did not converge in {max_iterations} iterations (residual "
+            f"{self.residual:.3g} m, tolerance {self.tolerance:.3g} m); raise max_iterations or the tolerance")
+
+    def release(self) -> None:
+        """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
+        self._set_forces(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
+        self.center = self.end = None
+
+    # ------------------------------------------------------------------------------------------ contact update
+    def _newton_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One contact update; returns ``(candidates (k,), their gaps before (k,) [m], predicted gaps (k,) [m])``."""
+        solver = self.solver
+        self._forget_withdrawn()
+        gaps, normals = gaps_and_normals(solver.positions, self.center, self.end, self.radius)
+        nodes = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
+        nodes = nodes[~np.isin(nodes, solver.fixed)]
+        held = np.array([float(np.linalg.norm(self._loads[i].force)) if i in self._loads else 0.0 for i in nodes])
+        compliance = self._compliance(nodes)
+        forces = complementary_forces(compliance, gaps[nodes], held)
+        pushed = forces > 0.0
+        self._set_forces(nodes[pushed], forces[pushed, None] * normals[nodes[pushed]])
+        return nodes, gaps[nodes], gaps[nodes] + compliance @ (forces - held)
+
+    def _compliance(self, nodes: np.ndarray) -> np.ndarray:
+        """``(k, k)`` the scaled half-space model of ``nodes`` [m/N]."""
+        solver = self.solver
+        return self.scale * half_space_compliance(solver.rest_positions[nodes], self._areas[nodes],
+                                                  solver.youngs_modulus, solver.poisson_ratio)
+
+    def _set_forces(self, nodes: np.ndarray, forces: np.ndarray) -> None:
+        """The probe's loads: ``forces`` ``(k, 3)`` [N] on ``nodes`` ``(k,)``, none elsewhere."""
+        solver = self.solver
+        self._forget_withdrawn()
+        keep = set(int(i) for i in nodes)
+        for node in [i for i in self._loads if i not in keep]:
+            solver.remove_load(self._loads.pop(node))
+        for node, force in zip(nodes, forces):
+            node = int(node)
+            if node in self._loads:
+                solver.move_load(self._loads[node], force=force)
+            else:
+                self._loads[node] = solver.add_load(node, force)
+
+    def _forget_withdrawn(self) -> None:
+        """Drop the handles of loads that no longer act (a reset or ``set_load`` elsewhere withdrew them)."""
+        acting = {id(load) for load in self.solver.loads}
+        self._loads = {node: load for node, load in self._loads.items() if id(load) in acting}
+
+    def _residual(self) -> float:
+        """max |min(λ_i w_ii, g_i)| [m] over the vertices near the probe: a gap where no force acts, the force's
+        own dimple where a vertex is pushed but left the probe."""
+        gaps = self.gaps()
+        residual = np.minimum(gaps, 0.0)
+        for node, load in self._loads.items():
+            own = float(self._compliance(np.array([node]))[0, 0]) * float(np.linalg.norm(load.force))
+            residual[node] = min(own, gaps[node])
+        return float(np.abs(residual).max())
+
+    def _learn_scale(self, nodes: np.ndarray, before: np.ndarray, predicted: np.ndarray) -> None:
+        """Secant update of :attr:`scale` from the gaps' true change over the model's prediction."""
+        if nodes.size == 0:
+            return
+        model = predicted - before
+        true = self.gaps()[nodes] - before
+        norm = float(model @ model)
+        if norm > 0.0:
+            self.scale = float(np.clip(self.scale * float(true @ model) / norm, *SCALE_RANGE))
+
+    def _solve(self, max_steps: int) -> int:
+        """The solver's equilibrium under the loads acting: one step of a static method, else steps until the
+        remaining motion is below a tenth of the tolerance; returns the steps taken."""
+        solver = self.solver
+        if getattr(solver, "static", False):
+            solver.step()
+            return 1
+        previous = solver.positions.copy()
+        motions = []
+        for steps in range(1, max_steps + 1):
+            solver.step()
+            motions.append(float(np.abs(solver.positions - previous).max()))
+            previous[:] = solver.positions
+            if motions[-1] == 0.0 or remaining_error(motions) <= 0.1 * self.tolerance:
+                return steps
+        raise SolverError(f"the {solver.name} solver did not settle under the probe within {max_steps} steps "
+                          f"(last step moved {motions[-1]:.3g} m); raise max_steps or the solver's damping")
+
+    # ------------------------------------------------------------------------------------------------ placing
+    def _place(self, center, end) -> None:
+        """Check and take the probe's place (nothing changes when refused)."""
+        center = _point("probe centre", center)
+        end = None if end is None else _point("capsule end", end)
+        self._refresh_surface()
+        gaps = gaps_and_normals(self.solver.positions, center, end, self.radius)[0]
+        near = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
+        held = np.intersect1d(near[gaps[near] < 0.0], self.solver.fixed)
+        if held.size:
+            raise BoundaryConditionError(
+                f"the probe reaches the fixed region: {held.size} fixed vertices lie inside it (first: "
+                f"{first_indices(held)}), which no force can move; keep the probe away from the support")
+        self._check_resolution(near if near.size else np.array([int(np.argmin(gaps))]))
+        self.center, self.end = center, end
+
+    def _check_resolution(self, nodes: np.ndarray) -> None:
+        """Refuse a probe no larger than the triangles under it; warn once where they can sink into it."""
+        span = float(self._spans[nodes].max())
+        if span >= self.radius:
+            raise SolverError(
+                f"the probe (radius {self.radius:.3g} m) is no larger than the surface's triangles under it "
+                f"(circumradius up to {span:.3g} m): it could pass between their vertices; use a radius above "
+                f"{span:.3g} m or a finer surface")
+        sink = undetected_depth(span, self.radius)
+        if sink > SINK_WARNING * self.radius and not self._warned:
+            self._warned = True
+            warn(f"the surface's triangles under the probe (circumradius up to {span:.3g} m) can sink "
+                 f"{sink:.3g} m ({100 * sink / self.radius:.0f} % of its radius) into it between vertices; use a "
+                 f"radius of at least {span / np.sqrt(1 - (1 - SINK_WARNING) ** 2):.3g} m or a finer surface")
+
+    def _refresh_surface(self) -> None:
+        """Per-vertex triangle spans and areas of the solver's surface (again after a cut swapped it)."""
+        surface = self.solver.hybrid.surface
+        if surface is not self._surface:
+            self._surface = surface
+            self._spans = vertex_spans(surface.vertices, surface.triangles)
+            self._areas = self.solver.lumped_areas()
+
+    def _require_placed(self) -> None:
+        if self.center is None:
+            raise SolverError("the probe is not placed; call move_to(center) or press_static(center) first")
+
+
+def _point(name: str, point) -> np.ndarray:
+    """``point`` as a new ``(3,) float64`` array [m], or a SolverError naming it."""
+    try:
+        point = np.array(point, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SolverError(f"the {name} must be 3 coordinates [m], got {point!r}") from None
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise SolverError(f"the {name} must be 3 finite coordinates [m], got {point!r}")
+    return point

@@ -14,7 +14,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from scipy.spatial import ConvexHull
+from scipy.spatial import ConvexHull, Delaunay
 
 from ..errors import MeshError
 from .surface import SurfaceMesh
@@ -103,6 +103,82 @@ def steak(resolution: int = DEFAULT_RESOLUTION["steak"]) -> SurfaceMesh:
         return 0.5 * (lo + hi)
 
     return _star_shaped(radius, resolution)
+
+
+def indentation_block(*, width: float = 0.08, height: float = 0.04, fine_edge: float = 0.5e-3,
+                      fine_radius: float = 3e-3, coarse_edge: float = 8e-3, growth: float = 1.25) -> SurfaceMesh:
+    """A block for indentation tests: ``width`` × ``width`` × ``height`` [m], centred over the origin in x and y,
+    resting on z = 0, whose top face is graded fine around its centre and coarse far from it.
+
+    The top face is triangulated (Delaunay) from rings about its centre: ring spacing and the spacing along each ring
+    are ``fine_edge`` [m] out to ``fine_radius`` [m], then grow by ``growth`` per ring up to ``coarse_edge`` [m];
+    the rest of the top, the sides and the bottom are grids of ``coarse_edge``. So a contact of radius a at the
+    centre spans a / ``fine_edge`` edges while the block stays thick and wide compared with a (Hertz's half-space)
+    at a few thousand vertices. TetGen grades the volume from the surface.
+    """
+    for name, value in (("width", width), ("height", height), ("fine_edge", fine_edge),
+                        ("fine_radius", fine_radius), ("coarse_edge", coarse_edge)):
+        if not np.isfinite(value) or value <= 0.0:
+            raise MeshError(f"indentation block: {name} must be a positive number of metres, got {value!r}")
+    if not fine_edge <= coarse_edge <= min(width, height) / 2 or fine_radius >= width / 2 - 2 * coarse_edge:
+        raise MeshError(
+            f"indentation block: need fine_edge ≤ coarse_edge ≤ half the smaller side and fine_radius < width/2 − "
+            f"2 coarse_edge, got fine_edge {fine_edge:g}, coarse_edge {coarse_edge:g}, fine_radius {fine_radius:g}, "
+            f"width {width:g}, height {height:g} m; shrink the fine patch or the coarse edge")
+    if not 1.0 < growth <= 2.0:
+        raise MeshError(f"indentation block: growth is a ratio in (1, 2], got {growth!r}")
+    half = width / 2
+    across = _edge_points(-half, half, coarse_edge)
+    up = _edge_points(0.0, height, coarse_edge)
+    faces = [
+        (_top_points(half, across, fine_edge, fine_radius, coarse_edge, growth), (0, 1, 2), height, +1),
+        (_grid(across, across), (0, 1, 2), 0.0, -1),
+        (_grid(across, up), (0, 2, 1), -half, -1),
+        (_grid(across, up), (0, 2, 1), half, +1),
+        (_grid(across, up), (1, 2, 0), -half, -1),
+        (_grid(across, up), (1, 2, 0), half, +1),
+    ]
+    points, triangles, offset = [], [], 0
+    for plane, (a, b, normal), level, side in faces:
+        tri = Delaunay(plane).simplices.astype(np.int64)
+        face = np.empty((len(plane), 3))
+        face[:, a], face[:, b], face[:, normal] = plane[:, 0], plane[:, 1], level
+        e1, e2 = face[tri[:, 1]] - face[tri[:, 0]], face[tri[:, 2]] - face[tri[:, 0]]
+        outward = np.cross(e1, e2)[:, normal] * side > 0
+        triangles.append(np.where(outward[:, None], tri, tri[:, ::-1]) + offset)
+        points.append(face)
+        offset += len(plane)
+    vertices, triangles = _merge(np.concatenate(points), np.concatenate(triangles))
+    return SurfaceMesh(vertices, triangles)
+
+
+def _edge_points(lo: float, hi: float, spacing: float) -> np.ndarray:
+    """``(k,) float64`` evenly spaced coordinates from ``lo`` to ``hi`` [m], at most ``spacing`` apart."""
+    return np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / spacing - 1e-9)) + 1))
+
+
+def _grid(u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """``(len(u) len(v), 2) float64`` the tensor grid of coordinates ``u`` and ``v``."""
+    a, b = np.meshgrid(u, v, indexing="ij")
+    return np.stack([a.ravel(), b.ravel()], axis=1)
+
+
+def _top_points(half, across, fine_edge, fine_radius, coarse_edge, growth) -> np.ndarray:
+    """The top face's points ``(k, 2)`` [m]: the boundary grid, rings about the centre (graded, see
+    :func:`indentation_block`), and the coarse grid beyond the last ring."""
+    rings, radius, spacing, turn = [np.zeros((1, 2))], 0.0, fine_edge, 0.0
+    while radius + spacing < half - 1.5 * coarse_edge:
+        radius += spacing
+        count = max(6, int(round(2 * np.pi * radius / spacing)))
+        turn += 0.5 * 2 * np.pi / count     # stagger neighbouring rings, so no spokes line up
+        angles = turn + 2 * np.pi * np.arange(count) / count
+        rings.append(radius * np.stack([np.cos(angles), np.sin(angles)], axis=1))
+        if radius >= fine_radius:
+            spacing = min(spacing * growth, coarse_edge)
+    grid = _grid(across, across)
+    on_boundary = np.any(np.isclose(np.abs(grid), half), axis=1)
+    beyond = np.linalg.norm(grid, axis=1) > radius + 0.75 * coarse_edge
+    return np.concatenate([*rings, grid[on_boundary | beyond]])
 
 
 MODELS: dict[str, Callable[..., SurfaceMesh]] = {"cube": cube, "sphere": sphere, "liver": liver, "steak": steak}
