@@ -1,6 +1,6 @@
 """Material presets for common soft tissues: Young's modulus, Poisson's ratio and density, each with its source.
 
-    options = preset_options("liver")           # {"youngs_modulus": 4100.0, "poisson_ratio": 0.45, "density": 1060.0}
+    options = preset_options("liver")   # {"youngs_modulus": 4100.0, "poisson_ratio": 0.45, "density": 1060.0}
     solver = make_solver("hybrid", hybrid, **options)
 
 The default material stays the paper's (E = 5.5 kPa, ν = 0.3, :mod:`tissuesim.fem.material`); a preset is chosen.
