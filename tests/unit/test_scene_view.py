@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.commands.view import SETTINGS_FIELDS, _scene_settings
+from tissuesim.commands.view import SETTINGS_FIELDS, _scene_probe, _scene_scalpel, _scene_settings
 from tissuesim.mesh.regions import fixed_region
 from tissuesim.scene import parse_scene, solver_options
 
@@ -26,6 +26,12 @@ fixed = { plane = { point = [0.0, 0.0, 0.07], normal = [0.0, 0.0, -1.0] } }
 kind = "pin-head"
 stiffness = 80.0
 radius = 0.01
+[[tools]]
+kind = "probe"
+radius = 0.012
+[[tools]]
+kind = "scalpel"
+depth = 0.007
 [run]
 dt = 0.005
 """
@@ -49,8 +55,12 @@ def test_the_controller_gets_the_scene(tmp_path, hybrid):
         "pbd", 11100.0, 0.45, 0.005, 15)
     assert (settings.stiffness, settings.radius) == (80.0, 0.01)           # the first pin-head's
     extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
-    controller = Controller(hybrid, settings=settings, solver_options=extra)
+    controller = Controller(hybrid, settings=settings, solver_options=extra, scalpel_factory=_scene_scalpel(loaded))
+    _scene_probe(loaded, controller)
     solver = controller.solver
+    assert controller.probe.radius == 0.012                                  # the first probe's
+    controller.set_mode("scalpel")
+    assert controller.scalpel.depth == 0.007                                 # the first scalpel's
     held = fixed_region({"plane": {"point": [0.0, 0.0, 0.07], "normal": [0.0, 0.0, -1.0]}}, hybrid.surface.vertices)
     assert np.array_equal(solver.fixed, held) and solver.rest_positions[solver.fixed, 2].min() >= 0.07
     assert np.allclose(solver.gravity, [0.0, 0.0, -9.81], rtol=0, atol=0)

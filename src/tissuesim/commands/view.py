@@ -2,7 +2,7 @@
 
 MODEL is a built-in model (default: liver), a surface file, a saved hybrid bundle or a scene file (``.toml``, see
 ``docs/scenes.md``): a scene sets the model, material, method, supports and gravity, and its first pin-head's
-stiffness and radius. ``--record FILE.pvd`` records
+stiffness and radius, its first probe's radius and its first scalpel's depth. ``--record FILE.pvd`` records
 the session for ParaView (a frame whenever something moved); ``--replay FILE.pvd`` plays a recording back instead of
 simulating.
 """
@@ -125,7 +125,8 @@ def _run_scene(args: argparse.Namespace) -> int:
     options = solver_options(loaded, hybrid)
     settings = _scene_settings(loaded, options)
     extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
-    controller = Controller(hybrid, settings=settings, solver_options=extra)
+    controller = Controller(hybrid, settings=settings, solver_options=extra, scalpel_factory=_scene_scalpel(loaded))
+    _scene_probe(loaded, controller)
     title = loaded.scene.title or f"{name}: {hybrid.surface.vertex_count} M_S nodes"
     app = ViewerApp(controller, title=title, record=record)
     try:
@@ -145,8 +146,32 @@ def _scene_settings(loaded, options: dict):
     """The viewer's Settings from a scene's solver ``options`` and its first pin-head (stiffness, radius)."""
     from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings
 
-    pins = [tool for tool in loaded.scene.tools if tool.kind == "pin-head"]
+    pin = _first(loaded, "pin-head")
     fields = {key: options[key] for key in SETTINGS_FIELDS if key in options}
     return checked_settings(Settings(method=loaded.scene.method.name,
-                                     stiffness=pins[0].stiffness if pins else DEFAULT_STIFFNESS,
-                                     radius=pins[0].radius if pins else None, **fields))
+                                     stiffness=DEFAULT_STIFFNESS if pin is None else pin.stiffness,
+                                     radius=None if pin is None else pin.radius, **fields))
+
+
+def _first(loaded, kind: str):
+    """The scene's first tool of ``kind``, or None."""
+    return next((tool for tool in loaded.scene.tools if tool.kind == kind), None)
+
+
+def _scene_scalpel(loaded):
+    """The controller's scalpel factory for the scene's first scalpel with a depth, else None (the default)."""
+    spec = _first(loaded, "scalpel")
+    if spec is None or spec.depth is None:
+        return None
+    from ..scalpel import Scalpel
+
+    return lambda solver: Scalpel(solver, depth=spec.depth)
+
+
+def _scene_probe(loaded, controller) -> None:
+    """The simulator's probe takes the radius of the scene's first probe."""
+    from ..viewer.tools import ProbeTool
+
+    spec = _first(loaded, "probe")
+    if spec is not None:
+        controller.probe = ProbeTool(radius=spec.radius)
