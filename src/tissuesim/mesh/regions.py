@@ -73,7 +73,8 @@ def nodes_in_box(points: np.ndarray, lower, upper) -> np.ndarray:
     if selected.size == 0:
         raise BoundaryConditionError(
             f"no node lies in the box {lower.tolist()}..{upper.tolist()} m; the points span "
-            f"{points.min(axis=0).tolist()}..{points.max(axis=0).tolist()} m"
+            f"{points.min(axis=0).tolist()}..{points.max(axis=0).tolist()} m: move or enlarge the box (in metres, "
+            "after any scale) to take part of the surface"
         )
     return selected
 
