@@ -72,3 +72,15 @@ def test_an_option_the_scene_sets_is_refused_beside_it(tmp_path, capsys):
     assert main(["view", str(tmp_path / "scene.toml"), "--method", "fem"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--method is set by the scene file" in err
+
+
+def test_a_bad_fix_is_refused_before_the_mesh_is_built(capsys):
+    assert main(["view", "cube", "--fix", "box:0,0:1,1,1"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--fix 'box:0,0:1,1,1'" in err and "building" not in err
+
+
+def test_a_scene_holds_its_own_region(tmp_path, capsys):
+    (tmp_path / "scene.toml").write_text(SCENE)
+    assert main(["view", str(tmp_path / "scene.toml"), "--fix", "bottom:0.2"]) == 1
+    assert "--fix is set by the scene file" in capsys.readouterr().err

@@ -2,9 +2,9 @@
 
 MODEL is a built-in model (default: liver), a surface file, a saved hybrid bundle or a scene file (``.toml``, see
 ``docs/scenes.md``): a scene sets the model, material, method, supports and gravity, and its first pin-head's
-stiffness and radius, its first probe's radius and its first scalpel's depth. ``--record FILE.pvd`` records
-the session for ParaView (a frame whenever something moved); ``--replay FILE.pvd`` plays a recording back instead of
-simulating.
+stiffness and radius, its first probe's radius and its first scalpel's depth. ``--fix REGION`` holds another region
+than the bottom tenth (:mod:`.fixing`). ``--record FILE.pvd`` records the session for ParaView (a frame whenever
+something moved); ``--replay FILE.pvd`` plays a recording back instead of simulating.
 """
 
 from __future__ import annotations
@@ -12,6 +12,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
 
 HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
 
@@ -32,6 +34,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--near-field", type=float, default=None, metavar="MM",
                         help="the hybrid's near field: M_S nodes within MM millimetres of the contact follow quadratic "
                              "tets on the fine volume (e.g. 15; default off)")
+    add_fix_argument(parser)
     parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
                         help="record the session as a ParaView series (FILE.pvd + FILE_frames/; a frame whenever "
                              "something moved; an old recording of that name is replaced at the end)")
@@ -84,11 +87,14 @@ def run(args: argparse.Namespace) -> int:
     near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
     settings = checked_settings(Settings(method=args.method, stiffness=stiffness, prestrain=args.prestrain,
                                          near_field=near_field))
+    check_fix(args.fix)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
     print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
-    controller = Controller(hybrid, settings=settings)
+    fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
+    print(held, file=sys.stderr)
+    controller = Controller(hybrid, settings=settings, solver_options=None if fixed is None else {"fixed": fixed})
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
     try:
         app.run()
@@ -100,7 +106,7 @@ def run(args: argparse.Namespace) -> int:
 
 #: Options of this command that a scene file sets itself, with their defaults (a changed one is refused).
 SCENE_SETS = {"method": "hybrid", "scale": 1.0, "repair": False, "resolution": None, "stiffness": None,
-              "prestrain": 0.0, "near_field": None}
+              "prestrain": 0.0, "near_field": None, "fix": DEFAULT_FIX}
 
 
 def _run_scene(args: argparse.Namespace) -> int:
