@@ -131,3 +131,26 @@ def test_an_empty_output_is_refused_not_taken_as_the_current_folder(tmp_path, mo
     assert main(["render", "cube", "--resolution", "300", "--output", ""]) == 1
     assert "output path is empty" in _one_line_error(capsys)
     assert list(tmp_path.iterdir()) == []
+
+
+@needs_opengl
+def test_render_says_the_region_held_and_the_sized_loads_and_uses_a_given_force_as_given(tmp_path, capsys):
+    out = tmp_path / "figures"
+    assert main(["render", "cube", "--resolution", "300", "--fix", "plane:0,0,0.02:0,0,1", "--force", "0.2",
+                 "--output", str(out)]) == 0
+    said = [line for line in capsys.readouterr().err.splitlines() if line.startswith("tissuesim render: cube: ")]
+    assert len(said) == 1, said
+    assert "fixed: --fix plane:0,0,0.02:0,0,1 (" in said[0] and "0.2 N over a" in said[0]
+    assert "sized to a model 13.9 cm across" in said[0] and "(--force as given)" in said[0]
+    assert sorted(p.name for p in out.iterdir()) == ["deformation_cube.png", "incision_cube.png"]
+
+
+@needs_opengl
+def test_render_refuses_a_region_that_holds_the_load_node_before_drawing(tmp_path, capsys):
+    out = tmp_path / "figures"
+    assert main(["render", "cube", "--resolution", "300", "--fix", "plane:0,0,0.079:0,0,-1",
+                 "--output", str(out)]) == 1
+    err = _one_line_error(capsys)
+    assert "the figure's load at its top centre on cube falls on node" in err
+    assert err.endswith("choose a --fix region that leaves it free")
+    assert not out.exists()

@@ -44,8 +44,13 @@ def check_resolution(resolution) -> int:
 
 def check_free_node(solver, node: int, model: str, *, role: str) -> None:
     """Refuse (SolverError), in command-line terms, a command's load on a node of ``model`` that ``solver``'s support
-    holds: the model is too small or coarse for the load (``role`` says which load)."""
+    holds: a region given that holds it, or, with the default bottom, a model too small or coarse for the load
+    (``role`` says which load)."""
     fixed = np.asarray(solver.fixed)
+    if np.any(fixed == node) and not getattr(solver, "fixed_from_height", True):
+        raise SolverError(f"{role} on {model} falls on node {node}, which the fixed region holds ({fixed.size} of "
+                          f"its {len(solver.rest_positions)} surface nodes); choose a --fix region that leaves it "
+                          "free")
     if np.any(fixed == node):
         raise SolverError(f"{model} is too small or too coarse for {role}: node {node}, where it is applied, lies in "
                           f"the supported bottom region ({fixed.size} of its {len(solver.rest_positions)} surface "
