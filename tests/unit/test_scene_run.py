@@ -39,3 +39,14 @@ def test_the_run_pulls_with_the_pin_heads_force(tmp_path, capsys):
     assert main(["run", str(_scene(tmp_path)), "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "10 steps, 0.1 s simulated" in out and "pin-head 0: force 0.5 N, [0.5, 0.0, 0.0] N" in out
+
+
+def test_the_default_support_is_the_solvers_own_bottom(tmp_path):
+    from tissuesim.mesh.regions import bottom_nodes
+    from tissuesim.scene import make_scene_solver, solver_options
+
+    loaded = read_scene(_scene(tmp_path))
+    hybrid, _ = scene_hybrid(loaded, progress=False)
+    assert "fixed" not in solver_options(loaded, hybrid)     # as --fix's default: the volume's bottom is held too
+    solver = make_scene_solver(loaded, hybrid)
+    assert np.array_equal(solver.fixed, bottom_nodes(hybrid.surface.vertices))

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import BoundaryConditionError, MaterialError, SolverError
+from ..mesh.regions import BOTTOM_FRACTION
 from .load import SceneError, SceneFile
 
 #: Solver options a scene sets in its own tables, and the table that sets each.
@@ -69,11 +70,16 @@ def check_method(loaded: SceneFile) -> None:
 
 def solver_options(loaded: SceneFile, hybrid) -> dict:
     """Every keyword option of :func:`tissuesim.make_solver` the scene gives, on ``hybrid``'s surface: material,
-    ``dt``, ``fixed`` (``(k,) int32`` M_S vertices), ``gravity`` [m/s²], ``attachments`` and the method's own."""
+    ``dt``, ``fixed`` (``(k,) int32`` M_S vertices; absent for the default bottom tenth, the solvers' own),
+    ``gravity`` [m/s²], ``attachments`` and the method's own."""
     check_method(loaded)
     scene, points = loaded.scene, hybrid.surface.vertices
     options = {**material_options(loaded), "dt": scene.run.dt, **scene.method.options}
-    options["fixed"] = _region(loaded, "support.fixed", scene.support.fixed, points)
+    fixed = _region(loaded, "support.fixed", scene.support.fixed, points)
+    if scene.support.fixed.spec() != {"bottom": BOTTOM_FRACTION}:
+        # the default region is the solvers' own bottom, which also fixes the volume nodes below the same height
+        # (a set of M_S vertices fixes only the volume nodes on them), as --fix's default does
+        options["fixed"] = fixed
     if scene.gravity is not None:
         options["gravity"] = tuple(scene.gravity)
     if scene.support.attachments:
