@@ -101,7 +101,8 @@ class SolverCut:
         s = self.solver
         self.surface.sync(s.state.positions, s.state.velocities)
         try:
-            plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds)     # writes nothing
+            plan = self.surface.plan(sweep, snap=snap, closed=self.closed, seeds=seeds,
+                                     movable=self.movable)     # writes nothing
         except TissuesimError:
             raise
         except Exception as error:
@@ -110,7 +111,8 @@ class SolverCut:
         if plan is None:
             return CutReport(seconds=time.perf_counter() - start), -1
         n = plan.old_count
-        originals = np.unique(plan.new_copy_of[plan.new_copy_of >= 0])
+        # the vertices on the cut: those duplicated, and those moved onto it
+        originals = np.union1d(plan.new_copy_of[plan.new_copy_of >= 0], plan.moves.vertices)
         released = originals[members(originals, s.hybrid.control)]
         new_fixed = n + np.flatnonzero(np.sum(plan.weights * members(plan.parents, s.fixed), axis=1)
                                        >= 1.0 - 1e-12)
@@ -213,7 +215,8 @@ class SolverCut:
     def _update_lumped(self, result) -> None:
         """Lumped area (a third of each triangle per corner) edited for the changed triangles only."""
         lumped = self.spare.extend("lumped", self.lumped, np.zeros(len(result.parents)))
-        old_area = triangle_areas(result.rest, result.replaced)
+        with result.rest_before_moves():
+            old_area = triangle_areas(result.rest, result.replaced)
         np.add.at(lumped, result.replaced.ravel(), -np.repeat(old_area / 3.0, 3))
         new_content = result.triangles[result.changed]
         np.add.at(lumped, new_content.ravel(), np.repeat(triangle_areas(result.rest, new_content) / 3.0, 3))
@@ -261,9 +264,21 @@ class SolverCut:
         self._held_mask = mask
         return mask
 
+    def movable(self, vertices: np.ndarray) -> np.ndarray:
+        """``(k,) bool`` whether each of ``vertices`` may be moved onto a cut (:mod:`tissuesim.cutting.moves`): not
+        a fixed one, not under a load. A control node may: on the cut, it is released (§7)."""
+        s = self.solver
+        if getattr(self, "_fixed_of", None) is not s.fixed:     # sorted once per change of the fixed list
+            self._fixed_of, self._fixed_sorted = s.fixed, np.sort(np.asarray(s.fixed, dtype=np.int64))
+        loaded = [np.atleast_1d(np.asarray(n, dtype=np.int64)) for load in s.loads
+                  for n in (load.node, load.nodes) if n is not None]
+        return ~members(vertices, self._fixed_sorted) & ~np.isin(vertices, np.concatenate(loaded) if loaded else [])
+
     def held_nodes(self) -> np.ndarray:
-        """``(a,) int64`` the vertices that hold a piece in place now: the solver's fixed ones here."""
-        return np.asarray(self.solver.fixed, dtype=np.int64)
+        """``(a,) int64`` the vertices that hold a piece in place now: the solver's fixed ones and its attached ones
+        (an elastic attachment holds its piece too)."""
+        s = self.solver
+        return np.unique(np.concatenate([np.asarray(s.fixed, dtype=np.int64), s.attached_nodes]))
 
     def update(self, result, n, released, touched) -> None:
         """Method-specific arrays (subclasses); ``touched`` are the vertices whose triangles changed."""

@@ -123,7 +123,8 @@ class SurfaceLayerCut(SolverCut):
         s = self.solver
         keys, owners = self.touched_edges(result)
         retired = self.stretch_row.pop(keys), self.hinge_row.pop(keys)
-        removed = self._stiffness_of(*retired)
+        with result.rest_before_moves():        # what the factor holds: the rows at the rest before the cut
+            removed = self._stiffness_of(*retired)
         self.stretch.retire(retired[0])
         self.bend.retire(retired[1])
         live = owners[:, 0] >= 0
@@ -235,9 +236,9 @@ class HybridCut(SurfaceLayerCut):
     """The hybrid's extra arrays: control nodes (released ones dropped), load map, embedding for warm start."""
 
     def held_nodes(self) -> np.ndarray:
-        """The fixed nodes, then the control nodes (ascending)."""
+        """The fixed and attached nodes, then the control nodes (ascending)."""
         control = np.unique(self.solver.hybrid.control)
-        return np.concatenate([np.asarray(self.solver.fixed, dtype=np.int64), control.astype(np.int64)])
+        return np.concatenate([super().held_nodes(), control.astype(np.int64)])
 
     def prescribe(self, result, n, released) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare
@@ -252,6 +253,7 @@ class HybridCut(SurfaceLayerCut):
         s.load_weights = h.coarse_barycentric
         s._tet_of = spare.extend("tet_of", s._tet_of, h.embedding_tet[new].astype(np.int64))
         s._weights = h.embedding_barycentric
+        spare.rewrite(s._embedded, result.moved, result.moves.values(s._embedded))     # with their rest
         embedded = result.interpolate(s._embedded)
         s._embedded = spare.extend("embedded", s._embedded, embedded)
         s._embedded_new = spare.extend("embedded_new", s._embedded_new, embedded)
