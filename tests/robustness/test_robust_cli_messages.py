@@ -81,9 +81,9 @@ def test_save_names_the_bundle_not_its_temporary_file(tmp_path, monkeypatch):
 def test_incise_on_a_model_smaller_than_the_incision_says_so(tet, tmp_path, capsys):
     assert main(["incise", str(tet), "--methods", "pbd", "--output", str(tmp_path / "out")]) == 1
     err = _one_line_error(capsys, "incise")
-    # the stroke's floor of three edges (mesh.sizes) is longer than this four-vertex model
-    assert "the scripted 3.62 cm incision does not fit tet: the model is 1 cm long along x" in err
-    assert "--scale" in err and "pass a larger depth" not in err
+    # the stroke is sized to the model (mesh.sizes), so what stops it is the tet's pointed top
+    assert "incision does not fit tet: the model is 1 cm long along x, but its top is not flat there" in err
+    assert "pass a larger depth" not in err
     assert not (tmp_path / "out").exists()
 
 

@@ -93,8 +93,9 @@ def test_the_2_cm_liver2_rocks_on_its_bottom_and_the_fitted_force_keeps_it_in_sm
 
 def test_a_coarse_mesh_gets_a_pin_head_over_a_few_nodes_and_a_stroke_across_a_few_edges():
     points = cube(300).vertices
-    fine, coarse = load_defaults(points, edge_length=0.001), load_defaults(points, edge_length=0.02)
+    fine, coarse = load_defaults(points, edge_length=0.001), load_defaults(points, edge_length=0.012)
     assert fine.radius == pytest.approx(0.05 * model_size(points), rel=5e-3)
     assert fine.stroke == pytest.approx(0.15 * model_size(points), rel=5e-3)
-    assert coarse.radius == pytest.approx(0.03, rel=1e-12) and coarse.stroke == pytest.approx(0.06, rel=1e-12)
+    assert coarse.radius == pytest.approx(0.018, rel=1e-12) and coarse.stroke == pytest.approx(0.036, rel=1e-12)
     assert coarse.force > fine.force            # the same dent under a wider tip takes more force
+    assert load_defaults(points, edge_length=0.05).stroke == pytest.approx(0.3 * model_size(points), rel=5e-3)

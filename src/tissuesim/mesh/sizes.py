@@ -44,6 +44,9 @@ PULL_DENT_FRACTION = 0.01           # the pull opens the wound by about this fra
 #: point load, whose answer depends on the mesh), and a stroke that crosses a few edges (a shorter one may cut none).
 RADIUS_EDGES = 1.5
 STROKE_EDGES = 3.0
+#: The longest stroke, as a fraction of L, whatever the floor: the paper's incision is small (§7), and a longer one
+#: leaves the top of a rounded model.
+STROKE_MAX_FRACTION = 0.3
 #: The largest displacement a default load may cause, as a fraction of the model's size: half of where linear
 #: elasticity stops (0.1, ``Solver.warning``), so a picture drawn with the defaults is a small-strain one.
 DISPLACEMENT_CAP = 0.05
@@ -135,7 +138,7 @@ def load_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5
     Young's modulus ``youngs_modulus`` [Pa] and Poisson ratio ``poisson_ratio``.
 
     Lengths are fractions of the size L, the radius and the stroke at least :data:`RADIUS_EDGES` and
-    :data:`STROKE_EDGES` edges; each force dents an elastic half-space by a fixed fraction of L under its tip
+    :data:`STROKE_EDGES` edges (the stroke at most :data:`STROKE_MAX_FRACTION` of L); each force dents an elastic half-space by a fixed fraction of L under its tip
     (Boussinesq, module docstring): ``force`` by :data:`DENT_FRACTION` under ``radius``, ``pull`` by
     :data:`PULL_DENT_FRACTION` under a tip of ``offset``. A finite body held at its bottom moves somewhat more than
     a half-space, and a body held on a small patch much more (:func:`fitted_force`); the tests check the
@@ -147,7 +150,7 @@ def load_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5
     compliance = 2.0 * (1.0 - poisson_ratio**2) / (math.pi * youngs_modulus)     # u a / F of the disc [m²/N]
     radius = max(CONTACT_RADIUS_FRACTION * size, RADIUS_EDGES * edge_length)
     offset = PULL_OFFSET_FRACTION * size
-    stroke = max(STROKE_FRACTION * size, STROKE_EDGES * edge_length)
+    stroke = min(max(STROKE_FRACTION * size, STROKE_EDGES * edge_length), STROKE_MAX_FRACTION * size)
     return LoadDefaults(size=size, force=_rounded(DENT_FRACTION * size * radius / compliance),
                         radius=_rounded(radius), stroke=_rounded(stroke),
                         depth=_rounded(DEPTH_FRACTION * size),
