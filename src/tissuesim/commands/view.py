@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
@@ -27,7 +29,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="factor from a surface file's unit to metres (0.01 for cm); default 1")
     parser.add_argument("--repair", action="store_true", help="repair safe defects of a surface file")
     parser.add_argument("--resolution", type=int, default=None, help="vertex count of a built-in model")
-    parser.add_argument("--stiffness", type=float, default=None, metavar="K", help="pin-head k [N/m] (default 50)")
+    parser.add_argument("--stiffness", type=float, default=None, metavar="K",
+                        help="pin-head k [N/m] on one node (default: sized to the model and E, over a tip of 5 %% of "
+                             "its size)")
     parser.add_argument("--prestrain", type=float, default=0.0, metavar="EPS",
                         help="in-plane prestrain of the surface, so that a cut gapes by itself (hybrid, pbd; "
                              "default 0)")
@@ -71,9 +75,10 @@ def run(args: argparse.Namespace) -> int:
     from ..recording import check_target, read_recording
     from ..solvers.checks import positive_number
     from ..viewer.app import ReplayApp, ViewerApp
-    from ..viewer.controller import Controller
-    from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings
+    from ..viewer.controller import Controller, scalpel_class
+    from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings, sized_defaults
     from ..viewer.gl import polyscope
+    from ..viewer.tools import ProbeTool
 
     if args.replay is not None:
         frames = read_recording(args.replay, progress=True)  # a damaged recording is named before a window opens
@@ -94,7 +99,15 @@ def run(args: argparse.Namespace) -> int:
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
     fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
     print(held, file=sys.stderr)
-    controller = Controller(hybrid, settings=settings, solver_options=None if fixed is None else {"fixed": fixed})
+    sized = sized_defaults(hybrid.surface.vertices, youngs_modulus=settings.youngs_modulus,
+                           poisson_ratio=settings.poisson_ratio)
+    if args.stiffness is None:      # a given --stiffness is the user's own tool: its tip stays one node
+        settings = replace(settings, stiffness=sized.stiffness, radius=sized.radius)
+        print(f"tools: {sized.line}; --stiffness sets k", file=sys.stderr)
+    scalpel = scalpel_class()
+    controller = Controller(hybrid, settings=settings, solver_options=None if fixed is None else {"fixed": fixed},
+                            scalpel_factory=None if scalpel is None else partial(scalpel, depth=sized.depth))
+    controller.probe = ProbeTool(radius=max(sized.radius, controller.probe.radius))
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
     try:
         app.run()
