@@ -152,7 +152,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
             self.fixed = nodes_below(self.rest_positions, self.fixed_height)
         else:
             self.fixed_height = None
-            self.fixed = node_set("fixed", fixed, n, allow_empty=bool(self.attachments))
+            self.fixed = node_set("fixed", fixed, n, allow_empty=True)     # the check below says why not
         check_supports_hold(self.rest_positions, hybrid_mesh.surface.triangles, self.fixed, self.attached_nodes,
                             self.name)
         self.forces = np.zeros((n, 3))

@@ -1,0 +1,94 @@
+"""Supports that do not hold the body are refused by every method, up front, the same way: no fixed vertex, one,
+two, or all on one line leave a rigid motion free (before, pbd and mass-spring took them and drifted, and the FEM
+methods refused them only in their volume's terms); attachments count as holding."""
+
+import numpy as np
+import pytest
+
+from tissuesim import HybridMesh, make_solver
+from tissuesim.errors import BoundaryConditionError
+from tissuesim.fem.linear import LinearFEM
+from tissuesim.mesh import models
+from tissuesim.mesh.regions import bottom_nodes
+from tissuesim.mesh.tetmesh import structured_box
+from tissuesim.solvers.attachments import Attachment, check_supports_hold
+
+METHODS = ("hybrid", "pbd", "mass-spring", "embedded", "fem")
+
+
+@pytest.fixture(scope="module")
+def cube():
+    return HybridMesh.build(models.cube(resolution=386))
+
+
+@pytest.fixture(scope="module")
+def held_sets(cube):
+    """Control nodes of the bottom face (so every method's volume has them as nodes too)."""
+    v, control = cube.surface.vertices, cube.control
+    bottom = control[v[control, 2] < v[:, 2].min() + 1e-9]
+    edge = bottom[np.abs(v[bottom, 1] - v[bottom, 1].min()) < 1e-9]       # on one bottom edge: a line
+    corner = bottom[[np.argmin(v[bottom, 0] + v[bottom, 1])]]
+    far = bottom[[np.argmax(v[bottom, 0] + v[bottom, 1])]]
+    return {"none": np.zeros(0, dtype=np.int64), "one": corner, "two": np.concatenate([corner, far]),
+            "a line": edge, "the bottom": bottom}
+
+
+@pytest.mark.parametrize("method", METHODS)
+@pytest.mark.parametrize("case,why", [("none", "no fixed vertex and no attachment holds it"),
+                                      ("one", "a single held vertex"), ("two", "lie on one line"),
+                                      ("a line", "lie on one line")])
+def test_supports_that_leave_a_rigid_motion_free_are_refused_by_every_method(cube, held_sets, method, case, why):
+    with pytest.raises(BoundaryConditionError, match=f"do not hold the body for the {method} method: ") as error:
+        make_solver(method, cube, fixed=held_sets[case])
+    assert why in str(error.value)
+    assert "fix at least three vertices of it that are not on one line" in str(error.value)
+    assert "attachments=" in str(error.value)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_attachments_complete_supports_that_alone_would_not_hold(cube, held_sets, method):
+    v = cube.surface.vertices
+    top = np.flatnonzero(v[:, 2] > v[:, 2].max() - 1e-9)
+    solver = make_solver(method, cube, fixed=held_sets["a line"], attachments=(Attachment(top[:5], 10.0),))
+    solver.set_load(int(top[0]), [0.0, 0.0, -0.05])
+    for _ in range(20):
+        solver.step()
+    assert np.all(np.isfinite(solver.positions)) and 0.0 < np.abs(solver.displacements).max() < 0.01
+    with pytest.raises(BoundaryConditionError, match="a single held vertex"):
+        make_solver(method, cube, fixed=[], attachments=(Attachment(top[:1], 10.0),))
+
+
+def test_three_non_collinear_fixed_vertices_hold(cube, held_sets):
+    for method in METHODS:
+        make_solver(method, cube, fixed=held_sets["the bottom"][[0, 5, 11]])
+
+
+def test_every_piece_of_a_surface_must_be_held():
+    """Two separate tetrahedra' surfaces: held vertices on one leave the other free, and the message says which."""
+    tet = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]])
+    faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
+    rest = np.concatenate([tet, tet + [0.05, 0.0, 0.0]])
+    triangles = np.concatenate([faces, faces + 4])
+    check_supports_hold(rest, triangles, np.array([0, 1, 2, 4, 5, 6]), np.zeros(0, dtype=np.int64), "pbd")
+    with pytest.raises(BoundaryConditionError, match=r"a piece of the body \(4 surface vertices, first: 4"):
+        check_supports_hold(rest, triangles, np.array([0, 1, 2]), np.zeros(0, dtype=np.int64), "pbd")
+    check_supports_hold(rest, triangles, np.array([0, 1, 2]), np.array([4, 5, 7]), "pbd")
+
+
+def test_the_linear_fem_counts_its_springs_as_supports():
+    mesh = structured_box([0.02, 0.02, 0.04], [2, 2, 4])
+    top = np.flatnonzero(mesh.points[:, 2] > 0.04 - 1e-12)
+    nodes, weights = top[:, None], np.ones((top.size, 1))
+    fem = LinearFEM(mesh, fixed=np.zeros(0, dtype=np.int64), springs=(nodes, weights, np.full(top.size, 5.0)))
+    forces = np.zeros((mesh.node_count, 3))
+    forces[:, 2] = -1e-3
+    u = fem.solve(forces)
+    spring_force = -5.0 * u[top].sum(axis=0)            # k (0 − u) on each held node
+    assert np.allclose(spring_force, [0.0, 0.0, 1e-3 * mesh.node_count], rtol=1e-9)
+    line = top[np.abs(mesh.points[top, 1]) < 1e-12]
+    with pytest.raises(BoundaryConditionError, match="fixed dofs and springs leave 1 rigid-body mode"):
+        LinearFEM(mesh, fixed=np.zeros(0, dtype=np.int64), springs=(line[:, None], np.ones((line.size, 1)),
+                                                                   np.full(line.size, 5.0)))
+    with pytest.raises(BoundaryConditionError, match="no fixed node"):
+        LinearFEM(mesh, fixed=np.zeros(0, dtype=np.int64))
+    LinearFEM(mesh, fixed=bottom_nodes(mesh.points))        # the usual supports still hold
