@@ -6,6 +6,8 @@ Public API (imported lazily, so ``import tissuesim`` stays fast and Numba kernel
     hybrid = tissuesim.HybridMesh.build(surface)                      # M_S + M'_S + M_V + maps (§5)
     solver = tissuesim.make_solver("hybrid", hybrid)                  # or "pbd", "mass-spring", "embedded", "fem"
     positions = solver.solve_static(node, [0.0, 0.0, 1.0])            # (n, 3) surface positions [m]
+    probe = tissuesim.Probe(solver, radius=0.005); probe.press_static(centre)   # a rigid sphere pressing
+    scene = tissuesim.read_scene("examples/hanging_sphere.toml")      # a whole scene from one TOML file
 """
 
 from importlib import import_module
@@ -28,6 +30,11 @@ _EXPORTS = {
     "register": "tissuesim.solvers",
     "Solver": "tissuesim.solvers",
     "PinHead": "tissuesim.interaction",
+    "Probe": "tissuesim.probe",
+    "Attachment": "tissuesim.solvers.attachments",
+    "fixed_region": "tissuesim.mesh.regions",
+    "preset": "tissuesim.fem.presets",
+    "read_scene": "tissuesim.scene",
     "Scalpel": "tissuesim.scalpel",
     "HapticLoop": "tissuesim.haptics",
     "TissuesimError": "tissuesim.errors",
