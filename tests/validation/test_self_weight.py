@@ -74,7 +74,7 @@ def test_the_body_force_and_its_solution_equal_scikit_fems(poisson_ratio):
 
     @skfem.LinearForm
     def weight(v, w):
-        return RHO * (G[0] * v.value[0] + G[1] * v.value[1] + G[2] * v.value[2])
+        return RHO * (G[0] * v[0] + G[1] * v[1] + G[2] * v[2])
 
     f = skfem.asm(weight, basis)
     k = skfem.asm(linear_elasticity(*lame_parameters(E, poisson_ratio)), basis)
