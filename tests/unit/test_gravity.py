@@ -192,3 +192,11 @@ def test_the_mass_spring_weight_follows_a_cut(cube, top):
     for _ in range(100):
         solver.step()
     assert np.all(np.isfinite(solver.positions)) and solver.displacements[top, 2] < 0.0
+
+
+def test_the_hybrids_options_keep_the_weights_static_answer(cube, top):
+    base = sag(make_solver("hybrid", cube, gravity=G), top)
+    cold = sag(make_solver("hybrid", cube, gravity=G, warm_start=False), top)
+    assert np.abs(cold - base).max() <= 1e-12 * np.abs(base).max()
+    with pytest.raises(SolverError, match="near_field does not take gravity"):
+        make_solver("hybrid", cube, gravity=G, near_field=0.01)

@@ -23,6 +23,7 @@ from .assembly import assemble_stiffness
 from .factorise import factorise_spd
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 from .rigid_modes import free_rigid_modes
+from .springs import check_springs, spring_stiffness
 #: Contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps (72 n bytes each).
 PATCH_CACHE = 8
 
@@ -85,7 +86,7 @@ class LinearFEM:
         self.mesh = mesh
         self.material = Material(youngs_modulus, poisson_ratio)
         n = mesh.node_count
-        springs = _check_springs(springs, n)
+        springs = check_springs(springs, n)
         mask = _fixed_mask(fixed, n, sprung=springs is not None)
         _check_orphans(mesh, mask)
         _check_rigid_modes(mesh, mask, springs)
@@ -300,38 +301,6 @@ class _PatchResponse:
         if len(self._responses) == 3:
             self._columns = columns
         return columns
-
-
-def spring_stiffness(n: int, nodes: np.ndarray, weights: np.ndarray, stiffness: np.ndarray) -> sp.csr_matrix:
-    """``(3n, 3n)`` CSR Σ_j k_j w_j w_jᵀ ⊗ I₃ [N/m] of springs holding the points Σ_a w_ja u[nodes_ja] (see
-    :class:`LinearFEM`'s ``springs``): ``nodes`` ``(p, r) int``, ``weights`` ``(p, r)``, ``stiffness`` ``(p,)``."""
-    r = nodes.shape[1]
-    a = np.repeat(nodes, r, axis=1)                       # (p, r²) row node, column node
-    b = np.tile(nodes, (1, r))
-    value = stiffness[:, None] * np.repeat(weights, r, axis=1) * np.tile(weights, (1, r))
-    rows = (3 * a[..., None] + np.arange(3)).ravel()
-    cols = (3 * b[..., None] + np.arange(3)).ravel()
-    return sp.csr_matrix((np.repeat(value.ravel(), 3), (rows, cols)), shape=(3 * n, 3 * n))
-
-
-def _check_springs(springs, n: int):
-    """``(nodes (p, r) int64, weights (p, r), stiffness (p,))`` checked, or None for no spring."""
-    if springs is None:
-        return None
-    nodes, weights, stiffness = (np.asarray(a) for a in springs)
-    if nodes.ndim != 2 or nodes.dtype.kind not in "iu" or weights.shape != nodes.shape \
-            or stiffness.shape != (len(nodes),):
-        raise BoundaryConditionError(f"springs are (nodes (p, r) int, weights (p, r), stiffness (p,) N/m), got "
-                                     f"shapes {nodes.shape}, {weights.shape}, {stiffness.shape}")
-    if nodes.size and (nodes.min() < 0 or nodes.max() >= n):
-        bad = np.flatnonzero(np.any((nodes < 0) | (nodes >= n), axis=1))
-        raise BoundaryConditionError(f"{bad.size} springs hold nodes outside 0..{n - 1} (first springs: "
-                                     f"{first_indices(bad)})")
-    if not (np.all(np.isfinite(weights)) and np.all(np.isfinite(stiffness)) and np.all(stiffness > 0.0)):
-        raise BoundaryConditionError("springs need finite weights and positive, finite stiffnesses [N/m]")
-    if len(nodes) == 0:
-        return None
-    return nodes.astype(np.int64), weights.astype(np.float64), stiffness.astype(np.float64)
 
 
 def _fixed_mask(fixed, n: int, *, sprung: bool = False) -> np.ndarray:

@@ -6,12 +6,13 @@
 Each method lives in its own module and is imported on first use (see :mod:`tissuesim.solvers.registry`).
 """
 
+from .attachments import Attachment
 from .base import Solver
 from .registry import available_solvers, make_solver, register, solver_class, solver_options
 from .report import SolveReport
 from .state import State
 
 __all__ = [
-    "SolveReport", "Solver", "State", "available_solvers", "make_solver", "register", "solver_class",
+    "Attachment", "SolveReport", "Solver", "State", "available_solvers", "make_solver", "register", "solver_class",
     "solver_options",
 ]

@@ -29,6 +29,11 @@ Option ``material`` (beyond the paper): ``"corotated"`` or ``"neo-hookean"`` mak
 :data:`VOLUME_ITERATIONS` L-BFGS iterations on the constant K₀ factor per step, warm-started, until it is at
 equilibrium, and the layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
 
+Options ``gravity`` and ``attachments`` (beyond the paper, :mod:`.gravity`): M_V carries the body's weight (the
+consistent load of ρ g on its tets) and the attachments' stiffness (through each attached vertex's coarse triangle,
+as loads); their response is solved once and added to each load's, and the layer follows M_V through its control
+nodes, without a weight of its own (its masses are the same body's).
+
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
 the rest. It needs the fine volume, costs one factorisation when built and three back-substitutions per new contact,
@@ -262,7 +267,16 @@ class HybridSolver(SurfaceLayerSolver):
             if one is not self._u:
                 self._u += one
         if self._constant_u is not None:
-            self._u += self._constant_u[self.output_nodes]
+            self._u += self._constant_at_outputs()
+
+    def _constant_at_outputs(self) -> np.ndarray:
+        """``(s, 3)`` the constant load's response at the output nodes [m], kept while they stay the same (a cut
+        that releases control nodes reorders them), so a drag allocates nothing for it."""
+        nodes, values = getattr(self, "_constant_out", (None, None))
+        if nodes is not self.output_nodes:
+            values = self._constant_u[self.output_nodes]
+            self._constant_out = (self.output_nodes, values)
+        return values
 
     def _attached_positions(self) -> np.ndarray:
         """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle."""

@@ -30,6 +30,11 @@ Newton in ``solve_static``, a nonlinear implicit step with the constant rest fac
 costs no energy; the layer has one constitutive form, and both names choose it (the volume's material is what they
 tell apart).
 
+Options ``gravity`` and ``attachments`` (:mod:`.gravity`, :mod:`.attachments`): where the layer is the body (the pbd
+method) it carries the weight of its physical masses (m_i g, the ``mass_scale`` of the pbd form left out) and the
+attachments' springs in its matrix (xpbd form, implicit integrator: the projections have no spring term); in the
+hybrid, M_V carries both.
+
 The ``pbd`` method prescribes the fixed nodes only; the hybrid adds its control nodes.
 """
 
