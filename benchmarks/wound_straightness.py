@@ -4,8 +4,8 @@
 
 For each built-in model and a 30 mm stroke across its top at 0°, 30° and 45° (the scripted incision of
 ``tissuesim.experiments.wound``, 15 moves), prints the RMS and largest distance of the lips (the new boundary's
-vertices, at rest) to the rectangle the blade swept, in mean edge lengths of the uncut surface, the number of lips
-and the smallest triangle quality of the cut surface. Target: RMS ≤ 0.05, max ≤ 0.10, quality ≥ 0.1.
+vertices, at rest) to the rectangle the blade swept, in mean edge lengths of the uncut surface, the number of lips,
+the wound's reach along the stroke (a fraction of its length) and the smallest triangle quality of the cut surface. Target: RMS ≤ 0.05, max ≤ 0.10, quality ≥ 0.1.
 """
 
 from __future__ import annotations
@@ -44,10 +44,10 @@ def main() -> None:
     parser.add_argument("--models", nargs="*", default=list(models.MODELS))
     args = parser.parse_args()
     print(f"method {args.method}; deviations in mean edge lengths (target RMS ≤ 0.05, max ≤ 0.10, quality ≥ 0.1)")
-    print("| model | angle | RMS | max | lips | min quality |")
-    print("|---|---:|---:|---:|---:|---:|")
+    print("| model | angle | RMS | max | lips | reach | min quality |")
+    print("|---|---:|---:|---:|---:|---:|---:|")
     for row in measure(args.method, args.models):
-        print(f"| {row['model']} | {row['angle']:.0f}° | {row['rms']:.3f} | {row['max']:.3f} | {row['lips']} | "
+        print(f"| {row['model']} | {row['angle']:.0f}° | {row['rms']:.3f} | {row['max']:.3f} | {row['lips']} | {row['reach']:.2f} | "
               f"{row['quality']:.3f} |")
 
 

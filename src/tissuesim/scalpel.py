@@ -19,7 +19,9 @@ Choices where the paper is silent:
   overflows the sweep's arithmetic; a move farther than :data:`MOVE_REACH` model sizes from the surface's bounding
   box is refused too (a tip parked at 1e300 m would do the same on the next move);
 * a move shorter than ``snap`` × the mean edge length is kept for later: its sweep would make only slivers, so the
-  tool's last cutting position stays until it has moved far enough;
+  tool's last cutting position stays until it has moved far enough; a cut that ends at the edge a move entered by
+  (its tip would have snapped beside the trace) goes on from there in the next move, and one that reached past the
+  tool waits until the tool has passed it;
 * ``snap`` is a fraction of the local edge length (see :mod:`tissuesim.cutting.sweep`).
 """
 
@@ -78,6 +80,7 @@ class Scalpel:
         self.direction: np.ndarray | None = None
         self._anchor = -1       # the vertex where the last move's cut stopped
         self._pressed_on = np.zeros(0, dtype=np.int64)     # corners of the triangle pressed on
+        self._pressed_at: np.ndarray | None = None          # the press point [m]
 
     @property
     def pressed(self) -> bool:
@@ -99,6 +102,7 @@ class Scalpel:
             normal = np.cross(corners[1] - corners[0], corners[2] - corners[0])      # outward: counter-clockwise
             direction = -normal
         self.tip, self.direction = point, _unit(direction)
+        self._pressed_at = point
         self._anchor = -1
         self._pressed_on = self.solver.hybrid.surface.triangles[tri].astype(np.int64)
         self._updater.prepare()
@@ -129,11 +133,16 @@ class Scalpel:
             raise SolverError("the scalpel is not pressed; call press(point) first")
         start = time.perf_counter()
         point = self._within_reach(checked_point(point))
-        if np.linalg.norm(point - self.tip) < self.snap * self._edge:
+        origin = self._start()
+        if np.linalg.norm(point - origin) < self.snap * self._edge:
+            return CutReport(seconds=time.perf_counter() - start)
+        if self._anchor >= 0 and (point - origin) @ (point - self.tip) <= 0.0:
+            # the last cut reached past the tool (to the far side of its triangle): cut on once the tool passes it
+            self.tip = point
             return CutReport(seconds=time.perf_counter() - start)
         # the sweep's triangles are searched outward from where the cut is (see cutting.buffers.CutSurface)
         seeds = [self._anchor] if self._anchor >= 0 else self._pressed_on
-        report, end = self._updater.apply(Sweep.between(self._start(), point, self.depth * self.direction),
+        report, end = self._updater.apply(Sweep.between(origin, point, self.depth * self.direction),
                                           snap=self.snap, seeds=seeds)
         self.tip = point
         if end >= 0:
@@ -155,9 +164,11 @@ class Scalpel:
 
     def _start(self) -> np.ndarray:
         """Where this move's sweep starts: the tip, moved across the blade so the blade passes through the vertex
-        where the last cut stopped (snapping may have ended it beside the tip), so the cut stays one path."""
+        where the last cut stopped (behind the tip, or past it, see :func:`tissuesim.cutting.snapping.along_cut`),
+        so the cut stays one path; the press point while nothing has been cut (a move may end its cut at the edge
+        it entered by, which leaves nothing to cut in a first short move)."""
         if self._anchor < 0:
-            return self.tip
+            return self._pressed_at
         anchor = self.solver.positions[self._anchor]
         return anchor - ((anchor - self.tip) @ self.direction) * self.direction
 

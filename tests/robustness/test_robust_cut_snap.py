@@ -40,7 +40,7 @@ def test_the_smallest_snap_cuts_the_sweeps_stroke_soundly(cube, method):
         try:
             scalpel.move(point)
         except SolverError as error:         # a loose piece may be refused; nothing else may go wrong
-            assert "separate a piece" in str(error)
+            assert "would separate" in str(error)
     h = solver.hybrid
     assert h.info.get("cuts", 0) > 0
     assert check_cut_invariants(h.surface.vertices, h.surface.triangles, positions=solver.positions) == []
@@ -69,7 +69,7 @@ def test_random_strokes_at_the_smallest_snap_keep_every_invariant(cube, method):
             try:
                 scalpel.move(tip)
             except SolverError as error:
-                assert "separate a piece" in str(error)
+                assert "would separate" in str(error)
                 continue
             cuts += 1
             h = solver.hybrid

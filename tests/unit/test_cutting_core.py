@@ -27,13 +27,14 @@ def _stroke(rest, triangles, xs, *, y=0.0011, positions=None, snap=0.25):
         new_tip = np.array([x, y, top])
         result = cut_surface(rest, positions, velocities, triangles, Sweep.between(tip, new_tip, [0, 0, -0.01]),
                              snap=snap, closed=closed)
-        if result is not None:
-            if result.end_vertex >= 0:       # go on from where the cut stopped, as the scalpel does
-                end = result.positions[result.end_vertex]
-                new_tip = np.array([end[0], end[1], top])
-            rest, positions, velocities = result.rest, result.positions, result.velocities
-            triangles, closed = result.triangles, result.closed
-            results.append(result)
+        if result is None:
+            continue                         # nothing cut: the next sweep starts where this one did
+        if result.end_vertex >= 0:           # go on from where the cut stopped, as the scalpel does
+            end = result.positions[result.end_vertex]
+            new_tip = np.array([end[0], end[1], top])
+        rest, positions, velocities = result.rest, result.positions, result.velocities
+        triangles, closed = result.triangles, result.closed
+        results.append(result)
         tip = new_tip
     return results
 
@@ -51,21 +52,31 @@ def test_a_slit_across_the_top_keeps_every_invariant_and_takes_chi_to_one(cube):
     assert gap_vertices > 5
 
 
-def test_new_vertices_are_barycentric_in_the_rest_triangle_and_nothing_moves(cube):
+def test_new_vertices_are_barycentric_in_the_rest_triangle_and_moved_ones_lie_on_their_edge(cube):
+    """A cut moves nothing but the vertices it puts onto the cut, each along one of its edges by the same weights at
+    rest and now; new vertices interpolate the (moved) corners of their parent triangle."""
     rest, triangles = cube
     rng = np.random.default_rng(3)
     deformed = rest + 0.002 * rng.normal(size=rest.shape)
     result = _stroke(rest, triangles, [-0.01, 0.01], positions=deformed)[0]
+    moves = result.moves
+    assert len(moves) > 0 and np.all((moves.t > 0.0) & (moves.t < 0.25))
+    n = len(rest)
     for array, old in ((result.rest, rest), (result.positions, deformed)):
-        assert np.allclose(array[len(rest):], np.einsum("ij,ijk->ik", result.weights, old[result.parents]),
-                           atol=1e-15)
-    assert np.array_equal(result.rest[: len(rest)], rest)  # exact: old rows are copied
-    assert np.array_equal(result.positions[: len(rest)], deformed)
+        moved = old.copy()
+        moved[moves.vertices] = (1.0 - moves.t[:, None]) * old[moves.vertices] + moves.t[:, None] * old[moves.toward]
+        assert np.array_equal(array[:n], moved)        # exact: the other old rows are copied
+        assert np.allclose(array[n:], np.einsum("ij,ijk->ik", result.weights, moved[result.parents]), atol=1e-15)
+    assert np.array_equal(result.moved_from, rest[moves.vertices])
     area = lambda p, t: 0.5 * np.linalg.norm(np.cross(p[t[:, 1]] - p[t[:, 0]], p[t[:, 2]] - p[t[:, 0]]), axis=1)
+    # the stroke stays on the cube's flat top, where moving a vertex inside its fan keeps the fan's area
     assert area(result.rest, result.triangles).sum() == pytest.approx(area(rest, triangles).sum(), rel=1e-12)
-    # every piece lies in the triangle it came from: its rest area sums to the parent's
+    # every piece lies in the triangle it came from (with its moved corners): its rest area sums to the parent's
     origin_area = np.bincount(result.triangle_origin, weights=area(result.rest, result.triangles))
-    assert origin_area == pytest.approx(area(rest, triangles)[: len(origin_area)], rel=1e-9)
+    assert origin_area == pytest.approx(area(result.rest[:n], triangles)[: len(origin_area)], rel=1e-9)
+    # the moved vertices' triangles are among the changed rows, unchanged in content
+    rows = np.flatnonzero(np.isin(triangles, moves.vertices).any(axis=1))
+    assert np.isin(rows, result.changed).all()
 
 
 def test_a_cut_exactly_along_an_edge_and_through_vertices(cube):

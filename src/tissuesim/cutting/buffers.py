@@ -37,6 +37,7 @@ class Spare:
     def __init__(self):
         self._full: dict[str, np.ndarray] = {}
         self._view: dict[str, np.ndarray] = {}
+        self._rewritten: list[tuple] = []       # (array, rows, their values before) of each rewrite, in order
 
     def extend(self, name: str, current: np.ndarray, rows: np.ndarray) -> np.ndarray:
         """``current`` ``(n, ...)`` followed by ``rows`` ``(k, ...)``: a view of length n + k of buffer ``name``."""
@@ -55,13 +56,30 @@ class Spare:
         """``current`` as a view of buffer ``name`` (no rows added)."""
         return self.extend(name, current, np.zeros((0,) + np.shape(current)[1:], dtype=np.asarray(current).dtype))
 
+    def rewrite(self, array: np.ndarray, rows: np.ndarray, values: np.ndarray) -> None:
+        """Write ``values`` into ``rows`` of ``array`` (a view of a buffer, or any array), keeping what was there
+        so that :meth:`restore` puts it back (rows of old vertices a cut changes in place: the moved vertices)."""
+        if len(rows) == 0:
+            return
+        from .moves import writable_rows
+
+        target = writable_rows(array)
+        self._rewritten.append((target, np.array(rows), np.array(target[rows])))
+        target[rows] = values
+
     def mark(self) -> tuple:
-        """Which views are current, so :meth:`restore` can take back the extends since (O(buffers))."""
-        return dict(self._full), dict(self._view)
+        """Which views are current, so :meth:`restore` can take back the extends and rewrites since (O(buffers)).
+        Only the latest mark can be restored: the rewrites before it are forgotten (their values are not kept)."""
+        self._rewritten.clear()
+        return dict(self._full), dict(self._view), 0
 
     def restore(self, mark: tuple) -> None:
-        """The buffers as at ``mark``: rows appended since are spare again (their views' rows were never written)."""
+        """The buffers as at ``mark``: rows appended since are spare again (their views' rows were never written),
+        rows rewritten since have their values back."""
         self._full, self._view = dict(mark[0]), dict(mark[1])
+        while len(self._rewritten) > mark[2]:
+            target, rows, before = self._rewritten.pop()
+            target[rows] = before
 
     @staticmethod
     def _allocate(current, length):
@@ -103,9 +121,11 @@ class CutSurface:
         self.positions = self.spare.adopt("positions", positions)
         self.velocities = self.spare.adopt("velocities", velocities)
 
-    def plan(self, sweep: Sweep, *, snap: float, closed=(), seeds=()) -> CutPlan | None:
+    def plan(self, sweep: Sweep, *, snap: float, closed=(), seeds=(), movable=None) -> CutPlan | None:
         """The cut of ``sweep`` (see :func:`~tissuesim.cutting.core.plan_cut`) among the triangles found by a walk
-        from the vertices ``seeds``; if that cuts nothing, among every triangle the sweep's box meets."""
+        from the vertices ``seeds``; if that cuts nothing, among every triangle the sweep's box meets. ``movable``:
+        ``f(vertices (k,) int64) -> (k,) bool``, the vertices that may be moved onto the cut (None: none)."""
+        movable = movable or _none
         snap = check_snap(snap)
         corners = sweep.corners
         pad = 1e-9 * (np.ptp(corners, axis=0).max() + 1e-300)
@@ -115,10 +135,11 @@ class CutSurface:
         plan = None
         if walked.size:
             plan = plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed,
-                            fans=self.fans, near=walked)
+                            fans=self.fans, near=walked, movable=movable)
         if plan is None:
             plan = plan_cut(self.rest, self.positions, self.triangles, sweep, snap=snap, closed=closed,
-                            fans=self.fans, near=candidate_triangles(self.positions, self.triangles, sweep))
+                            fans=self.fans, near=candidate_triangles(self.positions, self.triangles, sweep),
+                            movable=movable)
         return plan
 
     def mark(self, plan: CutPlan) -> tuple:
@@ -136,8 +157,13 @@ class CutSurface:
         self.fans.restore(fans)
 
     def apply(self, plan: CutPlan, sweep: Sweep) -> CutResult:
-        """Write ``plan`` into the buffers; the result's arrays are views of them."""
-        spare, n = self.spare, plan.old_count
+        """Write ``plan`` into the buffers; the result's arrays are views of them. The moved vertices' rows are
+        rewritten first (:meth:`Spare.rewrite`: a move taken back puts them back), so new points interpolate them
+        where they now are."""
+        spare, n, moves = self.spare, plan.old_count, plan.moves
+        moved_from = np.array(self.rest[moves.vertices])
+        for array in (self.rest, self.positions, self.velocities):
+            spare.rewrite(array, moves.vertices, moves.values(array))
         self.rest = spare.extend("rest", self.rest, plan.interpolate(self.rest))
         self.positions = spare.extend("positions", self.positions, plan.interpolate(self.positions))
         self.velocities = spare.extend("velocities", self.velocities, plan.interpolate(self.velocities))
@@ -148,4 +174,9 @@ class CutSurface:
             self.triangles[r] = content
         copies = [(n + i, int(c)) for i, c in enumerate(plan.new_copy_of.tolist()) if c >= 0]
         self.fans.record(plan.changed, self.triangles[plan.changed], copies)
-        return plan.result(self.rest, self.positions, self.velocities, self.triangles, sweep)
+        return plan.result(self.rest, self.positions, self.velocities, self.triangles, sweep, moved_from=moved_from)
+
+
+def _none(vertices: np.ndarray) -> np.ndarray:
+    """No vertex may move (a surface whose holder did not say which may)."""
+    return np.zeros(len(vertices), dtype=bool)

@@ -29,7 +29,8 @@ from .points import CutPoints
 from .result import CutPlan, CutResult
 from .row_patch import RowPatch
 from .separate import rows_touching, separate
-from .snapping import opposite_vertices
+from .moves import VertexMoves, plan_moves, writable_rows
+from .snapping import along_cut, opposite_vertices
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
@@ -37,7 +38,7 @@ DEFAULT_SNAP = 0.25
 
 
 def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray, triangles: np.ndarray,
-                sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=()) -> CutResult | None:
+                sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=(), movable=None) -> CutResult | None:
     """Cut M_S along one sweep; None when the sweep crosses no triangle (nothing changes).
 
     Returns new arrays (O(n + m) copies, and one pass over the triangles to find the sweep's): for a cut every frame
@@ -51,6 +52,8 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
         snap: snap fraction of the local edge length, in [0, 1/3).
         closed: ``(p, 2)`` cut edges of earlier moves still shared by two triangles (:attr:`CutResult.closed`),
             so a cut that goes on from its tip opens there.
+        movable: ``f(vertices (k,) int64) -> (k,) bool``: which vertices near the cut may be moved onto it
+            (:mod:`.moves`; None: any inside the surface).
 
     Raises:
         MeshError: a cut segment could not be made an edge (a defect of the input mesh, e.g. a degenerate
@@ -64,33 +67,67 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     marked[triangles[near].ravel()] = True
     marked[np.asarray(closed, dtype=np.int64).ravel()] = True
     rows = rows_touching(triangles, marked)
+    # copies: a move of a vertex onto the cut rewrites its rows
+    rest, positions, velocities = (np.array(a, dtype=np.float64) for a in (rest, positions, velocities))
     plan = plan_cut(rest, positions, triangles, sweep, snap=snap, closed=closed,
-                    fans=VertexFans(triangles[rows], len(rest), rows=rows), near=near)
+                    fans=VertexFans(triangles[rows], len(rest), rows=rows), near=near, movable=movable)
     if plan is None:
         return None
+    moved_from = rest[plan.moves.vertices]
+    for array in (rest, positions, velocities):
+        array[plan.moves.vertices] = plan.moves.values(array)
     new_rest, new_pos, new_vel = (np.concatenate([a, plan.interpolate(a)]) for a in (rest, positions, velocities))
     out = triangles.copy()
     for r, content in plan.patch.edited.items():
         out[r] = content
     out = np.concatenate([out, np.array(plan.patch.added, dtype=np.int32).reshape(-1, 3)])
-    return plan.result(new_rest, new_pos, new_vel, out, sweep)
+    return plan.result(new_rest, new_pos, new_vel, out, sweep, moved_from=moved_from)
 
 
-def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near) -> CutPlan | None:
+def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near,
+             movable=None) -> CutPlan | None:
     """The cut of ``sweep`` among the candidate rows ``near`` (arrays as :func:`cut_surface`'s; ``fans`` must
-    cover every vertex of ``near`` and of ``closed``); None if nothing is cut. Writes nothing."""
-    rest, positions, triangles = (read_only(a) for a in (rest, positions, triangles))
-    found = crossings(positions, triangles, sweep, near=near)
+    cover every vertex of ``near`` and of ``closed``); None if nothing is cut.
+
+    The vertices near the cut that ``movable`` lets move are moved onto it first (:mod:`.moves`): ``rest`` and
+    ``positions`` hold them there while the cut is planned (their rows are written, then put back), and the plan
+    carries the moves (:attr:`CutPlan.moves`) for the caller to write with the rest. Otherwise writes nothing."""
+    found = crossings(read_only(positions), triangles, sweep, near=near)
     if not found:
         return None
+    moves = plan_moves(rest, positions, triangles, found, fans, snap=snap, closed=closed, movable=movable)
+    if not len(moves):
+        return _plan(rest, positions, triangles, sweep, found, moves, snap=snap, closed=closed, fans=fans)
+    held = [(writable_rows(a), moves.values(a), np.array(a[moves.vertices])) for a in (rest, positions)]
+    try:
+        for array, moved, _ in held:
+            array[moves.vertices] = moved
+        found = crossings(read_only(positions), triangles, sweep, near=near)
+        return _plan(rest, positions, triangles, sweep, found, moves, snap=snap, closed=closed, fans=fans)
+    finally:
+        for array, _, before in held:
+            array[moves.vertices] = before
+
+
+def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap, closed, fans) -> CutPlan | None:
+    """:func:`plan_cut` on the crossings ``found``, with the vertices ``moves`` already on the cut."""
+    if not found:
+        return None
+    rest, positions, triangles = (read_only(a) for a in (rest, positions, triangles))
     n, m = len(rest), len(triangles)
     patch = RowPatch(triangles, fans, n)
     points = CutPoints(n=n, snap=snap, rest=rest, now=positions)
     segments, known_sides = {}, {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        opposite = opposite_vertices(patch, corners.tolist(), crossing.ends, snap, known_sides)
-        ends = [points.locate(corners, crossing.triangle, w, opposite) for w in crossing.ends]
+        along = along_cut(crossing.ends)
+        opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
+        ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
+        across = [e for e in range(2) if np.count_nonzero(along[e]) == 3 and ends[e][0] != "f"]
+        if across:     # a facet end the guard snapped across the trace goes along it instead
+            along = along_cut(along, np.inf, across)
+            opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
+            ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
         if points.same(*ends):
             continue            # the segment snapped to a point: nothing to cut in this triangle
         a, b = (points.commit(corners, end) for end in ends)
@@ -99,6 +136,11 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
     if not points.parents and not segments:
         return None
     affected = _affected(segments, points, patch)
+    # a moved vertex's rows keep their corners but change shape: the solvers make their rest data again
+    moved_rows = sorted({r for v in moves.vertices.tolist() for r in patch.fan(v)})
+    for r in moved_rows:
+        if r not in patch.edited:
+            patch.write(r, patch.row_list(r))
     parents = np.array(points.parents, dtype=np.int64).reshape(-1, 3)
     weights = np.array(points.weights, dtype=np.float64).reshape(-1, 3)
     origin, cut_edges = [], set()
@@ -120,13 +162,13 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
     inserted = copy_of >= n
     copy_parents[inserted] = parents[copy_of[inserted] - n]
     copy_weights[inserted] = weights[copy_of[inserted] - n]
-    changed = np.unique(np.concatenate([np.array(new_rows, dtype=np.int64), rewritten]))
+    changed = np.unique(np.concatenate([np.array(new_rows + moved_rows, dtype=np.int64), rewritten]))
     return CutPlan(old_count=n, parents=np.concatenate([parents, copy_parents]),
                    weights=np.concatenate([weights, copy_weights]),
                    new_copy_of=np.concatenate([np.full(len(parents), -1, dtype=np.int64), copy_of]),
                    patch=patch, origin=origin, changed=changed,
                    replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
-                   still_closed=still_closed, split_count=len(affected), segments=segments)
+                   still_closed=still_closed, split_count=len(affected), segments=segments, moves=moves)
 
 
 def _affected(segments, points, patch) -> list[int]:

@@ -38,10 +38,6 @@ class CutPoints:
             i, j = int(corners[nonzero[0]]), int(corners[nonzero[1]])
             lo, hi = (i, j) if i < j else (j, i)
             t = float(w[nonzero[1]] if j == hi else w[nonzero[0]])
-            if t < self.snap:
-                return ("v", lo)
-            if t > 1.0 - self.snap:
-                return ("v", hi)
             return ("e", lo, hi, t)
         return ("f", triangle, w)
 

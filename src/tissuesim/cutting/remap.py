@@ -2,7 +2,10 @@
 
 A new vertex (an edge or facet point) gets the §6.1 load map (the closest point on M'_S, searched among its parents'
 coarse triangles) and its embedding in M_V (the parents' tet that holds it best: the largest smallest
-barycentric coordinate, unclamped so it reproduces the point); a duplicate takes its original's. Control nodes on
+barycentric coordinate, unclamped so it reproduces the point); a duplicate takes its original's. A vertex moved
+onto the cut (:mod:`.moves`) keeps its coarse triangle and its tet, with the coordinates of where it now is (so
+the solvers' per-vertex node lists stay valid): the closest point of that coarse triangle, and unclamped
+coordinates in that tet. Control nodes on
 the cut are released (§7, last sentence): ``control`` and ``control_volume`` keep the others, and
 ``coarse_volume`` keeps the M_V node of every M'_S vertex. The fine reference volume is not cut (its
 re-tetrahedralization is what the hybrid avoids), so a cut mesh has none.
@@ -61,10 +64,30 @@ def cut_hybrid(hybrid: HybridMesh, result: CutResult, released: np.ndarray, spar
     maps = {name: spare.extend(name, getattr(hybrid, name), new_rows(getattr(hybrid, name), result, fresh))
             for name, fresh in (("coarse_triangle", coarse_tri), ("coarse_barycentric", coarse_bary),
                                 ("embedding_tet", tet), ("embedding_barycentric", tet_bary))}
+    if len(result.moved):
+        _remap_moved(hybrid, result, maps, spare)
     return dataclasses.replace(
         hybrid, surface=SurfaceMesh.trusted(result.rest, result.triangles), control=control,
         control_volume=control_volume, coarse_volume=hybrid.coarse_volume_nodes, fine_volume=None,
         fine_surface_nodes=None, info=info, **maps)
+
+
+def _remap_moved(hybrid, result: CutResult, maps: dict, spare: Spare) -> None:
+    """The moved vertices' load-map and embedding coordinates where they now are, in the same coarse triangle and
+    tet (rewritten in the buffers, so a move taken back puts them back)."""
+    moved = result.moved
+    rest = result.rest[moved]
+    coarse = hybrid.coarse_surface
+    rows = maps["coarse_triangle"][moved].astype(np.int64)
+    bary = np.stack([closest_among(coarse.vertices, coarse.triangles, p[None], r[None])[1][0]
+                     for p, r in zip(rest, rows)])
+    spare.rewrite(maps["coarse_barycentric"], moved, bary)
+    volume = hybrid.volume
+    corners = volume.points[volume.tets[maps["embedding_tet"][moved]]]              # (k, 4, 3)
+    local = np.linalg.solve(np.swapaxes(corners[:, 1:] - corners[:, :1], 1, 2), (rest - corners[:, 0])[..., None])
+    local = local[..., 0]
+    spare.rewrite(maps["embedding_barycentric"], moved, np.concatenate([1.0 - local.sum(axis=1, keepdims=True),
+                                                                         local], axis=1))
 
 
 def _load_map(hybrid, rest, parents):

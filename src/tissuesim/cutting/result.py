@@ -6,10 +6,12 @@ over as the same mix of its parents' (§7, Fig 8).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from contextlib import contextmanager
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from .moves import NO_MOVES, VertexMoves, writable_rows
 from .row_patch import RowPatch
 
 
@@ -37,6 +39,10 @@ class CutResult:
         split_count: old triangles split.
         end_vertex: the cut point farthest along the sweep (where the cut stopped) on the sheet nearest the tool
             tip, −1 if none; a progressive cut starts its next sweep there so the wound stays one path.
+        moves: the old vertices moved onto the cut (:mod:`.moves`; :attr:`moved`): their rows of ``rest``,
+            ``positions`` and ``velocities`` changed, and their triangles are among ``changed``; a carrier moves
+            its own per-vertex values the same way (``moves.values(array)``, read before it writes).
+        moved_from: ``(k, 3) float64`` their rest positions before the cut [m].
     """
 
     rest: np.ndarray
@@ -54,6 +60,28 @@ class CutResult:
     closed: np.ndarray
     split_count: int
     end_vertex: int = -1
+    moves: VertexMoves = NO_MOVES
+    moved_from: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+
+    @property
+    def moved(self) -> np.ndarray:
+        """``(k,) int64`` the old vertices moved onto the cut."""
+        return self.moves.vertices
+
+    @contextmanager
+    def rest_before_moves(self):
+        """Within it, ``rest`` holds the moved vertices' rest positions from before the cut (for what a carrier
+        takes away: the old triangles' areas and stiffness); O(moved)."""
+        if not len(self.moved):
+            yield
+            return
+        rest = writable_rows(self.rest)
+        after = np.array(rest[self.moved])
+        rest[self.moved] = self.moved_from
+        try:
+            yield
+        finally:
+            rest[self.moved] = after
 
     @property
     def old_triangle_count(self) -> int:
@@ -127,6 +155,7 @@ class CutPlan:
     still_closed: list
     split_count: int
     segments: dict
+    moves: VertexMoves = NO_MOVES
 
     def interpolate(self, values: np.ndarray) -> np.ndarray:
         """``(v, ...)`` per-vertex ``values`` ``(n, ...)`` at the new vertices (their parents' barycentric mix)."""
@@ -137,8 +166,12 @@ class CutPlan:
         rows = list(self.patch.edited.values()) + self.patch.added
         return np.unique(np.concatenate([self.replaced.ravel(), np.asarray(rows, dtype=np.int64).ravel()]))
 
-    def result(self, rest, positions, velocities, triangles, sweep) -> CutResult:
-        return CutResult(rest=rest, positions=positions, velocities=velocities, triangles=triangles,
+    def result(self, rest, positions, velocities, triangles, sweep, moved_from=None) -> CutResult:
+        """The cut once written (arrays of the new surface; ``moved_from`` ``(k, 3)``: the moved vertices' rest
+        positions before it [m])."""
+        return CutResult(moves=self.moves,
+                         moved_from=np.zeros((0, 3)) if moved_from is None else moved_from,
+                         rest=rest, positions=positions, velocities=velocities, triangles=triangles,
                          old_count=self.old_count, parents=self.parents, weights=self.weights,
                          new_copy_of=self.new_copy_of, new_origin=np.array(self.origin, dtype=np.int64),
                          changed=self.changed, replaced=self.replaced,

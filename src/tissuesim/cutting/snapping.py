@@ -19,6 +19,34 @@ from .edges import edge_key
 #: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
 #: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
 GUARD_QUALITY = 0.02
+#: A point closer than the snap fraction to a vertex or an edge (a vertex that cannot be moved onto the cut, see
+#: :mod:`.moves`) stays where the blade crossed while every weight it has is at least this and every piece it makes
+#: keeps :data:`EXACT_QUALITY`: snapped, the cut would leave the blade's trace by up to σ of an edge.
+EXACT_MIN = 0.1
+EXACT_QUALITY = 0.1
+
+
+def along_cut(ends: np.ndarray, below: float = EXACT_MIN, which=(0, 1)) -> np.ndarray:
+    """``(2, 3)`` the barycentric ``ends`` of a crossing segment with each facet end (of ``which``) that would
+    snap across (a weight ``below``, :data:`EXACT_MIN` by default) moved along the segment instead: forward to where the segment's line leaves the
+    triangle, when that is nearer than the other end, else back to the other end (this triangle's piece of the cut
+    is then left to a later move). An end put near a corner moves that corner onto the cut (:mod:`.moves`) or
+    snaps onto it. Snapping across would put the cut's tip
+    beside the blade's trace, and the next move, which goes on from that tip, would turn the wound toward it."""
+    out = np.array(ends, dtype=np.float64)
+    for e in which:
+        tip, other = out[e], out[1 - e]
+        if np.count_nonzero(tip > 0.0) < 3 or tip.min() >= below:
+            continue
+        step = tip - other
+        falling = step < 0.0
+        exit_at = float(np.min(other[falling] / -step[falling])) if falling.any() else np.inf
+        out[e] = other
+        if exit_at - 1.0 < 1.0:
+            leave = other + exit_at * step
+            leave[np.argmin(leave)] = 0.0                    # on the side it leaves by, exactly
+            out[e] = leave / leave.sum()
+    return out
 
 
 def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, known: dict) -> np.ndarray:
@@ -27,7 +55,7 @@ def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, 
 
     Only the sides the guard can reach from the barycentric ``ends`` ``(2, 3)`` are looked up: an edge point's side,
     or all three for a facet point; the others get the triangle's own corner. ``known`` caches sides by edge."""
-    kept = [[x >= snap for x in w] for w in ends.tolist()]
+    kept = [[x >= min(snap, EXACT_MIN) for x in w] for w in ends.tolist()]
     if any(all(row) for row in kept):
         reachable = {0, 1, 2}
     else:
@@ -51,12 +79,14 @@ def snapped_weights(rest, now, corners, weights, opposite, snap):
     """``(3,) float64`` the barycentric ``weights`` of a point in the triangle ``corners`` after snapping by ``snap``
     and the quality guard, at rest positions ``rest`` and current positions ``now`` ``(n, 3)`` [m]; ``opposite`` from
     :func:`opposite_vertices`. Zero weights mark the corners the point is not on."""
+    quality = np.empty(6 * opposite.shape[1])
+    if _stays_exact(rest, now, corners, weights, opposite, quality):
+        return weights.copy()
     w = np.zeros(3)
     for k in range(3):
         if weights[k] >= snap:
             w[k] = weights[k]
     _normalise(w)
-    quality = np.empty(6 * opposite.shape[1])
     while (w[0] != 0.0) + (w[1] != 0.0) + (w[2] != 0.0) > 1:
         for k in range(quality.size):
             quality[k] = np.inf
@@ -78,6 +108,28 @@ def snapped_weights(rest, now, corners, weights, opposite, snap):
             w[i if w[i] < w[j] else j] = 0.0        # onto the nearer end
         _normalise(w)
     return w
+
+
+@njit(cache=True)
+def _stays_exact(rest, now, corners, weights, opposite, quality):
+    """Whether an edge or facet point whose non-zero weights are all at least :data:`EXACT_MIN` keeps every piece
+    it makes at quality ≥ :data:`EXACT_QUALITY`, at rest and now (``quality`` is a work array)."""
+    inside = 0
+    for k in range(3):
+        if weights[k] > 0.0:
+            inside += 1
+            if weights[k] < EXACT_MIN:
+                return False
+    if inside < 2:
+        return False
+    for k in range(quality.size):
+        quality[k] = np.inf
+    _piece_qualities(rest, corners, weights, opposite, quality)
+    _piece_qualities(now, corners, weights, opposite, quality)
+    for q in quality:
+        if q < EXACT_QUALITY:
+            return False
+    return True
 
 
 @njit(cache=True)

@@ -27,6 +27,8 @@ from ..errors import SolverError
 
 #: Relative tolerance [1] under which a vertex counts as lying on the sweep plane (fraction of the edge length).
 PLANE_TOLERANCE = 1e-9
+#: Relative margin [1] by which the sweep's parallelogram is grown when a crossing is clipped to it.
+CLIP_TOLERANCE = 1e-9
 #: Smallest snap fraction accepted. Snapping also sets how close two cut points of one move may come before they
 #: are merged, so at 0 two crossings at one place make two vertices there: zero-length edges, zero-area triangles
 #: and non-manifold vertices (at 0 every random move on the cube was refused or broke the surface). Below the
@@ -217,11 +219,12 @@ def _clip(ends, positions, corners, origin, dual):
     lo, hi = 0.0, 1.0
     for k in range(2):
         start, delta = st[0, k], st[1, k] - st[0, k]
-        # keep 0 ≤ start + λ delta ≤ 1
-        inside, lo, hi = _clip_bound(delta, start, lo, hi)
+        # keep −ε ≤ start + λ delta ≤ 1 + ε: a segment along the sweep's border (a cut going on from its tip with
+        # the blade's tip at the surface) stays, whatever the round-off of its coordinates there
+        inside, lo, hi = _clip_bound(delta, start + CLIP_TOLERANCE, lo, hi)
         if not inside:
             return False
-        inside, lo, hi = _clip_bound(-delta, 1.0 - start, lo, hi)
+        inside, lo, hi = _clip_bound(-delta, 1.0 + CLIP_TOLERANCE - start, lo, hi)
         if not inside:
             return False
     if hi - lo <= 0.0:

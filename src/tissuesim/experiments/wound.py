@@ -123,8 +123,9 @@ def lip_deviation(rest: np.ndarray, triangles: np.ndarray, line, *, depth: float
         edge: the uncut surface's mean rest edge length [m]: the deviations are returned in units of it.
 
     Returns:
-        ``{"rms", "max"}`` (fractions of ``edge``), ``"lips"`` (count), ``"quality"`` (smallest triangle quality
-        4√3 A / Σ l² of the cut surface at rest).
+        ``{"rms", "max"}`` (fractions of ``edge``), ``"lips"`` (count), ``"reach"`` (the wound's extent along the
+        stroke, a fraction of its length), ``"quality"`` (smallest triangle quality 4√3 A / Σ l² of the cut
+        surface at rest).
     """
     from ..cutting.invariants import triangle_qualities
 
@@ -140,4 +141,5 @@ def lip_deviation(rest: np.ndarray, triangles: np.ndarray, line, *, depth: float
     distance = np.linalg.norm(rest[lips] - (start + st[:, :1] * u + st[:, 1:] * v), axis=1) / edge
     return {"rms": float(np.sqrt(np.mean(distance ** 2))) if lips.size else 0.0,
             "max": float(distance.max()) if lips.size else 0.0, "lips": int(lips.size),
+            "reach": float(np.ptp(st[:, 0])) if lips.size else 0.0,
             "quality": float(triangle_qualities(rest, tri).min())}

@@ -72,6 +72,10 @@ class SolverCut:
 
     #: whether a piece cut loose from every prescribed node is kept (by its embedding) instead of refused
     keeps_loose = False
+    #: whether the move being written moved vertices onto the cut, and whether any move did (see
+    #: :meth:`local_masses`)
+    _moved = False
+    _rescaled = False
 
     def __init__(self, solver):
         self.solver = solver
@@ -143,6 +147,7 @@ class SolverCut:
                 before()
         new_identity = self._new_identity(plan)
         result = self.surface.apply(plan, sweep)
+        self._moved = len(result.moved) > 0
         touched = self.touched(result)
         loose = self._loose(result, touched, new_fixed, released)
         self._update_lumped(result)
@@ -189,10 +194,16 @@ class SolverCut:
         return np.unique(np.concatenate([result.replaced.ravel(), result.triangles[result.changed].ravel()]))
 
     def local_masses(self, touched: np.ndarray, mass_total: float) -> None:
-        """The method's lumped masses (``mass_total`` [kg] by lumped area), rewritten at ``touched`` vertices."""
+        """The method's lumped masses (``mass_total`` [kg] by lumped area), rewritten at ``touched`` vertices. A
+        vertex moved onto the cut on a curved surface changes the area a little: the touched vertices keep the mass
+        they had, so the cut conserves the body's mass."""
         s = self.solver
+        had = float(s.mass[touched[touched < len(s.mass)]].sum())
         s.mass = self.spare.extend("mass", s.mass, np.zeros(len(s.rest_positions) - len(s.mass)))
         s.mass[touched] = mass_total * self.lumped[touched] / self.lumped_total
+        if self._moved or self._rescaled:
+            s.mass[touched] *= had / s.mass[touched].sum()
+            self._rescaled = True
 
     def _reload(self, result: CutResult) -> None:
         """Contact patches are cached per node and the cut changed the surface: drop them and carry every load over,
