@@ -5,9 +5,10 @@ methods refused them only in their volume's terms); attachments count as holding
 import numpy as np
 import pytest
 
-from tissuesim import HybridMesh, make_solver
+from tissuesim import HybridMesh, Scalpel, make_solver
 from tissuesim.errors import BoundaryConditionError
 from tissuesim.fem.linear import LinearFEM
+from tissuesim.fem.rigid_modes import connected_pieces
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes
 from tissuesim.mesh.tetmesh import structured_box
@@ -68,11 +69,33 @@ def test_every_piece_of_a_surface_must_be_held():
     tet = np.array([[0.0, 0.0, 0.0], [0.01, 0.0, 0.0], [0.0, 0.01, 0.0], [0.0, 0.0, 0.01]])
     faces = np.array([[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]])
     rest = np.concatenate([tet, tet + [0.05, 0.0, 0.0]])
-    triangles = np.concatenate([faces, faces + 4])
-    check_supports_hold(rest, triangles, np.array([0, 1, 2, 4, 5, 6]), np.zeros(0, dtype=np.int64), "pbd")
+    count, pieces = connected_pieces(np.concatenate([faces, faces + 4]), 8)
+    assert count == 2
+    check_supports_hold(rest, pieces, np.array([0, 1, 2, 4, 5, 6]), np.zeros(0, dtype=np.int64), "pbd")
     with pytest.raises(BoundaryConditionError, match=r"a piece of the body \(4 surface vertices, first: 4"):
-        check_supports_hold(rest, triangles, np.array([0, 1, 2]), np.zeros(0, dtype=np.int64), "pbd")
-    check_supports_hold(rest, triangles, np.array([0, 1, 2]), np.array([4, 5, 7]), "pbd")
+        check_supports_hold(rest, pieces, np.array([0, 1, 2]), np.zeros(0, dtype=np.int64), "pbd")
+    check_supports_hold(rest, pieces, np.array([0, 1, 2]), np.array([4, 5, 7]), "pbd")
+
+
+def test_a_surface_piece_that_the_volume_holds_needs_no_support_of_its_own():
+    """A closed square stroke cuts a patch out of the cube's top surface; the embedded method keeps it (its M_V
+    holds it). A fresh embedded solver on the cut mesh accepts it; a surface method, which has no volume, refuses."""
+    hybrid = HybridMesh.build(models.cube())
+    solver = make_solver("embedded", hybrid)
+    top = solver.rest_positions[:, 2].max()
+    corners = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1], [-1, -1]]) * 0.006 + [0.0011, 0.0013]
+    points = [np.array([x, y, top + 0.001]) for x, y in corners]
+    scalpel = Scalpel(solver, depth=0.004)
+    scalpel.press(points[0], direction=[0, 0, -1])
+    for a, b in zip(points, points[1:]):
+        for f in np.linspace(0, 1, 4)[1:]:
+            scalpel.move(a + f * (b - a))
+    cut = solver.hybrid
+    assert connected_pieces(cut.surface.triangles, cut.surface.vertex_count)[0] == 2
+    make_solver("embedded", cut)
+    make_solver("hybrid", cut)
+    with pytest.raises(BoundaryConditionError, match=r"do not hold a piece of the body \(\d+ surface vertices"):
+        make_solver("pbd", cut)
 
 
 def test_the_linear_fem_counts_its_springs_as_supports():

@@ -13,8 +13,6 @@ K_ff is factorised once (:mod:`.factorise`: METIS ordering, CHOLMOD or SuperLU).
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
-import scipy.sparse.csgraph as csgraph
 from numba import njit
 
 from ..errors import BoundaryConditionError, MeshError, SolverError, first_indices
@@ -22,7 +20,7 @@ from ..mesh.tetmesh import TetMesh
 from .assembly import assemble_stiffness
 from .factorise import factorise_spd
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
-from .rigid_modes import free_rigid_modes
+from .rigid_modes import connected_pieces, free_rigid_modes
 from .springs import check_springs, spring_stiffness
 #: Contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps (72 n bytes each).
 PATCH_CACHE = 8
@@ -360,10 +358,7 @@ def _check_rigid_modes(mesh: TetMesh, mask: np.ndarray, springs=None) -> None:
     points its springs hold (every axis) must have rank 6 (:func:`~.rigid_modes.free_rigid_modes`, O(held dofs))."""
     n = mesh.node_count
     t = mesh.tets
-    chain = sp.coo_matrix(
-        (np.ones(3 * len(t)), (t[:, :3].ravel(), t[:, 1:].ravel())), shape=(n, n)
-    )  # edges 0-1, 1-2, 2-3 connect every tet
-    count, label = csgraph.connected_components(chain, directed=False)
+    count, label = connected_pieces(t, n)
     used = np.zeros(n, dtype=bool)
     used[t.ravel()] = True
     if springs is not None:

@@ -5,6 +5,8 @@ the same count, so every method refuses the same supports, up front."""
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.csgraph as csgraph
 
 #: A rigid mode is free when the Gram matrix of the six modes restricted to the held dofs has an eigenvalue below
 #: this fraction of its largest (collinear held points give ~1e-16).
@@ -37,3 +39,12 @@ def free_rigid_modes(piece: np.ndarray, held: np.ndarray, held_axes: np.ndarray 
     restricted = modes.reshape(-1, 6) if held_axes is None else modes[np.arange(len(held)), held_axes]
     eigenvalues = np.linalg.eigvalsh(restricted.T @ restricted)
     return int(np.sum(eigenvalues <= RIGID_MODE_TOLERANCE * eigenvalues[-1]))
+
+
+def connected_pieces(elements: np.ndarray, node_count: int) -> tuple[int, np.ndarray]:
+    """``(count, labels (node_count,) int32)``: the connected pieces of a mesh whose ``elements`` ``(m, k) int``
+    (triangles, tets) join their nodes; a node in no element is a piece of its own."""
+    elements = np.asarray(elements, dtype=np.int64)
+    chain = sp.coo_matrix((np.ones(elements[:, 1:].size), (elements[:, :-1].ravel(), elements[:, 1:].ravel())),
+                          shape=(node_count, node_count))       # edges 0-1, 1-2, ... join every element
+    return csgraph.connected_components(chain, directed=False)

@@ -10,7 +10,9 @@ ones map it to their volume through the embedding their loads use, the surface l
 take it on the node), so static answers are exact and stepping stays stable.
 
 Supports must hold the body (:func:`check_supports_hold`): the fixed vertices plus the attached ones must remove
-every rigid motion of every connected piece of the surface (at least three non-collinear held vertices in each).
+every rigid motion of every piece of the body (at least three non-collinear held vertices in each): a connected piece
+of the surface for the surface methods, of the volume that carries the surface for the others (a cut may split the
+surface where the volume still joins it).
 """
 
 from __future__ import annotations
@@ -19,10 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-import scipy.sparse.csgraph as csgraph
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
-from ..fem.rigid_modes import free_rigid_modes
+from ..fem.rigid_modes import connected_pieces, free_rigid_modes
 
 
 @dataclass(frozen=True)
@@ -111,26 +112,31 @@ def attachment_matrix(count: int, nodes: np.ndarray, stiffness: np.ndarray) -> s
     return sp.csr_matrix((np.repeat(stiffness, 3), (dofs, dofs)), shape=(3 * count, 3 * count))
 
 
-def check_supports_hold(rest_positions: np.ndarray, triangles: np.ndarray, fixed: np.ndarray,
-                        attached: np.ndarray, method: str) -> None:
-    """Refuse (BoundaryConditionError, saying why and what to do) supports that leave some connected piece of the
-    surface ``triangles`` ``(m, 3)`` free to move rigidly: its ``fixed`` and ``attached`` vertices (M_S indices) must
-    hold at least three non-collinear points of it. ``method`` names the solver in the message."""
-    n = len(rest_positions)
-    t = np.asarray(triangles, dtype=np.int64)
-    graph = sp.coo_matrix((np.ones(2 * len(t)), (t[:, :2].ravel(), t[:, 1:].ravel())), shape=(n, n))
-    count, label = csgraph.connected_components(graph, directed=False)
-    held = np.zeros(n, dtype=bool)
+def volume_pieces(volume, carriers: np.ndarray) -> np.ndarray:
+    """``(n,) int`` the piece of ``volume`` (a :class:`~tissuesim.mesh.tetmesh.TetMesh`) that carries each M_S vertex,
+    through ``carriers`` ``(n,) int``, one volume node per vertex (a node of its tet, or the vertex's own node)."""
+    return connected_pieces(volume.tets, volume.node_count)[1][np.asarray(carriers, dtype=np.int64)]
+
+
+def check_supports_hold(rest_positions: np.ndarray, pieces: np.ndarray, fixed: np.ndarray, attached: np.ndarray,
+                        method: str) -> None:
+    """Refuse (BoundaryConditionError, saying why and what to do) supports that leave some piece of the body free to
+    move rigidly: ``pieces`` ``(n,) int`` labels each M_S vertex with its piece (the surface's connected pieces, or
+    the volume's that carries it), and the ``fixed`` and ``attached`` vertices (M_S indices) of each piece must hold
+    at least three points of it that are not on one line. ``method`` names the solver in the message."""
+    pieces = np.asarray(pieces)
+    held = np.zeros(len(rest_positions), dtype=bool)
     held[np.asarray(fixed, dtype=np.int64)] = True
     held[np.asarray(attached, dtype=np.int64)] = True
-    for piece in range(count):
-        vertices = np.flatnonzero(label == piece)
+    labels = np.unique(pieces)
+    for piece in labels:
+        vertices = np.flatnonzero(pieces == piece)
         holding = vertices[held[vertices]]
         free = free_rigid_modes(rest_positions[vertices], rest_positions[holding])
         if not free:
             continue
-        where = "the body" if count == 1 else (f"a piece of the body ({vertices.size} surface vertices, first: "
-                                               f"{first_indices(vertices)})")
+        where = "the body" if labels.size == 1 else (f"a piece of the body ({vertices.size} surface vertices, first: "
+                                                     f"{first_indices(vertices)})")
         if holding.size == 0:
             why = "no fixed vertex and no attachment holds it, so it falls or drifts freely"
         elif holding.size == 1:

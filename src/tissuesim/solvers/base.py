@@ -50,6 +50,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
+from ..fem.rigid_modes import connected_pieces
 from .contact import ContactPatches
 from .attachments import attachment_springs, check_supports_hold
 from .checks import fraction, gravity_vector, is_integer, node_set, positive_number, time_step
@@ -153,8 +154,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         else:
             self.fixed_height = None
             self.fixed = node_set("fixed", fixed, n, allow_empty=True)     # the check below says why not
-        check_supports_hold(self.rest_positions, hybrid_mesh.surface.triangles, self.fixed, self.attached_nodes,
-                            self.name)
+        check_supports_hold(self.rest_positions, self._pieces(), self.fixed, self.attached_nodes, self.name)
         self.forces = np.zeros((n, 3))
         self._loads: list[Load] = []
         self._patches: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
@@ -319,6 +319,12 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         per attached node (attachments in turn, as :attr:`attached_nodes`); their sum balances the weight and the
         loads that the fixed vertices do not carry."""
         return self.attached_stiffness[:, None] * (self.attached_anchors - self._attached_positions())
+
+    def _pieces(self) -> np.ndarray:
+        """``(n,) int`` the piece of the body each M_S vertex belongs to (what the supports must hold, each piece by
+        itself): the surface's connected pieces; a method with a volume labels each vertex by the volume's piece
+        that carries it."""
+        return connected_pieces(self.hybrid.surface.triangles, self.node_count)[1]
 
     def _attached_positions(self) -> np.ndarray:
         """``(p, 3)`` where the attachment springs hold the body now [m]: the attached M_S vertices."""

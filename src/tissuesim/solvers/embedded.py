@@ -18,6 +18,7 @@ from numba import njit
 
 from .base import Solver
 from .finite_strain import finite_volume, support_displacement
+from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
 
@@ -85,6 +86,11 @@ class EmbeddedSolver(Solver):
 
     def _on_load_changed(self) -> None:
         self._dirty = True
+
+    def _pieces(self) -> np.ndarray:
+        """M_V's pieces: the volume holds the surface together where a cut splits it."""
+        h = self.hybrid
+        return volume_pieces(h.volume, h.volume.tets[np.asarray(h.embedding_tet, dtype=np.int64), 0])
 
     def _solve(self) -> None:
         if self.finite is not None:

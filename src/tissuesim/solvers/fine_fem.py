@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import SolverError
 from .base import Solver
 from .finite_strain import finite_volume, support_displacement
+from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
 
@@ -57,6 +58,13 @@ class FineFEMSolver(Solver):
         self.finite = finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
+
+    def _pieces(self) -> np.ndarray:
+        """The fine volume's pieces (the surface's where the mesh was built without it: refused just after)."""
+        h = self.hybrid
+        if h.fine_volume is None or h.fine_surface_nodes is None:
+            return super()._pieces()
+        return volume_pieces(h.fine_volume, h.fine_surface_nodes)
 
     def _step(self, dt: float) -> None:
         state = self.state

@@ -49,6 +49,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
+from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .surface_layer import SurfaceLayerSolver
 
@@ -137,6 +138,11 @@ class HybridSolver(SurfaceLayerSolver):
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
         self._dirty = self._constant_load is not None    # the first step moves M_V under its weight
+
+    def _pieces(self) -> np.ndarray:
+        """M_V's pieces: the volume holds the surface together where a cut splits it."""
+        h = self.hybrid
+        return volume_pieces(h.volume, h.volume.tets[np.asarray(h.embedding_tet, dtype=np.int64), 0])
 
     def _init_near_field(self, near_field) -> None:
         self.near_field = None
