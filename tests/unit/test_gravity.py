@@ -200,3 +200,18 @@ def test_the_hybrids_options_keep_the_weights_static_answer(cube, top):
     assert np.abs(cold - base).max() <= 1e-12 * np.abs(base).max()
     with pytest.raises(SolverError, match="near_field does not take gravity"):
         make_solver("hybrid", cube, gravity=G, near_field=0.01)
+
+
+def test_the_finite_strain_hybrid_steps_to_its_static_sag(cube, top):
+    """The interactive path (M_V relaxed a few iterations a step on the constant factor) rests where the Newton
+    solve does."""
+    static = sag(make_solver("hybrid", cube, gravity=G, material="neo-hookean"), top)
+    solver = make_solver("hybrid", cube, gravity=G, material="neo-hookean")
+    previous = solver.positions.copy()
+    for _ in range(3000):
+        solver.step()
+        motion = np.abs(solver.positions - previous).max()
+        previous[:] = solver.positions
+        if motion < 1e-12:
+            break
+    assert np.abs(solver.displacements - static).max() <= 1e-7 * np.abs(static).max()
