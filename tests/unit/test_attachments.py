@@ -78,9 +78,21 @@ def test_nodes_outside_the_surface_and_a_bare_attachment_are_refused(cube, top_f
         make_solver("fem", cube, attachments=Attachment(top_face, 1.0))
 
 
-def test_finite_strain_refuses_attachments(cube, top_face):
-    with pytest.raises(SolverError, match="attachments need material='linear'"):
-        make_solver("hybrid", cube, material="corotated", attachments=(Attachment(top_face, 10.0),))
+@pytest.mark.parametrize("method", ["hybrid", "embedded", "fem"])
+def test_a_finite_strain_body_hung_on_attachments_balances_its_weight(cube, top, top_face, method):
+    """The springs are linear in u in finite strain too (zero rest length, fixed anchors): their total force is
+    the weight, and a body stiff enough to strain little hangs as the linear one does."""
+    options = dict(fixed=[], attachments=(Attachment(top_face, 50.0),), gravity=G)
+    solver = make_solver(method, cube, material="neo-hookean", **options)
+    u = rest_under(solver, top)
+    weight = 1000.0 * abs(cube.surface.signed_volume) * 9.81
+    assert np.allclose(solver.attachment_forces().sum(axis=0), [0.0, 0.0, weight], rtol=1e-8, atol=1e-8 * weight)
+    stiff = rest_under(make_solver(method, cube, material="neo-hookean", youngs_modulus=5.5e5, **options), top)
+    linear = rest_under(make_solver(method, cube, youngs_modulus=5.5e5, **options), top)
+    assert np.abs(stiff - linear).max() <= 1e-3 * np.abs(linear).max()
+    assert np.all(np.isfinite(u))
+    with pytest.raises(BoundaryConditionError, match="no fixed vertex to move"):
+        solver.set_fixed_positions(np.zeros((0, 3)))
 
 
 def test_the_pbd_projection_forms_refuse_attachments(cube, top_face):

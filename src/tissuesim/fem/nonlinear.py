@@ -105,6 +105,9 @@ class _HyperelasticStatics:
         self._memory: list[tuple[np.ndarray, np.ndarray, float]] = []    # relax's curvature pairs (s, y, 1/yᵀs)
         self._last: tuple[np.ndarray, np.ndarray] | None = None           # relax's last (u_f, ∂W/∂u_f)
         self.last_iterations = 0
+        #: ``(3n, 3n)`` CSR stiffness [N/m] of springs to fixed anchors (ligaments: quadratic in u, ½ uᵀ K_s u),
+        #: added to W, ∂W/∂u and the tangent; None without springs
+        self._springs = None
 
     @property
     def node_count(self) -> int:
@@ -114,13 +117,19 @@ class _HyperelasticStatics:
     def energy(self, u: np.ndarray) -> float:
         """Stored energy W [J] at displacement ``u`` ``(n, 3)`` [m]."""
         np.add(self.rest, u, out=self._x)
-        return float(element_energy(self._x, self.elements, self.gradients, self.weights, self.params))
+        energy = float(element_energy(self._x, self.elements, self.gradients, self.weights, self.params))
+        if self._springs is not None:
+            flat = u.ravel()
+            energy += 0.5 * float(flat @ (self._springs @ flat))
+        return energy
 
     def internal_forces(self, u: np.ndarray) -> np.ndarray:
         """``(n, 3)`` ∂W/∂u [N] at displacement ``u`` [m] (at fixed dofs: minus the support reactions); the array
         is reused by the next call."""
         np.add(self.rest, u, out=self._x)
         internal_forces(self._x, self.elements, self.gradients, self.weights, self.params, self._forces)
+        if self._springs is not None:
+            self._forces += (self._springs @ u.ravel()).reshape(-1, 3)
         return self._forces
 
     def tangent(self, u: np.ndarray, *, project: bool = True):
@@ -129,7 +138,8 @@ class _HyperelasticStatics:
         np.add(self.rest, u, out=self._x)
         element_tangents(self._x, self.elements, self.gradients, self.weights, self.params, bool(project),
                          self._tangents)
-        return scatter_elements(self.node_count, self.elements, self._tangents)
+        tangent = scatter_elements(self.node_count, self.elements, self._tangents)
+        return tangent if self._springs is None else (tangent + self._springs).tocsr()
 
     # --------------------------------------------------------------------------------------------- supports
     def set_fixed_displacement(self, displacement) -> None:
@@ -334,7 +344,8 @@ class NonlinearFEM(_HyperelasticStatics):
         fixed: the supports, as :class:`~.linear.LinearFEM` takes them.
         material: ``"corotated"`` or ``"neo-hookean"`` (:mod:`.hyperelastic`).
         linear: an existing :class:`~.linear.LinearFEM` of the same mesh, material and supports whose factor
-            :meth:`relax` reuses (default: one is built).
+            :meth:`relax` reuses (default: one is built); its ``springs`` (ligaments to fixed anchors, linear in u)
+            act here too.
 
     Attributes:
         linear: the small-strain model (K₀ and its factor).
@@ -355,6 +366,7 @@ class NonlinearFEM(_HyperelasticStatics):
         self._setup(material, self.linear.material, mesh.points, self.linear.fixed_dofs,
                     np.ascontiguousarray(mesh.tets, dtype=np.int64), shape_gradients(mesh)[:, None], volumes,
                     self.linear._lu)
+        self._springs = self.linear.spring_stiffness      # the LinearFEM's springs (ligaments), if any
 
 
 class QuadraticNonlinearFEM(_HyperelasticStatics):

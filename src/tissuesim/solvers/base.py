@@ -144,9 +144,6 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.attachments = tuple(attachments) if isinstance(attachments, (tuple, list)) else attachments
         self.attached_nodes, self.attached_stiffness, self.attached_anchors = attachment_springs(
             self.attachments, self.rest_positions)
-        if self.attachments and self.material != "linear":
-            raise SolverError(f"attachments need material='linear' for now: the {self.material} volume has no "
-                              "spring term; hold the body by fixed= alone, or use the linear material")
         self.fixed_from_height = fixed is None
         if fixed is None:
             self.fixed_height = bottom_height(self.rest_positions)
@@ -252,6 +249,9 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
                 f"moving the fixed set needs a finite-strain material: linear elasticity inflates a turned body (by "
                 f"about 1 + θ² at θ radians); build the {self.name} solver with material='corotated' or "
                 "'neo-hookean'")
+        if self.fixed.size == 0:
+            raise BoundaryConditionError(f"the {self.name} solver has no fixed vertex to move (attachments hold it); "
+                                         "give fixed= vertices to carry or turn")
         positions = check_fixed_positions(positions, self.fixed)
         check_support_motion(self.rest_positions[self.fixed], positions)
         self._move_fixed(positions)

@@ -59,6 +59,8 @@ def check_support_motion(rest: np.ndarray, positions: np.ndarray) -> None:
 def affine_fit(rest: np.ndarray, moved: np.ndarray):
     """``(A (3, 3), b (3,))`` minimising Σ |A x + b − y|² over rest points ``rest`` ``(k, 3)`` → ``moved`` ``(k, 3)``
     [m]: exact for a rigid or affine motion; the fixed set's points must not all lie on one line."""
+    if len(rest) == 0:      # no fixed vertex (attachments hold the body): nothing moved
+        return np.eye(3), np.zeros(3)
     rest_h = np.hstack([rest, np.ones((len(rest), 1))])
     solution, _, rank, _ = np.linalg.lstsq(rest_h, moved, rcond=None)
     if rank < 4:  # planar fixed sets (the bottom face) leave the normal free: complete the map with a rotation
