@@ -208,6 +208,19 @@ def test_a_cut_keeps_the_attachments(cube, top, off_the_cut, method):
     assert np.abs(carried - fresh).max() <= 1e-8 * np.abs(carried).max()
 
 
+@pytest.mark.parametrize("method", ["hybrid", "pbd", "embedded"])
+def test_a_cut_does_not_move_an_attached_vertex(cube, top, top_face, method):
+    """The wound's vertices are moved onto the blade's trace, but not an attached one (as not a fixed one): its
+    ligament stays on the point it was built on, and the carried solver stays a fresh one's on the cut mesh."""
+    options = dict(fixed=[], attachments=(Attachment(top_face, 40.0),), gravity=G)
+    solver = make_solver(method, cube, **options)
+    scripted_incision(solver)
+    assert np.array_equal(solver.rest_positions[top_face], cube.surface.vertices[top_face])
+    carried = rest_under(solver, top)
+    fresh = rest_under(make_solver(method, solver.hybrid, **options), top)
+    assert np.abs(carried - fresh).max() <= 1e-8 * np.abs(carried).max()
+
+
 def test_the_mass_spring_cut_keeps_the_attachments_in_its_substep_bound(cube, off_the_cut):
     options = dict(fixed=[], attachments=(Attachment(off_the_cut, 1e4),), gravity=G)
     solver = make_solver("mass-spring", cube, **options)

@@ -277,10 +277,11 @@ class SolverCut:
 
     def movable(self, vertices: np.ndarray) -> np.ndarray:
         """``(k,) bool`` whether each of ``vertices`` may be moved onto a cut (:mod:`tissuesim.cutting.moves`): not
-        a fixed one, not under a load. A control node may: on the cut, it is released (§7)."""
+        a fixed or attached one (a ligament stays on the point it was built on), not under a load. A control node
+        may: on the cut, it is released (§7)."""
         s = self.solver
         if getattr(self, "_fixed_of", None) is not s.fixed:     # sorted once per change of the fixed list
-            self._fixed_of, self._fixed_sorted = s.fixed, np.sort(np.asarray(s.fixed, dtype=np.int64))
+            self._fixed_of, self._fixed_sorted = s.fixed, SolverCut.held_nodes(self)    # fixed and attached, sorted
         loaded = [np.atleast_1d(np.asarray(n, dtype=np.int64)) for load in s.loads
                   for n in (load.node, load.nodes) if n is not None]
         return ~members(vertices, self._fixed_sorted) & ~np.isin(vertices, np.concatenate(loaded) if loaded else [])
