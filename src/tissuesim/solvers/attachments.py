@@ -20,7 +20,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..fem.rigid_modes import connected_pieces, free_rigid_modes
@@ -103,13 +102,6 @@ def attachment_springs(attachments, rest_positions: np.ndarray):
     if not nodes:
         return np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 3))
     return np.concatenate(nodes), np.concatenate(stiffness), np.array(np.concatenate(anchors))
-
-
-def attachment_matrix(count: int, nodes: np.ndarray, stiffness: np.ndarray) -> sp.csr_matrix:
-    """``(3 count, 3 count)`` CSR stiffness [N/m] of springs ``stiffness`` ``(p,)`` on the ``nodes`` ``(p,)`` of a
-    surface of ``count`` vertices: k_i I₃ on each node's diagonal block."""
-    dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
-    return sp.csr_matrix((np.repeat(stiffness, 3), (dofs, dofs)), shape=(3 * count, 3 * count))
 
 
 def volume_pieces(volume, carriers: np.ndarray) -> np.ndarray:

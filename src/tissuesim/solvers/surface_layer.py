@@ -345,11 +345,12 @@ class SurfaceLayerSolver(Solver):
             stiffness = layer_stiffness(self.rest_positions, edges=c.edges, stretch_compliance=self.stretch_compliance,
                                         hinges=c.bending, bend_compliance=self.bend_compliance,
                                         signed_bending=self.signed_bending)
-            if self.body_on_layer and self.attachments:
-                from .attachments import attachment_matrix
+            if self.body_on_layer and self.attachments:     # k_i I₃ on each attached node's block
+                from ..fem.springs import spring_stiffness
 
-                stiffness = stiffness + attachment_matrix(len(self.rest_positions), self.attached_nodes,
-                                                          self.attached_stiffness)
+                nodes = self.attached_nodes
+                stiffness = stiffness + spring_stiffness(len(self.rest_positions), nodes[:, None],
+                                                         np.ones((nodes.size, 1)), self.attached_stiffness)
             self._statics = LayerStatics(stiffness, prescribed=self.prescribed)
         return self._statics
 
