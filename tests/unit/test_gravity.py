@@ -215,3 +215,28 @@ def test_the_finite_strain_hybrid_steps_to_its_static_sag(cube, top):
         if motion < 1e-12:
             break
     assert np.abs(solver.displacements - static).max() <= 1e-7 * np.abs(static).max()
+
+
+@pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring"])
+def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, method):
+    """DESIGN: nothing allocated per step, the weight and the ligaments included (an (n, 3) array: 9,264 bytes)."""
+    import tracemalloc
+
+    from tissuesim.solvers import Attachment
+
+    v = cube.surface.vertices
+    attached = np.flatnonzero(v[:, 2] > v[:, 2].max() - 1e-9)[:6]
+    solver = make_solver(method, cube, gravity=G, attachments=(Attachment(attached, 5.0),))
+    solver.set_load(top, [0.0, 0.0, -0.1])
+    solver.step()
+    solver.step()
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        before = tracemalloc.get_traced_memory()[0]
+        for _ in range(10):
+            solver.step()
+        current, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert peak - before < 2048 and current - before < 2048
