@@ -240,3 +240,14 @@ def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, metho
     finally:
         tracemalloc.stop()
     assert peak - before < 2048 and current - before < 2048
+
+
+@pytest.mark.parametrize("method", ["pbd", "mass-spring"])
+def test_a_surface_method_under_gravity_says_its_weight_is_not_an_elastic_bodys(method):
+    from tissuesim import HybridMesh, make_solver
+    from tissuesim.errors import TissuesimWarning
+    from tissuesim.mesh import models
+
+    hybrid = HybridMesh.build(models.sphere(resolution=200))
+    with pytest.warns(TissuesimWarning, match="no volume to carry its weight.*use hybrid, embedded or fem"):
+        make_solver(method, hybrid, gravity=(0.0, 0.0, -9.81))

@@ -47,7 +47,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ..errors import BoundaryConditionError, SolverError, first_indices
+from ..errors import BoundaryConditionError, SolverError, first_indices, warn
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from ..fem.rigid_modes import connected_pieces
@@ -108,6 +108,9 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     #: for :attr:`cut_refusal`'s reason.
     cut_carrier: ClassVar[type | str | None] = None
     cut_refusal: ClassVar[str | None] = None
+    #: Where the method's weight under ``gravity`` is not the elastic body's: a sentence saying how far off, warned
+    #: of (:class:`~tissuesim.errors.TissuesimWarning`) when a solver is built with gravity; None where it is.
+    gravity_caveat: ClassVar[str | None] = None
 
     def __init__(
         self,
@@ -141,6 +144,8 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.rest_positions = hybrid_mesh.surface.vertices  # read-only (SurfaceMesh freezes it)
         n = len(self.rest_positions)
         self.gravity = gravity_vector(gravity)
+        if self.gravity is not None and self.gravity_caveat:
+            warn(f"gravity on the {self.name} method: {self.gravity_caveat}")
         self.attachments = tuple(attachments) if isinstance(attachments, (tuple, list)) else attachments
         self.attached_nodes, self.attached_stiffness, self.attached_anchors = attachment_springs(
             self.attachments, self.rest_positions)

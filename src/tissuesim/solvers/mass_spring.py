@@ -208,6 +208,10 @@ class MassSpringSolver(Solver):
         damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
     """
 
+    gravity_caveat = ("springs on the surface have no volume to carry its weight and no unique rest under it (a "
+                      "column's top sags 0.005-0.01 of the analytic ρgH²/(2E); the models are 85-98 % off the fine "
+                      "FEM, docs/gravity-and-supports.md); use hybrid, embedded or fem for self-weight")
+
     cut_carrier = "tissuesim.solvers.mass_spring_cut:MassSpringCut"
 
     def __init__(self, hybrid_mesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
