@@ -124,8 +124,8 @@ class CutSurface:
     def plan(self, sweep: Sweep, *, snap: float, closed=(), seeds=(), movable=None) -> CutPlan | None:
         """The cut of ``sweep`` (see :func:`~tissuesim.cutting.core.plan_cut`) among the triangles found by a walk
         from the vertices ``seeds``; if that cuts nothing, among every triangle the sweep's box meets. ``movable``:
-        ``f(vertices (k,) int64) -> (k,) bool``, the vertices that may be moved onto the cut (None: none)."""
-        movable = movable or _none
+        ``f(vertices (k,) int64) -> (k,) bool``, the vertices that may be moved onto the cut (None: any inside the
+        surface; see :mod:`.moves`)."""
         snap = check_snap(snap)
         corners = sweep.corners
         pad = 1e-9 * (np.ptp(corners, axis=0).max() + 1e-300)
@@ -175,8 +175,3 @@ class CutSurface:
         copies = [(n + i, int(c)) for i, c in enumerate(plan.new_copy_of.tolist()) if c >= 0]
         self.fans.record(plan.changed, self.triangles[plan.changed], copies)
         return plan.result(self.rest, self.positions, self.velocities, self.triangles, sweep, moved_from=moved_from)
-
-
-def _none(vertices: np.ndarray) -> np.ndarray:
-    """No vertex may move (a surface whose holder did not say which may)."""
-    return np.zeros(len(vertices), dtype=bool)

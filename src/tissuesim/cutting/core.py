@@ -30,9 +30,11 @@ from .result import CutPlan, CutResult
 from .row_patch import RowPatch
 from .separate import rows_touching, separate
 from .moves import VertexMoves, plan_moves, writable_rows
-from .snapping import along_cut, opposite_vertices
+from .snapping import EXACT_MIN, along_cut, opposite_vertices
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
+#: A facet end with a weight below this goes along the trace (:func:`~.snapping.along_cut`), not across it.
+ALONG_BELOW = 0.0
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
 DEFAULT_SNAP = 0.25
 
@@ -120,11 +122,14 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
     segments, known_sides = {}, {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        along = along_cut(crossing.ends)
+        along = along_cut(crossing.ends, ALONG_BELOW)
         opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
         ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
-        across = [e for e in range(2) if np.count_nonzero(along[e]) == 3 and ends[e][0] != "f"]
-        if across:     # a facet end the guard snapped across the trace goes along it instead
+        # a facet end snapped across the trace by more than a small weight goes along it instead (less than
+        # EXACT_MIN of the triangle's height off the trace is as close as an exact point's quality allows)
+        across = [e for e in range(2) if np.count_nonzero(along[e]) == 3 and ends[e][0] != "f"
+                  and _snapped_off(along[e], ends[e], corners) >= EXACT_MIN]
+        if across:
             along = along_cut(along, np.inf, across)
             opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
             ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
@@ -169,6 +174,14 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
                    patch=patch, origin=origin, changed=changed,
                    replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
                    still_closed=still_closed, split_count=len(affected), segments=segments, moves=moves)
+
+
+def _snapped_off(weights: np.ndarray, located: tuple, corners) -> float:
+    """The barycentric weight a located point dropped from ``weights`` (3,) in the triangle ``corners``."""
+    if located[0] == "v":
+        return 1.0 - float(weights[list(corners).index(located[1])])
+    kept = [k for k in range(3) if corners[k] in located[1:3]]
+    return float(1.0 - weights[kept].sum())
 
 
 def _affected(segments, points, patch) -> list[int]:

@@ -25,8 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .snapping import _quality3, along_cut
+from .snapping import _quality3, along_cut, exit_point
 
+#: A vertex moves onto an edge point at most this fraction of its edge away: beyond the snap fraction too, so the
+#: lips are the body's own vertices with their fans, not edge points held by a single edge off the lip (a strip
+#: that thin lets a prestrained lip swing over, see :mod:`tissuesim.layer.prestress`).
+MOVE_REACH = 0.35
 #: A vertex is not moved if a triangle of its fan would fall below this quality (4√3 A / Σ l²) at rest or now.
 MOVE_QUALITY = 0.15
 #: Nor if its move leaves the plane of a triangle of its fan by more than this angle [rad] at rest: on a fold or a
@@ -74,7 +78,7 @@ def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(
         closed: ``(p, 2)`` cut edges still shared by two triangles (their ends are on a cut).
         movable: ``f(vertices (k,) int64) -> (k,) bool``, whether the caller lets each vertex move (None: all).
     """
-    wanted = _nearby_crossings(rest, triangles, found, snap)
+    wanted = _nearby_crossings(rest, triangles, found, max(snap, MOVE_REACH))
     if not wanted:
         return NO_MOVES
     vertices = np.array(sorted(wanted), dtype=np.int64)
@@ -108,11 +112,16 @@ def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(
 def _nearby_crossings(rest, triangles, found, snap) -> dict:
     """``{v: [(distance [m], w, t), ...]}``: for each vertex an edge point lies within ``snap`` of (on its edge
     (v, w), at fraction t from v), those edge points and their distances at rest. A crossing's facet ends are taken
-    where :func:`~.snapping.along_cut` puts them, so a tip on the trace near a vertex moves that vertex too."""
+    where :func:`~.snapping.along_cut` puts them, so a tip on the trace near a vertex moves that vertex too, and
+    so does a vertex near where the trace leaves a tip's triangle."""
     wanted: dict[int, list] = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        for w in along_cut(crossing.ends):
+        ends = along_cut(crossing.ends)
+        # a tip inside the triangle: where the trace goes on (the next move) may pass near a corner too, which
+        # moved now keeps the tip off a triangle whose corners would all come to lie on the cut
+        ahead = [exit_point(ends[1 - e], ends[e])[0] for e in range(2) if np.count_nonzero(ends[e] > 0.0) == 3]
+        for w in list(ends) + ahead:
             on = np.flatnonzero(w > 0.0)
             if on.size != 2:
                 continue            # a vertex (on the cut already) or a facet point

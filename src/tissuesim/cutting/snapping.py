@@ -28,25 +28,32 @@ EXACT_QUALITY = 0.1
 
 def along_cut(ends: np.ndarray, below: float = EXACT_MIN, which=(0, 1)) -> np.ndarray:
     """``(2, 3)`` the barycentric ``ends`` of a crossing segment with each facet end (of ``which``) that would
-    snap across (a weight ``below``, :data:`EXACT_MIN` by default) moved along the segment instead: forward to where the segment's line leaves the
-    triangle, when that is nearer than the other end, else back to the other end (this triangle's piece of the cut
-    is then left to a later move). An end put near a corner moves that corner onto the cut (:mod:`.moves`) or
-    snaps onto it. Snapping across would put the cut's tip
+    snap across (a weight ``below``, :data:`EXACT_MIN` by default) moved along the segment instead: forward to where
+    the segment's line leaves the triangle (:func:`exit_point`), when that is nearer than the other end, else back
+    to the other end (this triangle's piece of the cut is then left to a later move). An end put near a corner
+    moves that corner onto the cut (:mod:`.moves`) or snaps onto it. Snapping across would put the cut's tip
     beside the blade's trace, and the next move, which goes on from that tip, would turn the wound toward it."""
     out = np.array(ends, dtype=np.float64)
     for e in which:
         tip, other = out[e], out[1 - e]
         if np.count_nonzero(tip > 0.0) < 3 or tip.min() >= below:
             continue
-        step = tip - other
-        falling = step < 0.0
-        exit_at = float(np.min(other[falling] / -step[falling])) if falling.any() else np.inf
-        out[e] = other
-        if exit_at - 1.0 < 1.0:
-            leave = other + exit_at * step
-            leave[np.argmin(leave)] = 0.0                    # on the side it leaves by, exactly
-            out[e] = leave / leave.sum()
+        leave, at = exit_point(other, tip)
+        out[e] = leave if at - 1.0 < 1.0 else other
     return out
+
+
+def exit_point(start: np.ndarray, through: np.ndarray) -> tuple[np.ndarray, float]:
+    """``((3,) weights, λ)``: where the line from barycentric ``start`` through ``through`` leaves the triangle,
+    at ``start + λ (through − start)``, exactly on that side (λ = inf and ``through`` if it never does)."""
+    step = through - start
+    falling = step < 0.0
+    if not falling.any():
+        return np.array(through, dtype=np.float64), np.inf
+    at = float(np.min(start[falling] / -step[falling]))
+    leave = start + at * step
+    leave[np.argmin(leave)] = 0.0                    # on the side it leaves by, exactly
+    return leave / leave.sum(), at
 
 
 def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, known: dict) -> np.ndarray:

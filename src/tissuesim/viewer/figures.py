@@ -8,7 +8,8 @@ bar [mm] shared by the panels, so colours compare across them.
   (:func:`tissuesim.experiments.protocol.load_node`) and a force of :data:`FIGURE_FORCE` [N], solved quasi-statically.
 * ``incision_<model>.png`` (Fig 16): the scripted incision of :mod:`tissuesim.experiments.wound` (a straight stroke
   across the top), closed, then opened by :data:`OPENING_FORCE` [N] sideways beside the cut's middle (that
-  module's pull), seen close up, the cut edges drawn red. Needs ``tissuesim.Scalpel``.
+  module's pull), seen close up, the cut edges drawn red and the wound's walls down to the blade's depth dark red
+  (:func:`tissuesim.cutting.walls.wound_walls`). Needs ``tissuesim.Scalpel``.
 
 Choices where the paper is silent: 5 N (1 N barely shows at organ size and E = 5.5 kPa, 20 N folds the model
 through itself); the camera looks down at 35° from the front-left, the same for every panel of a figure.
@@ -29,13 +30,14 @@ FIGURE_FORCE = 5.0  # N
 # N, beside the incision's middle: the wound experiment's 0.1 N opens the liver by 0.7 mm, invisible at figure scale
 OPENING_FORCE = 0.3
 PANEL_SIZE = (640, 560)  # pixels
+WALL_COLOR = (0.32, 0.06, 0.07)  # the wound's walls: dark red, darker than any colour of the map
 COLORMAP = "viridis"  # the same name in polyscope and matplotlib
 METHOD_LABELS = {"hybrid": "hybrid FEM + PBD", "pbd": "PBD", "mass-spring": "mass-spring", "embedded": "embedded "
                  "surface", "fem": "fine-volume FEM"}
 
 
 def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None, focus=None,
-                  elevation: float = 35.0) -> tuple[list[np.ndarray], float]:
+                  elevation: float = 35.0, walls=None) -> tuple[list[np.ndarray], float]:
     """Offscreen renders of the surface in each of ``frames``; returns (RGB images, colour-bar top [mm]).
 
     Args:
@@ -43,6 +45,8 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None,
         frames: list of ``(n, 3)`` positions [m]. markers: per frame, a node index to mark (the pin-head) or None.
         edges: per frame, ``(k, 2)`` edges to draw in red (cut edges) or None.
         focus: ``(p, 3)`` points [m] the camera frames (default: everything); elevation: camera angle [degrees].
+        walls: per frame, the wound's walls ``(points (p, 3) [m], faces (q, 3))`` to draw in :data:`WALL_COLOR`
+            (:func:`tissuesim.cutting.walls.wound_walls`), or None.
     """
     ps = polyscope(headless=True)
     ps.clear_user_callback()  # a window's callback left behind must not draw into the figures
@@ -56,12 +60,13 @@ def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None,
     for index, (x, t, mm) in enumerate(zip(frames, tris, magnitudes)):
         marker = markers[index] if index < len(markers) else None
         cut = None if edges is None else edges[index]
-        images.append(_render_one(ps, x, t, mm, vmax, marker, cut))
+        wall = None if walls is None else walls[index]
+        images.append(_render_one(ps, x, t, mm, vmax, marker, cut, wall))
     ps.remove_all_structures()
     return _crop(images), vmax
 
 
-def _render_one(ps, x, triangles, mm, vmax, marker, cut_edges) -> np.ndarray:
+def _render_one(ps, x, triangles, mm, vmax, marker, cut_edges, walls=None) -> np.ndarray:
     """One panel's RGB image. Polyscope's Python wrappers live only inside this call, so none outlives the
     structure it wraps (a new structure at the same address would come back as the stale wrapper's type)."""
     ps.remove_all_structures()
@@ -72,6 +77,9 @@ def _render_one(ps, x, triangles, mm, vmax, marker, cut_edges) -> np.ndarray:
     if cut_edges is not None and len(cut_edges):
         nodes, local = np.unique(cut_edges, return_inverse=True)  # only the cut's own nodes are drawn
         ps.register_curve_network("cut", x[nodes], local.reshape(-1, 2), color=(0.9, 0.05, 0.05), radius=0.0015)
+    if walls is not None and len(walls[1]):
+        ps.register_surface_mesh("walls", walls[0], walls[1], color=WALL_COLOR, material="flat", edge_width=0.0,
+                                 back_face_policy="identical")
     return ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3].copy()
 
 
@@ -140,8 +148,10 @@ def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: f
     """Fig 16 for one model: the scripted incision (:mod:`tissuesim.experiments.wound`), closed, then pulled open by
     ``force`` [N] beside its middle; the camera frames the wound. ``fixed``: the solvers' option (None: the bottom);
     the incision's ``length`` and ``depth`` [m] and the pull's ``offset`` [m] beside it (None: the experiment's)."""
-    from ..experiments.wound import open_wound, pull_node, scripted_incision, wound_gap
+    from ..cutting.walls import wound_walls
+    from ..experiments.wound import INCISION_DEPTH, open_wound, pull_node, scripted_incision, wound_gap
     from ..experiments.inputs import check_free_node
+    from ..mesh.coincident import coincident_pairs
     from ..solvers.registry import make_solver
 
     stroke = {k: v for k, v in (("length", length), ("depth", depth)) if v is not None}
@@ -157,8 +167,11 @@ def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: f
     length = float(np.linalg.norm(line[1] - line[0]))
     middle = 0.5 * (line[0] + line[1])
     focus = middle + np.array([[-1.0, -1.0, -0.4], [1.0, 1.0, 0.2]]) * length  # the wound and its surroundings
-    images, vmax = render_panels(solver.rest_positions, cut_surface.triangles, [closed, solver.positions.copy()],
-                                 markers=[None, opened["node"]], edges=[edges, edges], focus=focus, elevation=55.0)
+    frames = [closed, solver.positions.copy()]
+    pairs = coincident_pairs(solver.rest_positions)
+    walls = [wound_walls(x, cut_surface.triangles, pairs, depth or INCISION_DEPTH) for x in frames]
+    images, vmax = render_panels(solver.rest_positions, cut_surface.triangles, frames, markers=[None, opened["node"]],
+                                 edges=[edges, edges], focus=focus, elevation=55.0, walls=walls)
     captions = [f"{1e3 * length:.0f} mm incision, {len(edges)} cut edges",
                 f"{force:g} N beside it: gap {1e3 * wound_gap(solver):.1f} mm"]
     title = (f"{name}: scalpel stroke across the top, then {force:g} N sideways on node {opened['node']}, "
