@@ -33,8 +33,6 @@ from .moves import VertexMoves, plan_moves, writable_rows
 from .snapping import EXACT_MIN, along_cut, opposite_vertices
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
-#: A facet end with a weight below this goes along the trace (:func:`~.snapping.along_cut`), not across it.
-ALONG_BELOW = 0.0
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
 DEFAULT_SNAP = 0.25
 
@@ -122,7 +120,7 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
     segments, known_sides = {}, {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        along = along_cut(crossing.ends, ALONG_BELOW)
+        along = crossing.ends
         opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
         ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
         # a facet end snapped across the trace by more than a small weight goes along it instead (less than
