@@ -46,6 +46,9 @@ TOLERANCE_FRACTION = 1e-3
 MARGIN_FRACTION = 0.5
 #: A warning when the surface between vertices can sink this fraction of R into the probe undetected.
 SINK_WARNING = 0.05
+#: The interactive update of a method whose step is not a static solve moves the forces this fraction of the way:
+#: one step goes only part of the way to the equilibrium, so a full Newton step would overshoot.
+RELAXATION = 0.3
 DEFAULT_MAX_ITERATIONS = 60
 DEFAULT_MAX_STEPS = 20000
 #: Bounds of the secant scale of the half-space model (the solver's compliance over Boussinesq's).
@@ -121,7 +124,7 @@ class Probe:
         """One contact update at the probe's place and the current positions: the vertices near it found again,
         their forces from one Newton step (see the module docstring). A held probe calls it each frame."""
         self._require_placed()
-        self._newton_step()
+        self._newton_step(1.0 if getattr(self.solver, "static", False) else RELAXATION)
 
     def press_static(self, center, end=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
                      max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
@@ -153,8 +156,9 @@ class Probe:
         self.center = self.end = None
 
     # ------------------------------------------------------------------------------------------ contact update
-    def _newton_step(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """One contact update; returns ``(candidates (k,), their gaps before (k,) [m], predicted gaps (k,) [m])``."""
+    def _newton_step(self, relaxation: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """One contact update, moving the forces ``relaxation`` of the way to the Newton step's; returns
+        ``(candidates (k,), their gaps before (k,) [m], predicted gaps (k,) [m])``."""
         solver = self.solver
         self._forget_withdrawn()
         gaps, normals = gaps_and_normals(solver.positions, self.center, self.end, self.radius)
@@ -162,7 +166,7 @@ class Probe:
         nodes = nodes[~np.isin(nodes, solver.fixed)]
         held = np.array([float(np.linalg.norm(self._loads[i].force)) if i in self._loads else 0.0 for i in nodes])
         compliance = self._compliance(nodes)
-        forces = complementary_forces(compliance, gaps[nodes], held)
+        forces = held + relaxation * (complementary_forces(compliance, gaps[nodes], held) - held)
         pushed = forces > 0.0
         self._set_forces(nodes[pushed], forces[pushed, None] * normals[nodes[pushed]])
         return nodes, gaps[nodes], gaps[nodes] + compliance @ (forces - held)
@@ -243,7 +247,8 @@ class Probe:
             raise BoundaryConditionError(
                 f"the probe reaches the fixed region: {held.size} fixed vertices lie inside it (first: "
                 f"{first_indices(held)}), which no force can move; keep the probe away from the support")
-        self._check_resolution(near if near.size else np.array([int(np.argmin(gaps))]))
+        touching = np.flatnonzero(gaps < 2 * SINK_WARNING * self.radius)
+        self._check_resolution(touching if touching.size else np.array([int(np.argmin(gaps))]))
         self.center, self.end = center, end
 
     def _check_resolution(self, nodes: np.ndarray) -> None:
