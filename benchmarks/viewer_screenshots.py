@@ -6,6 +6,8 @@ for looking at what users see:
 * ``two-tools``: a pin-head pulls a fold up and is let go with the hold modifier, so it keeps holding; then the
   scalpel cuts beside it (``viewer_two_tools.png``);
 * ``probe``: a rigid sphere pressed into the top and held there (``viewer_probe.png``);
+* ``wound``: a straight stroke across the top, opened by a pin-head left holding beside it: its walls go down to the
+  blade's depth (``viewer_wound.png``);
 * ``support``: the support brush paints a patch on one end (blue); a pull on the front then swings the model about
   it (``viewer_support.png``).
 
@@ -15,13 +17,16 @@ Draws in polyscope's offscreen EGL context (Mesa's software renderer where there
 from __future__ import annotations
 
 import argparse
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from tissuesim.scalpel import Scalpel
 from tissuesim.viewer.app import ViewerApp
 from tissuesim.viewer.controller import Controller
-from tissuesim.viewer.settings import Settings
+from tissuesim.viewer.gl import look_at_oblique
+from tissuesim.viewer.settings import DRAG_FRACTION, Settings, sized_defaults
 
 DOWN = np.array([0.0, 0.0, -1.0])
 SIDE = np.array([0.0, 1.0, 0.0])
@@ -34,11 +39,19 @@ def vertex_towards(controller, direction) -> np.ndarray:
 
 
 def surface_hit(controller, xy) -> np.ndarray:
-    """Where a ray straight down through ``xy`` (2,) [m] meets the surface: the highest vertex near it."""
+    """Where a ray straight down through ``xy`` (2,) [m] first meets the current surface (the window's pick): the
+    highest triangle whose projection on the xy plane holds ``xy``, by its barycentric coordinates there."""
     x = controller.solver.positions
-    near = np.linalg.norm(x[:, :2] - xy, axis=1)
-    within = near <= max(2.0 * near.min(), 1e-9)
-    return x[within][np.argmax(x[within, 2])].copy()
+    corners = x[controller.solver.hybrid.surface.triangles]              # (m, 3, 3)
+    a, b, c = corners[:, 0, :2], corners[:, 1, :2], corners[:, 2, :2]
+    area = (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (c[:, 0] - a[:, 0]) * (b[:, 1] - a[:, 1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = ((b[:, 0] - xy[0]) * (c[:, 1] - xy[1]) - (c[:, 0] - xy[0]) * (b[:, 1] - xy[1])) / area
+        v = ((c[:, 0] - xy[0]) * (a[:, 1] - xy[1]) - (a[:, 0] - xy[0]) * (c[:, 1] - xy[1])) / area
+    weights = np.stack([u, v, 1.0 - u - v], axis=1)
+    inside = np.all(weights >= 0.0, axis=1) & np.isfinite(area) & (area != 0.0)
+    points = np.einsum("mk,mkd->md", weights[inside], corners[inside])
+    return points[np.argmax(points[:, 2])]
 
 
 def frames(app, count: int) -> None:
@@ -60,7 +73,7 @@ def two_tools(app) -> None:
     c = app.controller
     size = c.solver.size
     fold = vertex_towards(c, [0.6, 0.0, 1.0])
-    pull(c, fold, [0.0, 0.0, 0.1 * size])
+    pull(c, fold, [0.0, 0.0, DRAG_FRACTION * size])
     c.pointer_up(hold=True)
     frames(app, SETTLE_FRAMES)
     c.set_mode("scalpel")
@@ -102,7 +115,29 @@ def probe(app) -> None:
     frames(app, 2)
 
 
-SCENARIOS = {"probe": (probe, "viewer_probe.png"), "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
+def wound(app) -> None:
+    """A straight stroke across the top, then a pin-head left holding beside its middle pulls it open."""
+    c = app.controller
+    size = c.solver.size
+    top = vertex_towards(c, [0.0, 0.0, 1.0])
+    c.set_mode("scalpel")
+    line = [surface_hit(c, top[:2] + [t, 0.0]) for t in np.linspace(-0.1, 0.1, 30) * size]
+    c.pointer_down(line[0], line[0] - DOWN, DOWN)
+    for point in line[1:]:
+        c.pointer_move(point, point - DOWN, DOWN)
+        frames(app, 1)
+    c.pointer_up()
+    c.set_mode("pin")
+    beside = surface_hit(c, top[:2] + [0.0, -0.02 * size])
+    pull(c, beside, [0.0, -DRAG_FRACTION * size, 0.0], view=DOWN)
+    c.pointer_up(hold=True)
+    frames(app, SETTLE_FRAMES)
+    near = np.linalg.norm(c.solver.positions - top, axis=1) < 0.15 * size
+    look_at_oblique(app.ps, c.solver.positions[near], elevation=50.0, azimuth=-70.0, distance=2.0)
+    frames(app, 1)
+
+
+SCENARIOS = {"probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"), "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
 
 
 def main() -> None:
@@ -117,7 +152,9 @@ def main() -> None:
     args.output.mkdir(parents=True, exist_ok=True)
     for scenario in args.only:
         script, filename = SCENARIOS[scenario]
-        controller = Controller(hybrid, settings=Settings())
+        sized = sized_defaults(hybrid.surface.vertices)      # as tissuesim view sizes its tools
+        controller = Controller(hybrid, settings=Settings(stiffness=sized.stiffness, radius=sized.radius),
+                                scalpel_factory=partial(Scalpel, depth=sized.depth))
         app = ViewerApp(controller, title=f"{name}: {scenario}", headless=True)
         frames(app, 3)
         script(app)

@@ -17,10 +17,13 @@ from pathlib import Path
 
 import numpy as np
 
+from ..cutting.walls import wound_walls
 from ..errors import TissuesimError
+from ..mesh.coincident import coincident_pairs
 from ..recording import Recorder, border_edges, solver_frame
 from ..recording_place import session_path
 from .controller import Controller
+from .figures import WALL_COLOR
 from .gl import look_at_oblique, polyscope
 from .panel import PanelWidgets
 
@@ -91,7 +94,7 @@ class ViewerApp(PanelWidgets):
         """End the session: :meth:`stop_recording`, then let go of polyscope's callback and of every structure of
         this window (:func:`let_go`)."""
         self.stop_recording()
-        self.mesh = self.cut = None
+        self.mesh = self.cut = self.walls = None
         self._shown, self._topology, self._home_view = {}, None, True
         let_go(self.ps)
 
@@ -125,15 +128,20 @@ class ViewerApp(PanelWidgets):
         x = solver.positions
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
-            self.mesh, self.cut, self._shown = None, None, {}  # drop the wrappers before their structures go
+            self.mesh, self.cut, self.walls, self._shown = None, None, None, {}  # drop the wrappers first
             ps.remove_all_structures()
             self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
             cut = border_edges(triangles)
-            self.cut = None
+            self.cut = self.walls = None
             if len(cut):  # only the cut's own nodes: a network over every vertex would dot the whole surface
                 self._cut_nodes, local = np.unique(cut, return_inverse=True)
                 self.cut = ps.register_curve_network("cut edges", x[self._cut_nodes], local.reshape(-1, 2),
                                                      color=(0.9, 0.05, 0.05))
+                self._lips = coincident_pairs(solver.rest_positions)      # the two sides of each cut vertex
+                points, faces = self._wound_walls(x)
+                if len(faces):
+                    self.walls = ps.register_surface_mesh("wound walls", points, faces, color=WALL_COLOR,
+                                                          material="flat", back_face_policy="identical")
             if self._home_view:  # first frame and reset only: a cut or a method change keeps the user's camera
                 look_at_oblique(ps, x, distance=3.4)
                 self._home_view = False
@@ -141,6 +149,8 @@ class ViewerApp(PanelWidgets):
             self.mesh.update_vertex_positions(x)
             if self.cut is not None:
                 self.cut.update_node_positions(x[self._cut_nodes])
+            if self.walls is not None:
+                self.walls.update_vertex_positions(self._wound_walls(x)[0])
         if self.show_colours:
             mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
             self.colour_top = max(float(mm.max()), 1.0)
@@ -148,6 +158,12 @@ class ViewerApp(PanelWidgets):
         else:
             self.mesh.remove_all_quantities()
         self._layers(x)
+
+    def _wound_walls(self, x):
+        """The wound's walls at positions ``x``, down to the scalpel's depth (:func:`wound_walls`)."""
+        scalpel = self.controller.scalpel
+        depth = scalpel.depth if scalpel is not None else 0.0
+        return wound_walls(x, self.controller.solver.hybrid.surface.triangles, self._lips, depth)
 
     def _layers(self, x) -> None:
         """The optional layers: registered when switched on (or after a re-registration), then only moved."""
