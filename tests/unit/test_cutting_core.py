@@ -197,7 +197,7 @@ def test_in_place_cut_finds_what_the_full_search_finds_across_an_earlier_wound(c
     walked = surface.plan(sweep, snap=0.25, closed=closed, seeds=[seed])
     full = plan_cut(surface.rest, surface.positions, surface.triangles, sweep, snap=0.25, closed=closed,
                     fans=surface.fans, near=candidate_triangles(surface.positions, surface.triangles, sweep))
-    assert full is not None and full.split_count >= 4
+    assert full is not None and full.split_count >= 2     # both sides of the slit (vertices moved onto it split none)
     assert np.array_equal(walked.changed, full.changed) and np.array_equal(walked.parents, full.parents)
     applied = surface.apply(walked, sweep)
     assert check_cut_invariants(applied.rest, applied.triangles) == []

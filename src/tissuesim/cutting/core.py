@@ -29,8 +29,9 @@ from .points import CutPoints
 from .result import CutPlan, CutResult
 from .row_patch import RowPatch
 from .separate import rows_touching, separate
-from .moves import VertexMoves, plan_moves, writable_rows
-from .snapping import EXACT_MIN, along_cut, opposite_vertices
+from .invariants import triangle_qualities
+from .moves import NO_MOVES, VertexMoves, front_end, plan_moves, writable_rows
+from .snapping import EXACT_MIN, GUARD_QUALITY, along_cut, exit_point, opposite_vertices
 from .sweep import Sweep, candidate_triangles, check_snap, crossings
 
 #: Default snap fraction of the local edge length (see :mod:`.sweep`).
@@ -95,18 +96,33 @@ def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFan
     found = crossings(read_only(positions), triangles, sweep, near=near)
     if not found:
         return None
-    moves = plan_moves(rest, positions, triangles, found, fans, snap=snap, closed=closed, movable=movable)
+    moves = plan_moves(rest, positions, triangles, found, fans, snap=snap, closed=closed, movable=movable,
+                       sweep=sweep)
     if not len(moves):
         return _plan(rest, positions, triangles, sweep, found, moves, snap=snap, closed=closed, fans=fans)
     held = [(writable_rows(a), moves.values(a), np.array(a[moves.vertices])) for a in (rest, positions)]
     try:
         for array, moved, _ in held:
             array[moves.vertices] = moved
-        found = crossings(read_only(positions), triangles, sweep, near=near)
-        return _plan(rest, positions, triangles, sweep, found, moves, snap=snap, closed=closed, fans=fans)
+        plan = _plan(rest, positions, triangles, sweep, crossings(read_only(positions), triangles, sweep, near=near),
+                     moves, snap=snap, closed=closed, fans=fans)
+        sound = plan is None or min(_worst_quality(plan, a) for a in (rest, positions)) >= GUARD_QUALITY
     finally:
         for array, _, before in held:
             array[moves.vertices] = before
+    if sound:
+        return plan
+    # a case the moves do not foresee made a sliver: the cut without them (as snapping makes it) instead
+    return _plan(rest, positions, triangles, sweep, found, NO_MOVES, snap=snap, closed=closed, fans=fans)
+
+
+def _worst_quality(plan: CutPlan, points: np.ndarray) -> float:
+    """The smallest quality of the rows ``plan`` writes, with its new points interpolated in ``points`` (n, 3)."""
+    rows = np.array(list(plan.patch.edited.values()) + plan.patch.added, dtype=np.int64).reshape(-1, 3)
+    if not len(rows):
+        return np.inf
+    where = np.concatenate([points[: plan.old_count], plan.interpolate(points)])
+    return float(triangle_qualities(where, rows).min())
 
 
 def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap, closed, fans) -> CutPlan | None:
@@ -118,9 +134,11 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
     patch = RowPatch(triangles, fans, n)
     points = CutPoints(n=n, snap=snap, rest=rest, now=positions)
     segments, known_sides = {}, {}
+    moved = set(moves.vertices.tolist())
     for crossing in found:
         corners = triangles[crossing.triangle]
-        along = crossing.ends
+        along = (_onto_moved_corner(crossing.ends, corners, moved, front_end(crossing.ends, corners, positions, sweep))
+                 if moved else crossing.ends)
         opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
         ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
         # a facet end snapped across the trace by more than a small weight goes along it instead (less than
@@ -172,6 +190,22 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
                    patch=patch, origin=origin, changed=changed,
                    replaced=np.array(triangles[changed[changed < m]], dtype=np.int64), cut_list=cut_list,
                    still_closed=still_closed, split_count=len(affected), segments=segments, moves=moves)
+
+
+def _onto_moved_corner(ends: np.ndarray, corners, moved: set, front: int) -> np.ndarray:
+    """``(2, 3)`` ``ends`` with the ``front`` end (the one farther along the move), a facet point, taken on to the
+    corner its segment's line leaves the triangle by, where that corner was moved onto the cut: the corner, the end
+    and the segment are on one line, and a piece joining them would have no area."""
+    out = np.array(ends, dtype=np.float64)
+    for e in (front,):
+        if np.count_nonzero(out[e] > 0.0) < 3:
+            continue
+        leave, _ = exit_point(out[1 - e], out[e])
+        k = int(np.argmax(leave))
+        if leave[k] > 1.0 - 1e-9 and int(corners[k]) in moved:
+            out[e] = 0.0
+            out[e, k] = 1.0
+    return out
 
 
 def _snapped_off(weights: np.ndarray, located: tuple, corners) -> float:

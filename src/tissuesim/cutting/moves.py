@@ -69,7 +69,8 @@ def writable_rows(array: np.ndarray) -> np.ndarray:
     return owner[: len(array)] if owner is not array else array
 
 
-def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(), movable=None) -> VertexMoves:
+def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(), movable=None,
+               sweep=None) -> VertexMoves:
     """The vertices to move onto the cut of the crossings ``found`` (:func:`~.sweep.crossings`, at ``positions``).
 
     Args:
@@ -77,8 +78,9 @@ def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(
         snap: σ: an edge point closer than σ × its edge to a vertex moves that vertex.
         closed: ``(p, 2)`` cut edges still shared by two triangles (their ends are on a cut).
         movable: ``f(vertices (k,) int64) -> (k,) bool``, whether the caller lets each vertex move (None: all).
+        sweep: the move's :class:`~.sweep.Sweep`: which end of a crossing is its front (None: neither).
     """
-    wanted = _nearby_crossings(rest, triangles, found, max(snap, MOVE_REACH))
+    wanted = _nearby_crossings(rest, positions, triangles, found, max(snap, MOVE_REACH), sweep)
     if not wanted:
         return NO_MOVES
     vertices = np.array(sorted(wanted), dtype=np.int64)
@@ -109,18 +111,27 @@ def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(
                        np.array([moved[v][1] for v in order]))
 
 
-def _nearby_crossings(rest, triangles, found, snap) -> dict:
+def front_end(ends: np.ndarray, corners, positions: np.ndarray, sweep) -> int:
+    """Which of a crossing's barycentric ``ends`` (2, 3) in the triangle ``corners`` lies farther along the move
+    (at ``positions``): the tool's side, where the cut goes on."""
+    points = ends @ positions[np.asarray(corners)]
+    return int((points[1] - points[0]) @ sweep.u > 0.0)
+
+
+def _nearby_crossings(rest, positions, triangles, found, snap, sweep) -> dict:
     """``{v: [(distance [m], w, t), ...]}``: for each vertex an edge point lies within ``snap`` of (on its edge
-    (v, w), at fraction t from v), those edge points and their distances at rest. A crossing's facet ends are taken
+    (v, w), at fraction t from v), those edge points and their distances at rest (crossings at ``positions``). A crossing's facet ends are taken
     where :func:`~.snapping.along_cut` puts them, so a tip on the trace near a vertex moves that vertex too, and
-    so does a vertex near where the trace leaves a tip's triangle."""
+    so does a vertex near where the trace leaves the triangle of the front tip (the tool's side of the ``sweep``)."""
     wanted: dict[int, list] = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
         ends = along_cut(crossing.ends)
         # a tip inside the triangle: where the trace goes on (the next move) may pass near a corner too, which
         # moved now keeps the tip off a triangle whose corners would all come to lie on the cut
-        ahead = [exit_point(ends[1 - e], ends[e])[0] for e in range(2) if np.count_nonzero(ends[e] > 0.0) == 3]
+        front = None if sweep is None else front_end(ends, corners, positions, sweep)
+        ahead = [exit_point(ends[1 - front], ends[front])[0]] if front is not None and np.count_nonzero(
+            ends[front] > 0.0) == 3 else []
         for w in list(ends) + ahead:
             on = np.flatnonzero(w > 0.0)
             if on.size != 2:
