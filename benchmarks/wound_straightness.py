@@ -5,7 +5,8 @@
 For each built-in model and a 30 mm stroke across its top at 0°, 30° and 45° (the scripted incision of
 ``tissuesim.experiments.wound``, 15 moves), prints the RMS and largest distance of the lips (the new boundary's
 vertices, at rest) to the rectangle the blade swept, in mean edge lengths of the uncut surface, the number of lips,
-the wound's reach along the stroke (a fraction of its length) and the smallest triangle quality of the cut surface. Target: RMS ≤ 0.05, max ≤ 0.10, quality ≥ 0.1.
+the wound's reach along the stroke (a fraction of its length) and the smallest triangle quality of the cut surface.
+Target: RMS ≤ 0.05, max ≤ 0.10, quality ≥ 0.1.
 """
 
 from __future__ import annotations
@@ -70,7 +71,8 @@ def figure(rows, path) -> None:
         ax.legend(fontsize=7, loc="lower center")
         ax.set_ylim(-0.5, 0.5)
     axes[0][0].set_ylabel("lip across the trace [mean edges]")
-    fig.suptitle("Lips of a straight 30 mm stroke at 0°, 30°, 45° (grey: the ±0.1 edge target)", fontsize=10, y=1.04)
+    fig.suptitle("Lips of a straight 30 mm stroke at 0°, 30°, 45° (grey: the ±0.1 edge target)", fontsize=10,
+                 y=1.04)
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
 
@@ -86,7 +88,8 @@ def main() -> None:
     print("|---|---:|---:|---:|---:|---:|---:|")
     rows = measure(args.method, args.models)
     for row in rows:
-        print(f"| {row['model']} | {row['angle']:.0f}° | {row['rms']:.3f} | {row['max']:.3f} | {row['lips']} | {row['reach']:.2f} | "
+        print(f"| {row['model']} | {row['angle']:.0f}° | {row['rms']:.3f} | {row['max']:.3f} | {row['lips']} | "
+              f"{row['reach']:.2f} | "
               f"{row['quality']:.3f} |")
     if args.figure:
         figure(rows, args.figure)

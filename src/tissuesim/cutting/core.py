@@ -146,7 +146,7 @@ def _plan(rest, positions, triangles, sweep, found, moves: VertexMoves, *, snap,
         across = [e for e in range(2) if np.count_nonzero(along[e]) == 3 and ends[e][0] != "f"
                   and _snapped_off(along[e], ends[e], corners) >= EXACT_MIN]
         if across:
-            along = along_cut(along, np.inf, across)
+            along = along_cut(along, across)
             opposite = opposite_vertices(patch, corners.tolist(), along, snap, known_sides)
             ends = [points.locate(corners, crossing.triangle, w, opposite) for w in along]
         if points.same(*ends):

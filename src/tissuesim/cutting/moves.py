@@ -1,7 +1,8 @@
 """Vertices moved onto the cut before it is made, so a straight stroke leaves a straight wound (§7 is silent).
 
-Snapping (:mod:`.sweep`) puts an edge point within σ of a vertex onto that vertex, so the cut wanders up to σ of an
-edge off the blade's trace. Instead, such a vertex v is moved onto the cut: to the edge point p on its edge (v, w),
+Snapping (:mod:`.sweep`) puts an edge point within σ of a vertex onto that vertex, so the cut wandered up to σ of
+an edge off the blade's trace. Instead, a vertex v within :data:`MOVE_REACH` of an edge point p on one of its edges
+(v, w), or of where the trace leaves the triangle of the move's front tip, is moved onto the cut: to p,
 at rest, now and in velocity by the same weights, ``(1 − t) x_v + t x_w`` (§7's barycentric rule, Fig 8: a new
 vertex is placed the same way). The cut then goes through v exactly. Rest data follow the rest positions (rest
 lengths, angles, areas and masses of v's triangles are made again by the solvers' cut carriers, which see v's
@@ -25,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .snapping import _quality3, along_cut, exit_point
+from .snapping import EXACT_MIN, _quality3, along_cut, exit_point
 
 #: A vertex moves onto an edge point at most this fraction of its edge away: beyond the snap fraction too, so the
 #: lips are the body's own vertices with their fans, not edge points held by a single edge off the lip (a strip
@@ -120,13 +121,15 @@ def front_end(ends: np.ndarray, corners, positions: np.ndarray, sweep) -> int:
 
 def _nearby_crossings(rest, positions, triangles, found, snap, sweep) -> dict:
     """``{v: [(distance [m], w, t), ...]}``: for each vertex an edge point lies within ``snap`` of (on its edge
-    (v, w), at fraction t from v), those edge points and their distances at rest (crossings at ``positions``). A crossing's facet ends are taken
-    where :func:`~.snapping.along_cut` puts them, so a tip on the trace near a vertex moves that vertex too, and
-    so does a vertex near where the trace leaves the triangle of the front tip (the tool's side of the ``sweep``)."""
+    (v, w), at fraction t from v), those edge points and their distances at rest (the crossings are at
+    ``positions``); where the front tip of a crossing (the tool's side of the ``sweep``) lies inside its triangle,
+    the point where the trace leaves that triangle counts too."""
     wanted: dict[int, list] = {}
     for crossing in found:
         corners = triangles[crossing.triangle]
-        ends = along_cut(crossing.ends)
+        # a tip that snaps (a weight below EXACT_MIN) stays within that of the trace: where it would go along
+        # the trace instead counts too
+        ends = along_cut(crossing.ends, [e for e in range(2) if crossing.ends[e].min() < EXACT_MIN])
         # a tip inside the triangle: where the trace goes on (the next move) may pass near a corner too, which
         # moved now keeps the tip off a triangle whose corners would all come to lie on the cut
         front = None if sweep is None else front_end(ends, corners, positions, sweep)

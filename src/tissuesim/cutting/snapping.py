@@ -26,17 +26,16 @@ EXACT_MIN = 0.1
 EXACT_QUALITY = 0.1
 
 
-def along_cut(ends: np.ndarray, below: float = EXACT_MIN, which=(0, 1)) -> np.ndarray:
-    """``(2, 3)`` the barycentric ``ends`` of a crossing segment with each facet end (of ``which``) that would
-    snap across (a weight ``below``, :data:`EXACT_MIN` by default) moved along the segment instead: forward to where
-    the segment's line leaves the triangle (:func:`exit_point`), when that is nearer than the other end, else back
-    to the other end (this triangle's piece of the cut is then left to a later move). An end put near a corner
-    moves that corner onto the cut (:mod:`.moves`) or snaps onto it. Snapping across would put the cut's tip
-    beside the blade's trace, and the next move, which goes on from that tip, would turn the wound toward it."""
+def along_cut(ends: np.ndarray, which) -> np.ndarray:
+    """``(2, 3)`` the barycentric ``ends`` of a crossing segment with each facet end of ``which`` moved along the
+    segment instead of snapping across it: forward to where the segment's line leaves the triangle
+    (:func:`exit_point`), when that is nearer than the other end, else back to the other end (this triangle's piece
+    of the cut is then left to a later move). Snapping across would put the cut's tip beside the blade's trace, and
+    the next move, which goes on from that tip, would turn the wound toward it."""
     out = np.array(ends, dtype=np.float64)
     for e in which:
         tip, other = out[e], out[1 - e]
-        if np.count_nonzero(tip > 0.0) < 3 or tip.min() >= below:
+        if np.count_nonzero(tip > 0.0) < 3:
             continue
         leave, at = exit_point(other, tip)
         out[e] = leave if at - 1.0 < 1.0 else other

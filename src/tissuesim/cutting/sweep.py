@@ -219,8 +219,8 @@ def _clip(ends, positions, corners, origin, dual):
     lo, hi = 0.0, 1.0
     for k in range(2):
         start, delta = st[0, k], st[1, k] - st[0, k]
-        # keep −ε ≤ start + λ delta ≤ 1 + ε: a segment along the sweep's border (a cut going on from its tip with
-        # the blade's tip at the surface) stays, whatever the round-off of its coordinates there
+        # keep −ε ≤ start + λ delta ≤ 1 + ε: a segment along the sweep's border (a cut going on from its tip
+        # with the blade's tip at the surface) stays, whatever the round-off of its coordinates there
         inside, lo, hi = _clip_bound(delta, start + CLIP_TOLERANCE, lo, hi)
         if not inside:
             return False
