@@ -3,7 +3,8 @@ indentation block, one static press of a rigid sphere, and a method of quadratic
 that tells the contact's error from the linear tets' (a method of one's own: ``register``).
 
 Hertz (a rigid sphere of radius R pressed a depth δ into an elastic half-space, frictionless):
-F = 4/3 · E/(1 − ν²) · √R · δ^{3/2}, contact radius a = √(R δ); valid for δ ≪ R and a body much larger than a.
+F = 4/3 · E/(1 − ν²) · √R · δ^{3/2}, contact radius a = √(R δ); valid for δ ≪ R and a body much larger than a. The
+block is a layer bonded to its fixed bottom: :func:`layer_factor` is the published first-order correction.
 """
 
 from __future__ import annotations
@@ -20,6 +21,8 @@ PROBE_RADIUS = 5e-3
 #: The contact tolerance of each press, as a fraction of δ: it moves F by at most 1.5 times that fraction.
 TOLERANCE_OF_DEPTH = 1e-3
 QUADRATIC = "fem-quadratic"
+#: The default block's elastic thickness [m]: its 40 mm less the fixed bottom tenth (a layer bonded to its base).
+THICKNESS = 0.036
 
 
 def hertz_force(depth, *, radius: float, youngs_modulus: float, poisson_ratio: float):
@@ -27,20 +30,31 @@ def hertz_force(depth, *, radius: float, youngs_modulus: float, poisson_ratio: f
     return 4.0 / 3.0 * youngs_modulus / (1.0 - poisson_ratio**2) * np.sqrt(radius) * np.asarray(depth) ** 1.5
 
 
-def block(fine_edge: float, **options):
-    """The :func:`tissuesim.mesh.models.indentation_block` with the fine edge ``fine_edge`` [m], built hybrid."""
-    return tissuesim.HybridMesh.build(models.indentation_block(fine_edge=fine_edge, **options))
+def layer_factor(depth, *, radius: float, poisson_ratio: float, thickness: float = THICKNESS):
+    """Dimitriadis et al. (Biophys. J. 82, 2002, eq. 12–13): the first-order correction of Hertz for an elastic
+    layer of ``thickness`` [m] bonded to a rigid base, 1 − 2α₀χ/π with χ = √(R δ)/h and
+    α₀ = −(1.2876 − 1.4678ν + 1.3442ν²)/(1 − ν); ``depth`` [m] scalar or array."""
+    alpha = -(1.2876 - 1.4678 * poisson_ratio + 1.3442 * poisson_ratio**2) / (1.0 - poisson_ratio)
+    return 1.0 - 2.0 * alpha * np.sqrt(radius * np.asarray(depth)) / (np.pi * thickness)
 
 
-def press(solver, depth: float, *, radius: float = PROBE_RADIUS) -> tuple[float, Probe]:
-    """Press a sphere of ``radius`` [m] ``depth`` [m] into the middle of the block's top; ``(F_z [N], probe)``,
-    the probe released afterwards (its last iterations, steps and residual kept)."""
+def block(fine_edge: float, *, control: float | None = None, **options):
+    """The :func:`tissuesim.mesh.models.indentation_block` with the fine edge ``fine_edge`` [m], built hybrid
+    (``control``: control nodes as a fraction of its vertices; None: the build's default)."""
+    surface = models.indentation_block(fine_edge=fine_edge, **options)
+    target = None if control is None else int(round(control * surface.vertex_count))
+    return tissuesim.HybridMesh.build(surface, target_vertices=target)
+
+
+def press(solver, depth: float, *, radius: float = PROBE_RADIUS) -> tuple[float, int, Probe]:
+    """Press a sphere of ``radius`` [m] ``depth`` [m] into the middle of the block's top; ``(F_z [N], vertices in
+    contact, probe)``, the probe released afterwards (its last iterations, steps and residual kept)."""
     top = solver.rest_positions[:, 2].max()
     probe = Probe(solver, radius=radius, tolerance=TOLERANCE_OF_DEPTH * depth)
     probe.press_static([0.0, 0.0, top + radius - depth])
-    force = float(probe.force[2])
+    force, contacts = float(probe.force[2]), int(probe.contacts.size)
     probe.release()
-    return force, probe
+    return force, contacts, probe
 
 
 def quadratic_method() -> str:
