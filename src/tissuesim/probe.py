@@ -43,7 +43,7 @@ from .solvers.state import remaining_error
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
 #: Vertices whose gap is below this fraction of R are the candidates of each contact update.
-MARGIN_FRACTION = 0.5
+MARGIN_FRACTION = 0.1
 #: A warning when the surface between vertices can sink this fraction of R into the probe undetected.
 SINK_WARNING = 0.05
 #: The interactive update of a method whose step is not a static solve moves the forces this fraction of the way:
