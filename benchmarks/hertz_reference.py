@@ -31,7 +31,7 @@ def hertz_force(depth, *, radius: float, youngs_modulus: float, poisson_ratio: f
 
 
 def layer_factor(depth, *, radius: float, poisson_ratio: float, thickness: float = THICKNESS):
-    """Dimitriadis et al. (Biophys. J. 82, 2002, eq. 12–13): the first-order correction of Hertz for an elastic
+    """Dimitriadis et al. (Biophys. J. 82, 2002): the first-order correction of Hertz for an elastic
     layer of ``thickness`` [m] bonded to a rigid base, 1 − 2α₀χ/π with χ = √(R δ)/h and
     α₀ = −(1.2876 − 1.4678ν + 1.3442ν²)/(1 − ν); ``depth`` [m] scalar or array."""
     alpha = -(1.2876 - 1.4678 * poisson_ratio + 1.3442 * poisson_ratio**2) / (1.0 - poisson_ratio)

@@ -133,7 +133,9 @@ class Probe:
 
         Iterates contact updates and solves until the complementarity residual is within :attr:`tolerance`;
         between two updates a method whose step is not a static solve steps until the remaining motion is below a
-        tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first."""
+        tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first (the loads
+        of the last iteration stay), or the solver's own error when it cannot carry an iteration's forces (the probe
+        is then withdrawn)."""
         for name, value in (("max_iterations", max_iterations), ("max_steps", max_steps)):
             if not is_integer(value) or value < 1:
                 raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
@@ -141,7 +143,11 @@ class Probe:
         self.steps = 0
         for iteration in range(1, int(max_iterations) + 1):
             nodes, gaps, predicted = self._newton_step()
-            self.steps += self._solve(int(max_steps))
+            try:
+                self.steps += self._solve(int(max_steps))
+            except SolverError:         # the solver cannot carry these forces (a blow-up, an unstable dead load)
+                self.release()
+                raise
             self._learn_scale(nodes, gaps, predicted)
             self.iterations, self.residual = iteration, self._residual()
             if self.residual <= self.tolerance:

@@ -2,7 +2,7 @@
 elastic half-space takes F = 4/3 · E/(1 − ν²) · √R · δ^{3/2}.
 
 The block is 80 × 80 × 40 mm with its bottom tenth fixed: a layer of thickness H = 36 mm bonded to a rigid base,
-which Hertz's half-space is not. Dimitriadis et al. (Biophys. J. 82, 2002, eq. 12–13) give the bonded layer's
+which Hertz's half-space is not. Dimitriadis et al. (Biophys. J. 82, 2002) give the bonded layer's
 first-order correction F = F_Hertz · (1 − 2α₀χ/π), χ = √(Rδ)/H, α₀ = −(1.2876 − 1.4678ν + 1.3442ν²)/(1 − ν):
 +1.2 % at δ = 0.05 mm to +3.9 % at δ = 0.5 mm here. The tests compare with Hertz times that factor, so the 5 %
 left is the mesh's and the contact's error. docs/probe.md has every method's numbers and the figure
