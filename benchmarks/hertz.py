@@ -2,7 +2,7 @@
 top graded fine under the probe), every method against F = 4/3 · E/(1 − ν²) · √R · δ^{3/2}; a convergence in the
 fine edge; the block's own bias (the same press on a block twice as large); and docs/figures/hertz.png.
 
-    python benchmarks/hertz.py measure [--methods fem,hybrid] [--edges 0.5,0.25] [--output hertz.json]
+    python benchmarks/hertz.py measure [--methods fem,hybrid] [--edges 0.5,0.25] [--split 2] [--output hertz.json]
     python benchmarks/hertz.py plot [--input hertz.json] [--figure docs/figures/hertz.png]
 
 ``measure`` appends its rows to the JSON file (run it in parts: one method and mesh at a time stays short); ``plot``
@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hertz_reference import PROBE_RADIUS, block, hertz_force, layer_factor, press, quadratic_method
+from hertz_reference import (PROBE_RADIUS, block, hertz_force, layer_factor, press, quadratic_method,
+                             refined_block)
 
 import tissuesim
 
@@ -28,14 +29,19 @@ E, NU = 5500.0, 0.3
 CONVERGENCE_DEPTH = 0.2e-3                           # [m]: a = 1 mm
 
 
-def measure(methods: list[str], edges: list[float], output: Path, *, large: bool, control: float | None) -> None:
+def measure(methods: list[str], edges: list[float], output: Path, *, large: bool, control: float | None,
+            split: int) -> None:
     rows = json.loads(output.read_text()) if output.exists() else []
     options = {"width": 0.16, "height": 0.08} if large else {}
     for edge in edges:
-        hybrid = block(edge, control=control, **options)
+        if split:
+            hybrid, edge = refined_block(edge, split), edge / 2**split
+        else:
+            hybrid = block(edge, control=control, **options)
         for method in methods:
             name = quadratic_method() if method == "fem-quadratic" else method
             label = method if control is None else f"{method} ({100 * control:g} % control)"
+            label = f"{label}, volume split" if split else label
             solver = tissuesim.make_solver(name, hybrid, youngs_modulus=E, poisson_ratio=NU)
             for depth in DEPTHS:
                 start = time.perf_counter()
@@ -67,6 +73,8 @@ def plot(rows: list[dict], figure: Path) -> None:
 
     # the figure shows each method as built by default; the table has the other blocks and M_V sizes too
     rows = [r for r in rows if r["block"] == "80x80x40" and r["ratio"] is not None and "control" not in r["method"]]
+    split = [r for r in rows if "split" in r["method"]]
+    rows = [r for r in rows if "split" not in r["method"]]
     methods = list(dict.fromkeys(r["method"] for r in rows))
     fig, (left, right) = plt.subplots(1, 2, figsize=(12, 5))
     depths = np.geomspace(min(DEPTHS), max(DEPTHS), 50)
@@ -81,6 +89,15 @@ def plot(rows: list[dict], figure: Path) -> None:
         at_a = sorted((r for r in rows if r["method"] == method and r["depth"] == CONVERGENCE_DEPTH),
                       key=lambda r: r["fine_edge"])
         right.semilogx([1e3 * r["fine_edge"] for r in at_a], [r["ratio"] for r in at_a], "o-", label=method)
+    if split:
+        finest = min(r["fine_edge"] for r in split)
+        mine = sorted((r for r in split if r["fine_edge"] == finest), key=lambda r: r["depth"])
+        left.loglog([1e3 * r["depth"] for r in mine], [1e3 * r["force"] for r in mine], "s:", color="tab:blue",
+                    label=f"fem, volume split (h = {1e3 * finest:g} mm)")
+        unsplit = [r for r in rows if r["method"] == "fem" and r["fine_edge"] == 2 * max(e["fine_edge"] for e in split)]
+        at_a = sorted((r for r in split + unsplit if r["depth"] == CONVERGENCE_DEPTH), key=lambda r: r["fine_edge"])
+        right.semilogx([1e3 * r["fine_edge"] for r in at_a], [r["ratio"] for r in at_a], "s:", color="tab:blue",
+                       label="fem, volume split in 8 per halving")
     left.set(xlabel="depth δ [mm]", ylabel="force F [mN]",
              title=f"sphere R = {1e3 * PROBE_RADIUS:g} mm into the 80×80×40 mm block (E = {E:g} Pa, ν = {NU})")
     left.legend(fontsize=8)
@@ -99,7 +116,7 @@ def plot(rows: list[dict], figure: Path) -> None:
         for axis in (axes.xaxis, axes.yaxis):
             axis.set_major_formatter(FormatStrFormatter("%g"))
             axis.set_minor_formatter(FormatStrFormatter("%g"))
-    right.set_xticks([1e3 * e for e in sorted({r["fine_edge"] for r in rows})])
+    right.set_xticks([1e3 * e for e in sorted({r["fine_edge"] for r in rows + split})])
     right.set_yticks([0.9, 1.0, 1.1, 1.2, 1.3, 1.5, 2.0, 2.5, 3.0])
     right.yaxis.set_minor_formatter(FormatStrFormatter(""))
     left.tick_params(which="minor", labelsize=7)
@@ -133,13 +150,15 @@ def main(argv=None) -> int:
     parser.add_argument("--large", action="store_true", help="the block twice as large (its finite-size bias)")
     parser.add_argument("--control", type=float, help="control nodes as a fraction of M_S's vertices (default: "
                         "HybridMesh.build's)")
+    parser.add_argument("--split", type=int, default=0, help="split the fine volume in 8 this many times (a true "
+                        "refinement of volume and surface: the row's fine edge is the split one)")
     parser.add_argument("--output", "--input", dest="data", default="hertz.json")
     parser.add_argument("--figure", default="docs/figures/hertz.png")
     args = parser.parse_args(argv)
     data = Path(args.data)
     if args.job == "measure":
         measure(args.methods.split(","), [1e-3 * float(e) for e in args.edges.split(",")], data, large=args.large,
-                control=args.control)
+                control=args.control, split=args.split)
     else:
         rows = json.loads(data.read_text())
         plot(rows, Path(args.figure))

@@ -95,3 +95,51 @@ class QuadraticTets(Solver):
                                                                density[triangles, axis])
         u = self.fem.solve(forces)
         np.add(self.rest_positions, u[self.surface_nodes], out=self.state.positions)
+
+
+def refined_block(fine_edge: float, levels: int):
+    """The block of :func:`block` whose fine volume is split ``levels`` times into 8 (every tet at its edges'
+    midpoints, the surface with it: a true h/2 per level, which refining the surface alone is not, since TetGen
+    grades the volume from it), built hybrid over the refined surface with that volume as its fine volume."""
+    from dataclasses import replace
+
+    from tissuesim.mesh.surface import SurfaceMesh
+    from tissuesim.mesh.tetmesh import TetMesh
+
+    surface = models.indentation_block(fine_edge=fine_edge)
+    coarse = tissuesim.HybridMesh.build(surface)
+    points, tets = coarse.fine_volume.points, np.asarray(coarse.fine_volume.tets, dtype=np.int64)
+    nodes = np.asarray(coarse.fine_surface_nodes, dtype=np.int64)
+    triangles = nodes[np.asarray(surface.triangles, dtype=np.int64)]      # the surface on volume nodes
+    for _ in range(levels):
+        points, tets, triangles = _split_in_eight(points, tets, triangles)
+    on_surface = np.unique(triangles)
+    local = np.full(len(points), -1, dtype=np.int64)
+    local[on_surface] = np.arange(on_surface.size)
+    refined = SurfaceMesh(points[on_surface], local[triangles])
+    hybrid = tissuesim.HybridMesh.build(refined, fine_volume=False)
+    return replace(hybrid, fine_volume=TetMesh(points, tets), fine_surface_nodes=on_surface.astype(np.int32))
+
+
+def _split_in_eight(points, tets, triangles):
+    """Red refinement: each tet into 4 corner tets and 4 about the octahedron's diagonal between the midpoints of
+    two opposite edges, each triangle into 4, positively oriented."""
+    pairs = np.array([(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)])
+    edges = np.sort(tets[:, pairs].reshape(-1, 2), axis=1)
+    unique, inverse = np.unique(edges, axis=0, return_inverse=True)
+    mid = len(points) + inverse.reshape(-1, 6)
+    points = np.concatenate([points, 0.5 * (points[unique[:, 0]] + points[unique[:, 1]])])
+    a, b, c, d = tets.T
+    ab, ac, ad, bc, bd, cd = mid.T
+    children = np.concatenate([np.stack(t, axis=1) for t in (
+        (a, ab, ac, ad), (ab, b, bc, bd), (ac, bc, c, cd), (ad, bd, cd, d),
+        (ac, bd, ab, ad), (ac, bd, ad, cd), (ac, bd, cd, bc), (ac, bd, bc, ab))])
+    p = points[children]
+    negative = np.einsum("ij,ij->i", np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]), p[:, 3] - p[:, 0]) < 0
+    children[negative] = children[negative][:, [0, 1, 3, 2]]
+    lookup = {tuple(e): len(points) - len(unique) + i for i, e in enumerate(unique.tolist())}
+    i, j, k = triangles.T
+    ij, jk, ki = (np.array([lookup[tuple(sorted(e))] for e in zip(u.tolist(), v.tolist())])
+                  for u, v in ((i, j), (j, k), (k, i)))
+    triangles = np.concatenate([np.stack(t, axis=1) for t in ((i, ij, ki), (ij, j, jk), (ki, jk, k), (ij, jk, ki))])
+    return points, children, triangles
