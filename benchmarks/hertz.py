@@ -138,7 +138,8 @@ def table(rows: list[dict]) -> str:
         a = np.sqrt(PROBE_RADIUS * r["depth"])
         lines.append(f"| {r['method']} | {r['block'].replace('x', '×')} | {1e3 * r['fine_edge']:g} | {r['vertices']} "
                      f"| {1e3 * r['depth']:g} | {a / r['fine_edge']:.1f} | {1e3 * r['force']:.4g} | "
-                     f"{1e3 * r['hertz']:.4g} | {100 * (r['ratio'] - 1):+.1f} % | {r['contacts']} | {r['iterations']} | {r['steps']} |")
+                     f"{1e3 * r['hertz']:.4g} | {100 * (r['ratio'] - 1):+.1f} % | {r['contacts']} | "
+                     f"{r['iterations']} | {r['steps']} |")
     return "\n".join(lines)
 
 
