@@ -38,7 +38,6 @@ from .errors import BoundaryConditionError, SolverError, first_indices, warn
 from .probe_contact import (complementary_forces, gaps_and_normals, half_space_compliance, undetected_depth,
                             vertex_spans)
 from .solvers.checks import is_integer, positive_number
-from .solvers.state import remaining_error
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -50,9 +49,13 @@ SINK_WARNING = 0.05
 #: one step goes only part of the way to the equilibrium, so a full Newton step would overshoot.
 RELAXATION = 0.3
 DEFAULT_MAX_ITERATIONS = 60
+#: :meth:`Probe.settle`'s default: the contact iterations one frame may spend.
+FRAME_ITERATIONS = 8
 DEFAULT_MAX_STEPS = 20000
 #: Bounds of the secant scale of the half-space model (the solver's compliance over Boussinesq's).
 SCALE_RANGE = (1e-3, 1e3)
+#: The most the secant scale changes in one iteration (a factor either way).
+SCALE_STEP = 2.0
 
 
 class Probe:
@@ -156,6 +159,21 @@ class Probe:
             f"the probe's contact did not converge in {max_iterations} iterations (residual "
             f"{self.residual:.3g} m, tolerance {self.tolerance:.3g} m); raise max_iterations or the tolerance")
 
+    def settle(self, center, end=None, *, max_iterations: int = FRAME_ITERATIONS) -> bool:
+        """A frame's worth of :meth:`press_static`: the probe at ``center`` (a capsule to ``end``) [m] and at most
+        ``max_iterations`` contact iterations, each a solve of the solver, leaving the solver at its equilibrium
+        under the last iteration's forces; returns whether the contact converged (if not, the next call goes on
+        from there). What a viewer or a script calls each frame where the probe moved: one relaxed :meth:`update`
+        before a dynamic step lags and rings instead, the step not being the tissue's equilibrium. Raises only what
+        :meth:`press_static` raises when the solver cannot carry the forces (the probe is then withdrawn)."""
+        try:
+            self.press_static(center, end, max_iterations=max_iterations)
+        except SolverError:
+            if self.center is None:            # withdrawn: the solver refused the forces
+                raise
+            return False
+        return True
+
     def release(self) -> None:
         """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
         self._set_forces(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
@@ -213,32 +231,25 @@ class Probe:
         return float(np.abs(residual).max())
 
     def _learn_scale(self, nodes: np.ndarray, before: np.ndarray, predicted: np.ndarray) -> None:
-        """Secant update of :attr:`scale` from the gaps' true change over the model's prediction."""
+        """Secant update of :attr:`scale` from the gaps' true change over the model's prediction: only from a
+        predicted change well above the tolerance (near convergence the ratio of two small changes is noise, and
+        learning from it threw the scale between 1e-3 and 1e2 on a coarse sphere), and by at most a factor
+        :data:`SCALE_STEP` an iteration."""
         if nodes.size == 0:
             return
         model = predicted - before
         true = self.gaps()[nodes] - before
         norm = float(model @ model)
-        if norm > 0.0:
-            self.scale = float(np.clip(self.scale * float(true @ model) / norm, *SCALE_RANGE))
+        if np.sqrt(norm) > 10.0 * self.tolerance:
+            ratio = float(np.clip(float(true @ model) / norm, 1.0 / SCALE_STEP, SCALE_STEP))
+            self.scale = float(np.clip(self.scale * ratio, *SCALE_RANGE))
 
     def _solve(self, max_steps: int) -> int:
-        """The solver's equilibrium under the loads acting: one step of a static method, else steps until the
-        remaining motion is below a tenth of the tolerance; returns the steps taken."""
-        solver = self.solver
-        if getattr(solver, "static", False):
-            solver.step()
-            return 1
-        previous = solver.positions.copy()
-        motions = []
-        for steps in range(1, max_steps + 1):
-            solver.step()
-            motions.append(float(np.abs(solver.positions - previous).max()))
-            previous[:] = solver.positions
-            if motions[-1] == 0.0 or remaining_error(motions) <= 0.1 * self.tolerance:
-                return steps
-        raise SolverError(f"the {solver.name} solver did not settle under the probe within {max_steps} steps "
-                          f"(last step moved {motions[-1]:.3g} m); raise max_steps or the solver's damping")
+        """The solver's equilibrium under the loads acting (:meth:`Solver.solve_static` with no load of its own: a
+        direct solve where the method has one, else steps until the motion is below a tenth of the tolerance);
+        returns the steps taken."""
+        self.solver.solve_static(tolerance=0.1 * self.tolerance, max_steps=max_steps, reset=False)
+        return self.solver.last_solve.steps
 
     # ------------------------------------------------------------------------------------------------ placing
     def _place(self, center, end) -> None:

@@ -81,8 +81,8 @@ class ScriptedTool:
             self.tool.drag(position)
         elif self.kind == "scalpel":
             self.tool.move(position)
-        else:
-            self.tool.move_to(position, None if self._shaft is None else position + self._shaft)
+        else:   # the contact solved where the probe is now (a frame's iterations), as the simulator does
+            self.tool.settle(position, None if self._shaft is None else position + self._shaft)
 
     @property
     def force(self) -> np.ndarray | None:
@@ -116,8 +116,6 @@ def _library_tool(spec, solver):
         from ..scalpel import Scalpel
 
         return Scalpel(solver, depth=spec.depth) if spec.depth is not None else Scalpel(solver)
-    from .. import probe
+    from ..probe import Probe
 
-    if not hasattr(probe, "Probe"):
-        raise SolverError("the rigid probe is not in this version of tissuesim; remove the probe tool")
-    return probe.Probe(solver, radius=spec.radius)
+    return Probe(solver, radius=spec.radius)

@@ -7,8 +7,9 @@ the fixed region. Both are headless, driven by :class:`~tissuesim.viewer.control
 * :class:`SupportBrush`: the vertices within a brush radius of the pointer, gathered over a stroke, become the
   fixed region when the stroke ends (a new solver over the same mesh with ``fixed=`` those vertices);
 * :class:`ProbeTool`: the rigid probe (:class:`~tissuesim.probe.Probe`) pressed where the pointer touches the
-  surface, :attr:`ProbeTool.depth` beyond it along the view, and slid in the plane facing the camera; its contact is
-  updated before every step.
+  surface, :attr:`ProbeTool.depth` beyond it along the view, and slid in the plane facing the camera. Where it moved,
+  the frame solves its contact quasi-statically (:meth:`~tissuesim.probe.Probe.settle`), the tissue being overdamped
+  at a hand's speed.
 """
 
 from __future__ import annotations
@@ -143,6 +144,7 @@ class ProbeTool:
         self.depth = PRESS_FRACTION * self.radius
         self.probe: Probe | None = None
         self.held = False
+        self._settled = False
 
     @property
     def pressing(self) -> bool:
@@ -161,7 +163,7 @@ class ProbeTool:
         probe = Probe(solver, radius=self.radius)
         probe.move_to(checked_point(hit) + (self.depth - self.radius) * ray)
         self.release()
-        self.probe = probe
+        self.probe, self._settled = probe, False
 
     def let_go(self, *, hold: bool) -> None:
         """The button was released: with ``hold`` the probe presses on where it is, else it is withdrawn (a held
@@ -178,11 +180,19 @@ class ProbeTool:
         point = camera_plane_point(ray_origin, ray_direction, self.probe.center)
         if point is not None:
             self.probe.move_to(point)
+            self._settled = False
 
     def before_step(self) -> None:
-        """One contact update at the current positions (the step that follows moves the surface)."""
-        if self.probe is not None:
-            self.probe.update()
+        """The contact solved where the probe moved (:meth:`~tissuesim.probe.Probe.settle`: a frame's iterations;
+        it goes on at the next step if not settled). A solver that cannot carry the press withdraws the probe and
+        raises."""
+        if self.probe is None or self._settled:
+            return
+        try:
+            self._settled = self.probe.settle(self.probe.center, self.probe.end)
+        except SolverError:
+            self.probe = None
+            raise
 
     def release(self) -> None:
         if self.probe is not None:
@@ -199,5 +209,5 @@ class ProbeTool:
         return again
 
     def adopt(self, probe: Probe | None) -> None:
-        self.probe = probe
+        self.probe, self._settled = probe, False
         self.held = self.held and probe is not None
