@@ -30,7 +30,9 @@ def test_scripted_session_records_the_drag_and_the_cut(tmp_path):
     assert result["force_N"] == pytest.approx(50.0 * 0.02)                 # eq 24 at the full cursor travel
     assert 0.002 < result["held_motion_m"] < 0.02                           # followed, less than the cursor
     frames = read_recording(tmp_path / "s.pvd")
-    assert len(frames) == result["frames"] >= 40
+    # every drag frame, the frames that moved after the release, and each cutting move that cut something (a move
+    # that ends within the snap distance of the last tip cuts nothing until the blade goes on): 38 of 50 here
+    assert len(frames) == result["frames"] >= 30
     assert np.count_nonzero(np.any(frames[5].force, axis=1)) == 1 and not np.any(frames[-1].force)  # held, released
     if result["scalpel"]:
         assert len(frames[-1].cut_edges) == result["cut_edges"] > 0
