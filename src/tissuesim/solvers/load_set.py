@@ -159,11 +159,17 @@ class LoadSet:
         return self._loads[0] if self._loads else None
 
     def _refresh_forces(self, rows: np.ndarray) -> None:
-        """``forces`` at the vertices ``rows`` ``(k,)`` from every load acting (elsewhere they did not change)."""
+        """``forces`` at the vertices ``rows`` ``(k,)`` from every load acting (elsewhere they did not change).
+
+        One pass over all the loads' nodes at once: a probe holds a load per vertex it pushes and changes them one by
+        one, and a pass per load made each change cost O(loads) NumPy calls (83 % of a contact update)."""
         self.forces[rows] = 0.0
-        for load in self._loads:
-            at = np.isin(load.nodes, rows)
-            np.add.at(self.forces, load.nodes[at], load.shares[at, None] * load.force[None, :])
+        if not self._loads:
+            return
+        nodes = np.concatenate([load.nodes for load in self._loads])
+        nodal = np.concatenate([load.shares[:, None] * load.force[None, :] for load in self._loads])
+        at = np.isin(nodes, rows)
+        np.add.at(self.forces, nodes[at], nodal[at])
 
 
 class ToolLoad:
