@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import SolverError
-from .solvers.checks import positive_number
+from .solvers.checks import checked_point, positive_number
 from .solvers.load_set import ToolLoad
 
 #: Default snap radius in mean rest edge lengths of M_S.
@@ -130,14 +130,3 @@ class PinHead:
         """Withdraw the force; the pin-head follows the cursor again (no node held)."""
         self._load.withdraw()
         self.node, self.anchor = None, None
-
-
-def checked_point(point) -> np.ndarray:
-    """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError."""
-    try:
-        point = np.asarray(point, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SolverError(f"a point must be 3 coordinates [m], got {point!r}") from None
-    if point.shape != (3,) or not np.all(np.isfinite(point)):
-        raise SolverError(f"a point must be 3 finite coordinates [m], got {point!r}")
-    return point

@@ -37,7 +37,7 @@ import numpy as np
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
 from .probe_contact import (complementary_forces, gaps_and_normals, half_space_compliance, undetected_depth,
                             vertex_spans)
-from .solvers.checks import is_integer, positive_number
+from .solvers.checks import checked_point, is_integer, positive_number
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -254,8 +254,8 @@ class Probe:
     # ------------------------------------------------------------------------------------------------ placing
     def _place(self, center, end) -> None:
         """Check and take the probe's place (nothing changes when refused)."""
-        center = _point("probe centre", center)
-        end = None if end is None else _point("capsule end", end)
+        center = checked_point(center, name="the probe centre").copy()
+        end = None if end is None else checked_point(end, name="the capsule end").copy()
         self._refresh_surface()
         gaps = gaps_and_normals(self.solver.positions, center, end, self.radius)[0]
         near = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
@@ -294,14 +294,3 @@ class Probe:
     def _require_placed(self) -> None:
         if self.center is None:
             raise SolverError("the probe is not placed; call move_to(center) or press_static(center) first")
-
-
-def _point(name: str, point) -> np.ndarray:
-    """``point`` as a new ``(3,) float64`` array [m], or a SolverError naming it."""
-    try:
-        point = np.array(point, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SolverError(f"the {name} must be 3 coordinates [m], got {point!r}") from None
-    if point.shape != (3,) or not np.all(np.isfinite(point)):
-        raise SolverError(f"the {name} must be 3 finite coordinates [m], got {point!r}")
-    return point

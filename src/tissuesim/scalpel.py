@@ -35,7 +35,7 @@ from .cutting.core import DEFAULT_SNAP
 from .solvers.cut_carry import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
-from .interaction import checked_point
+from .solvers.checks import checked_point
 from .solvers.checks import positive_number
 
 #: Default blade length in mean rest edge lengths of M_S.

@@ -114,3 +114,15 @@ def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.n
             f"{first_indices(bad)})"
         )
     return np.unique(nodes).astype(np.int32)
+
+
+def checked_point(point, *, name: str = "a point") -> np.ndarray:
+    """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError
+    naming it (``name``, e.g. "the probe centre")."""
+    try:
+        point = np.asarray(point, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise SolverError(f"{name} must be 3 coordinates [m], got {point!r}") from None
+    if point.shape != (3,) or not np.all(np.isfinite(point)):
+        raise SolverError(f"{name} must be 3 finite coordinates [m], got {point!r}")
+    return point

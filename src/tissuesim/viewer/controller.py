@@ -38,7 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import SolverError, TissuesimError
-from ..interaction import PinHead, checked_point
+from ..interaction import PinHead
+from ..solvers.checks import checked_point
 from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
 from .rays import camera_plane_point, unit_ray

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from ..interaction import checked_point
+from ..solvers.checks import checked_point
 
 
 def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:

@@ -17,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
-from ..interaction import PinHead, checked_point
+from ..interaction import PinHead
+from ..solvers.checks import checked_point
 from ..probe import Probe
 from ..solvers.checks import positive_number
 from .rays import camera_plane_point, unit_ray
