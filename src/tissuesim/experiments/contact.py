@@ -22,7 +22,7 @@ The free scalars of hybrid, pbd and mass-spring are calibrated on one case, :dat
 With a finite-strain ``material`` every method that has it runs with it, against the finite-strain reference of the
 same levels (:mod:`.finite_contact`); a press beyond the stable dead-load range (mean pressure above μ over the
 patch, :func:`tissuesim.solvers.finite_strain.check_dead_press`) is not run and is listed under
-``beyond_stable_press`` with the largest stable load. Such presses need a rigid tip driven by displacement.
+``beyond_stable_press`` with the largest stable load. Such presses need a rigid tip driven by displacement (:class:`tissuesim.Probe`).
 """
 
 from __future__ import annotations

@@ -99,8 +99,8 @@ def unstable_load_error(solver, error) -> SolverError:
         f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {loaded.size} "
         f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
         f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
-        "a body pressed by a fixed force buckles; lower the load (the pin-head's force is such a fixed force too: a "
-        "press that deep needs a rigid tip driven by displacement)")
+        "a body pressed by a fixed force buckles; lower the load, or press with tissuesim.Probe, a rigid tip driven by "
+        "displacement (the pin-head's force is a fixed force too)")
 
 
 def inverted_element_count(solver) -> int | None:
@@ -153,5 +153,5 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
             f"a dead load pressing {-float(np.dot(force, normal)):.3g} N into the surface over {nodes.size} node(s) "
             f"({1e6 * area:.3g} mm²) is a mean pressure of {pressure:.3g} Pa = {pressure / mu:.2g} μ "
             f"(μ = {mu:.3g} Pa): beyond about μ a body pressed by a fixed force has no stable finite-strain "
-            f"equilibrium (here: above {largest:.3g} N); lower the load (the pin-head's force is such a fixed force "
-            "too: a press that deep needs a rigid tip driven by displacement)")
+            f"equilibrium (here: above {largest:.3g} N); lower the load, or press with tissuesim.Probe, a rigid tip "
+            "driven by displacement (the pin-head's force is a fixed force too)")
