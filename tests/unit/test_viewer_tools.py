@@ -148,3 +148,31 @@ def test_a_held_probe_stays_through_a_mode_switch_and_a_change_of_method_and_x_w
     assert c.solver.name == "embedded" and c.probe.probe.solver is c.solver and len(c.solver.loads) >= 1
     c.key("x")
     assert not c.probe.pressing and c.solver.loads == ()
+
+
+def test_gravity_switched_on_in_the_simulator_sags_the_model_and_off_brings_it_back(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"))
+    c.set_solver_option("gravity", (0.0, 0.0, -9.81))
+    assert c.solver.gravity is not None and c.notice == ""
+    sag = c.solver.solve_static() - c.solver.rest_positions
+    assert sag[:, 2].mean() < 0.0 and -sag[:, 2].mean() > 5.0 * np.abs(sag[:, :2].mean(axis=0)).max()   # down
+    c.set_solver_option("gravity", None)
+    assert c.solver.gravity is None
+    np.testing.assert_allclose(c.solver.solve_static(), c.solver.rest_positions, rtol=0, atol=1e-15)
+
+
+def test_a_painted_ligament_holds_with_its_stiffness_and_a_bad_option_changes_nothing(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"))
+    c.set_mode("support")
+    c.brush.paints, c.brush.ligament_stiffness = "ligament", 300.0
+    side = surface_point(c, [1.0, 0.0, 0.5])
+    c.pointer_down(side, side + [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0])
+    c.pointer_up()
+    (ligament,) = c.solver_options["attachments"]
+    assert ligament.stiffness == 300.0 and ligament.nodes.size >= 1
+    np.testing.assert_array_equal(np.sort(c.solver.attached_nodes), np.sort(ligament.nodes))
+    solver = c.solver
+    c.set_solver_option("gravity", (0.0, 0.0))            # not 3 numbers: refused, nothing changed
+    assert c.solver is solver and "gravity" in c.notice and "gravity" not in c.solver_options
+    c.set_solver_option("attachments", None)
+    assert c.solver.attached_nodes.size == 0

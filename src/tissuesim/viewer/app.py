@@ -188,6 +188,11 @@ class ViewerApp(PanelWidgets):
         fixed = c.brush.painted if c.brush.painting else c.solver.fixed
         self._layer("support", c.mode == "support" or c.support is not None, x[fixed],
                     lambda p: ps.register_point_cloud("support", p, color=(0.1, 0.3, 0.95), radius=0.006))
+        ligaments = c.solver.attached_nodes
+        if self._shown.get("ligaments") is not None and self._shown["ligaments"].n_points() != ligaments.size:
+            self._shown.pop("ligaments").remove()      # a stroke added some: register anew
+        self._layer("ligaments", ligaments.size > 0, x[ligaments],
+                    lambda p: ps.register_point_cloud("ligaments", p, color=(0.1, 0.7, 0.25), radius=0.006))
 
     def _held_layers(self, x) -> None:
         """The pin-heads left holding: each cursor and its spring, re-registered when their number changes."""

@@ -37,6 +37,35 @@ class SolverBuilding:
         self.notice = ("support: the model's default" if vertices is None else
                        f"support: {self.support.size} painted vertices fixed")
 
+    def set_solver_option(self, name: str, value) -> None:
+        """Give every solver from now on the option ``name`` = ``value`` (None: drop it), e.g. ``gravity`` or
+        ``attachments``: a new solver over the same mesh, holding what was held. A refused option (a bad value, or
+        the method has none such) changes nothing, and :attr:`notice` says why."""
+        old = dict(self.solver_options)
+        options = extra_options({**old, name: value})
+        if value is None:
+            options.pop(name)
+        self.solver_options = options
+        try:
+            self._build(self.solver.hybrid, carry=True)
+        except TissuesimError as error:
+            self.solver_options = old
+            self.notice = f"{name} was refused: {error}"
+            return
+        self.notice = ""
+
+    def add_ligament(self, vertices, *, stiffness: float) -> None:
+        """Hold ``vertices`` ``(k,)`` of the current mesh by a ligament of total ``stiffness`` [N/m] to their rest
+        positions (:class:`~tissuesim.solvers.attachments.Attachment`), beside the ligaments there are."""
+        from ..solvers.attachments import Attachment
+
+        try:
+            ligament = Attachment(nodes=np.unique(np.asarray(vertices)), stiffness=stiffness)
+        except TissuesimError as error:
+            self.notice = f"that ligament was refused: {error}"
+            return
+        self.set_solver_option("attachments", (*self.solver_options.get("attachments", ()), ligament))
+
     def configure(self, **changes) -> None:
         """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
         names = [field.name for field in fields(Settings)]

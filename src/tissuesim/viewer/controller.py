@@ -215,7 +215,9 @@ class Controller(SolverBuilding):
                 self.pin.release()
             self.force = np.zeros(3)
         elif self.mode == "support":
-            if self.brush.painting:
+            if self.brush.painting and self.brush.paints == "ligament":
+                self.add_ligament(self.brush.finish(), stiffness=self.brush.ligament_stiffness)
+            elif self.brush.painting:
                 self.set_support(self.brush.finish())
         elif self.mode == "probe":
             self.probe.let_go(hold=hold)

@@ -16,6 +16,7 @@ from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES
 
 MODE_LABELS = {"pin": "pin-head", "probe": "probe", "scalpel": "scalpel", "support": "support"}
+STANDARD_GRAVITY = 9.81  # m/s²: the panel's gravity, straight down the model's z
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 
@@ -76,15 +77,38 @@ class PanelWidgets:
         if c.mode == "probe":
             self._probe(psim, c.probe)
         if c.mode == "support":
-            changed, brush_mm = psim.SliderFloat("brush [mm]", 1e3 * c.brush.radius, 1.0, 50.0, "%.1f")
+            self._support(psim, c)
+        gravity = c.solver_options.get("gravity") is not None
+        changed, gravity = psim.Checkbox("gravity (9.81 m/s², -z)", gravity)
+        if changed:
+            c.set_solver_option("gravity", (0.0, 0.0, -STANDARD_GRAVITY) if gravity else None)
+            self._topology = None
+
+    def _support(self, psim, c) -> None:
+        """The brush: what it paints (the fixed region or a ligament), its size, and the ways back."""
+        for paints in ("fixed", "ligament"):
+            if psim.RadioButton(f"paint {paints}", c.brush.paints == paints):
+                c.brush.paints = paints
+            psim.SameLine()
+        psim.NewLine()
+        psim.TextUnformatted("paint the fixed region (blue) or ligaments (green)")
+        changed, brush_mm = psim.SliderFloat("brush [mm]", 1e3 * c.brush.radius, 1.0, 50.0, "%.1f")
+        if changed:
+            c.brush.radius = 1e-3 * brush_mm
+        if c.brush.paints == "ligament":
+            changed, k = psim.SliderFloat("ligament k [N/m]", c.brush.ligament_stiffness, 1.0, 5000.0, "%.0f",
+                                          psim.ImGuiSliderFlags_Logarithmic)
             if changed:
-                c.brush.radius = 1e-3 * brush_mm
-            psim.TextUnformatted("paint the fixed region (blue)")
-            if c.support is not None:
-                psim.SameLine()
-                if psim.Button("default support"):
-                    c.set_support(None)
-                    self._topology = None
+                c.brush.ligament_stiffness = k
+        if c.solver_options.get("attachments"):
+            if psim.Button("drop ligaments"):
+                c.set_solver_option("attachments", None)
+                self._topology = None
+            psim.SameLine()
+        if c.support is not None:
+            if psim.Button("default support"):
+                c.set_support(None)
+                self._topology = None
 
     @staticmethod
     def _probe(psim, tool) -> None:

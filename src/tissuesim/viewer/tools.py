@@ -25,6 +25,8 @@ from .rays import camera_plane_point, unit_ray
 
 #: The support brush's default radius, in mean rest edge lengths of M_S.
 BRUSH_EDGES = 2.0
+#: A painted ligament's default total stiffness [N/m]: a few times a pin-head's pull, so a held organ sways but stays.
+DEFAULT_LIGAMENT = 200.0
 #: How far the probe presses beyond the surface it touches, as a fraction of its radius (δ ≪ R: Hertz's range).
 PRESS_FRACTION = 0.3
 
@@ -101,6 +103,8 @@ class SupportBrush:
 
     Attributes:
         painted: ``(k,) int32`` sorted vertices painted in the stroke so far (empty before one).
+        paints: what a stroke makes: ``"fixed"`` (the fixed region) or ``"ligament"`` (an elastic attachment of
+            :attr:`ligament_stiffness` [N/m] to the painted vertices' rest positions).
     """
 
     def __init__(self, surface, *, radius: float | None = None):
@@ -109,6 +113,8 @@ class SupportBrush:
             radius = BRUSH_EDGES * float(np.linalg.norm(edges[:, 0] - edges[:, 1], axis=1).mean())
         self.radius = positive_number("brush radius", radius, "m")
         self.painted = np.zeros(0, dtype=np.int32)
+        self.paints = "fixed"
+        self.ligament_stiffness = DEFAULT_LIGAMENT
 
     @property
     def painting(self) -> bool:
