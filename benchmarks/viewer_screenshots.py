@@ -72,12 +72,12 @@ def pull(controller, point, offset, view=SIDE) -> None:
 def two_tools(app) -> None:
     c = app.controller
     size = c.solver.size
-    fold = vertex_towards(c, [0.6, 0.0, 1.0])
+    fold = vertex_towards(c, [-0.6, 0.0, 1.0])         # on the left: the panel covers the right
     pull(c, fold, [0.0, 0.0, DRAG_FRACTION * size])
     c.pointer_up(hold=True)
     frames(app, SETTLE_FRAMES)
     c.set_mode("scalpel")
-    centre = fold[:2] - [0.15 * size, 0.0]
+    centre = fold[:2] + [0.15 * size, 0.0]
     line = [surface_hit(c, centre + [0.0, t]) for t in np.linspace(-0.12, 0.12, 24) * size]
     c.pointer_down(line[0], line[0] - DOWN, DOWN)
     for point in line[1:]:
@@ -85,6 +85,9 @@ def two_tools(app) -> None:
         frames(app, 1)
     c.pointer_up()
     frames(app, SETTLE_FRAMES)
+    near = np.linalg.norm(c.solver.positions - fold, axis=1) < 0.3 * size
+    look_at_oblique(app.ps, c.solver.positions[near], elevation=40.0, azimuth=-80.0, distance=2.4)
+    frames(app, 1)
 
 
 def support(app) -> None:
@@ -99,7 +102,7 @@ def support(app) -> None:
     c.pointer_up()
     frames(app, 2)
     c.set_mode("pin")
-    pull(c, vertex_towards(c, [0.3, -1.0, 0.5]), [0.0, 0.0, -0.03 * c.solver.size])
+    pull(c, vertex_towards(c, [0.3, -1.0, 0.5]), [0.0, 0.0, -0.01 * c.solver.size])
     frames(app, SETTLE_FRAMES)
 
 
@@ -128,7 +131,7 @@ def wound(app) -> None:
         frames(app, 1)
     c.pointer_up()
     c.set_mode("pin")
-    beside = surface_hit(c, top[:2] + [0.0, -0.02 * size])
+    beside = surface_hit(c, top[:2] + [0.0, -0.07 * size])      # the tip's patch (0.05 of the size) clear of the cut
     pull(c, beside, [0.0, -DRAG_FRACTION * size, 0.0], view=DOWN)
     c.pointer_up(hold=True)
     frames(app, SETTLE_FRAMES)

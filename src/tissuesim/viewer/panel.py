@@ -183,6 +183,9 @@ class PanelWidgets:
                              "slower than real time (drawing)")
         if c.paused:
             psim.TextColored(BEHIND, "paused (space)")
+        if c.solver.warning and c.settings.material == "linear":    # a model used beyond its validity says so
+            moved = c.solver.largest_displacement / c.solver.size
+            psim.TextColored(BEHIND, f"beyond small strain ({moved:.2f} of the size)")
 
     def _apply_on_release(self, psim, name: str) -> None:
         """Settings that rebuild the solver change when the slider is let go, not on every pixel of the drag."""
