@@ -23,6 +23,7 @@ import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..fem.rigid_modes import connected_pieces, free_rigid_modes
+from .checks import finite_triple
 
 
 @dataclass(frozen=True)
@@ -61,14 +62,10 @@ class Attachment:
                                          f"finite number [N/m], got {self.stiffness!r}")
         anchor = self.anchor
         if anchor is not None:
-            try:
-                anchor = np.array(anchor, dtype=np.float64)
-            except (TypeError, ValueError):
-                anchor = np.zeros(0)
-            if anchor.shape != (3,) or not np.all(np.isfinite(anchor)):
+            anchor = finite_triple(anchor)
+            if anchor is None:
                 raise BoundaryConditionError(f"an attachment's anchor is a point (x, y, z) [m] of 3 finite numbers, "
                                              f"or None for the nodes' rest positions; got {self.anchor!r}")
-            anchor.flags.writeable = False
         nodes = nodes.astype(np.int64)
         nodes.flags.writeable = False
         object.__setattr__(self, "nodes", nodes)

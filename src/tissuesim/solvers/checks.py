@@ -80,14 +80,10 @@ def gravity_vector(value) -> np.ndarray | None:
     """``value`` as a read-only ``(3,) float64`` acceleration [m/s²], None for None, or a :class:`SolverError`."""
     if value is None:
         return None
-    try:
-        vector = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        vector = np.zeros(0)
-    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+    vector = finite_triple(value)
+    if vector is None:
         raise SolverError(f"gravity is an acceleration (gx, gy, gz) [m/s²] of 3 finite numbers, e.g. (0, 0, -9.81), "
                           f"or None for none; got {value!r}")
-    vector.flags.writeable = False
     return vector
 
 
@@ -126,3 +122,16 @@ def checked_point(point, *, name: str = "a point") -> np.ndarray:
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise SolverError(f"{name} must be 3 finite coordinates [m], got {point!r}")
     return point
+
+
+def finite_triple(value) -> np.ndarray | None:
+    """``value`` as a new read-only ``(3,) float64`` array, or None where it is not 3 finite numbers (the caller
+    says what it should have been)."""
+    try:
+        vector = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return None
+    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+        return None
+    vector.flags.writeable = False
+    return vector

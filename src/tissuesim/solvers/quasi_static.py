@@ -75,12 +75,7 @@ class QuasiStaticSolve:
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
-        try:
-            return self._settle(dt, tolerance, rtol, max_steps)
-        except UnstableLoadError as error:
-            refusal = unstable_load_error(self, error)
-            self._restore(*before)
-            raise refusal from None
+        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps)
 
     def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool):
         """:meth:`solve_static` under the loads acting: they are kept through the reset and put back if refused."""
@@ -89,6 +84,11 @@ class QuasiStaticSolve:
         if reset:
             self._unloaded()
             self.put_back_loads(loads)
+        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps)
+
+    def _settle_or_restore(self, before, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
+        """:meth:`_settle`; where a finite-strain solve finds no stable equilibrium, the state and loads ``before``
+        (``(positions, velocities, kept loads)``) are put back and the refusal says why."""
         try:
             return self._settle(dt, tolerance, rtol, max_steps)
         except UnstableLoadError as error:
