@@ -155,7 +155,8 @@ def main() -> None:
     args.output.mkdir(parents=True, exist_ok=True)
     for scenario in args.only:
         script, filename = SCENARIOS[scenario]
-        sized = sized_defaults(hybrid.surface.vertices)      # as tissuesim view sizes its tools
+        # the tools sized as tissuesim view sizes them
+        sized = sized_defaults(hybrid.surface.vertices, edge_length=hybrid.surface.mean_edge_length)
         controller = Controller(hybrid, settings=Settings(stiffness=sized.stiffness, radius=sized.radius),
                                 scalpel_factory=partial(Scalpel, depth=sized.depth))
         app = ViewerApp(controller, title=f"{name}: {scenario}", headless=True)

@@ -24,7 +24,7 @@ def test_sized_tools_scale_as_the_model_and_the_material():
 def test_a_drag_of_a_tenth_of_the_model_stays_in_small_strain(name):
     hybrid = HybridMesh.build(models.MODELS[name](resolution=400))
     solver = make_solver("hybrid", hybrid)
-    sized = sized_defaults(hybrid.surface.vertices)
+    sized = sized_defaults(hybrid.surface.vertices, edge_length=hybrid.surface.mean_edge_length)
     pin = PinHead(solver, stiffness=sized.stiffness, radius=sized.radius)
     x = solver.rest_positions
     upper = x[:, 2] >= np.quantile(x[:, 2], 0.9)     # the top, near the vertical axis: where a user grabs first

@@ -99,8 +99,8 @@ def run(args: argparse.Namespace) -> int:
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
     fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
     print(held, file=sys.stderr)
-    sized = sized_defaults(hybrid.surface.vertices, youngs_modulus=settings.youngs_modulus,
-                           poisson_ratio=settings.poisson_ratio)
+    sized = sized_defaults(hybrid.surface.vertices, edge_length=hybrid.surface.mean_edge_length,
+                           youngs_modulus=settings.youngs_modulus, poisson_ratio=settings.poisson_ratio)
     if args.stiffness is None:      # a given --stiffness is the user's own tool: its tip stays one node
         settings = replace(settings, stiffness=sized.stiffness, radius=sized.radius)
         print(f"tools: {sized.line}; --stiffness sets k", file=sys.stderr)

@@ -117,12 +117,15 @@ class SizedDefaults:
     line: str
 
 
-def sized_defaults(points, *, youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3) -> SizedDefaults:
-    """Tool defaults sized to a model with rest points ``points`` ``(n, 3) float64`` [m] and the material's E [Pa]
-    and ν: the same reasoning as ``render`` and ``incise`` (:func:`~tissuesim.mesh.sizes.load_defaults`)."""
+def sized_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
+                   poisson_ratio: float = 0.3) -> SizedDefaults:
+    """Tool defaults sized to a model with rest points ``points`` ``(n, 3) float64`` [m], mean edge length
+    ``edge_length`` [m] (the tip covers a few edges; 0: no floor) and the material's E [Pa] and ν: the same
+    reasoning as ``render`` and ``incise`` (:func:`~tissuesim.mesh.sizes.load_defaults`)."""
     from ..mesh.sizes import load_defaults
 
-    loads = load_defaults(points, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
+    loads = load_defaults(points, edge_length=edge_length, youngs_modulus=youngs_modulus,
+                          poisson_ratio=poisson_ratio)
     stiffness = float(f"{loads.force / (DRAG_FRACTION * loads.size):.3g}")
     line = (f"pin-head k = {stiffness:.3g} N/m ({loads.force:.3g} N for a drag of {1e3 * DRAG_FRACTION * loads.size:.0f}"
             f" mm) over a {1e3 * loads.radius:.3g} mm tip, blade {1e3 * loads.depth:.3g} mm: sized to the model "
