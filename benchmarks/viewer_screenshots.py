@@ -140,7 +140,8 @@ def wound(app) -> None:
     frames(app, 1)
 
 
-SCENARIOS = {"probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"), "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
+SCENARIOS = {"probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
+             "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
 
 
 def main() -> None:

@@ -25,8 +25,9 @@ with the wall time that passed. Everything else happens here, so it is tested wi
   window; when one step takes longer than dt of wall time the simulation is slower than real time and
   :attr:`FrameStats.behind` says so.
 
-Choices where the paper is silent: the default pin-head stiffness :data:`~.settings.DEFAULT_STIFFNESS` [N/m] (a 2 cm drag is
-1 N, the middle of the experiments' 0.5–20 N range); a grab that misses every node within the snap radius leaves
+Choices where the paper is silent: the default pin-head stiffness :data:`~.settings.DEFAULT_STIFFNESS` [N/m] (a 2 cm
+drag is 1 N, the middle of the experiments' 0.5–20 N range; ``tissuesim view`` sizes it to the model instead,
+:func:`~.settings.sized_defaults`); a grab that misses every node within the snap radius leaves
 the pin-head free and says why in :attr:`Controller.notice`, instead of raising into the window loop.
 """
 

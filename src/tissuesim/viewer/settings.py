@@ -127,7 +127,8 @@ def sized_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 
     loads = load_defaults(points, edge_length=edge_length, youngs_modulus=youngs_modulus,
                           poisson_ratio=poisson_ratio)
     stiffness = float(f"{loads.force / (DRAG_FRACTION * loads.size):.3g}")
-    line = (f"pin-head k = {stiffness:.3g} N/m ({loads.force:.3g} N for a drag of {1e3 * DRAG_FRACTION * loads.size:.0f}"
-            f" mm) over a {1e3 * loads.radius:.3g} mm tip, blade {1e3 * loads.depth:.3g} mm: sized to the model "
+    drag_mm = 1e3 * DRAG_FRACTION * loads.size
+    line = (f"pin-head k = {stiffness:.3g} N/m ({loads.force:.3g} N for a drag of {drag_mm:.0f} mm) over a "
+            f"{1e3 * loads.radius:.3g} mm tip, blade {1e3 * loads.depth:.3g} mm: sized to the model "
             f"({1e3 * loads.size:.0f} mm across) and E = {youngs_modulus:g} Pa, so that a drag stays in small strain")
     return SizedDefaults(stiffness=stiffness, radius=loads.radius, depth=loads.depth, line=line)
