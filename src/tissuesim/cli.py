@@ -30,6 +30,7 @@ COMMANDS = {
     "view": "view",
     "render": "render",
     "run": "run",
+    "study": "study",
 }
 
 
