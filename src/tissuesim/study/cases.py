@@ -1,0 +1,143 @@
+"""A study expanded into cases: every model × method × material × load, each with a content hash of its inputs.
+
+A case is plain data (strings, numbers, tuples): it pickles in a few hundred bytes, so a task sends little. Its
+``case_id`` hashes every input that changes its answer, a model file by its bytes, so a rerun recognises a
+finished case whatever the file's name, and a changed file or option makes a new case.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import asdict, dataclass
+from itertools import product
+from pathlib import Path
+
+from ..experiments.protocol import LOAD_DIRECTIONS
+from ..fem.presets import preset
+from .load import StudyError, StudyFile
+
+#: Changes whenever a case's answer would change for the same inputs; part of every hash.
+FORMAT = "tissuesim-study-1"
+
+#: The paper's material (§8.2), when the study names none: E [Pa], ν [-], ρ [kg/m³].
+PAPER_MATERIAL = ("paper", 5500.0, 0.3, 1000.0)
+
+
+def content_hash(*parts) -> str:
+    """16 hex digits of SHA-256 over the canonical JSON of ``parts``."""
+    text = json.dumps([FORMAT, *parts], sort_keys=True, separators=(",", ":"), default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class ModelRef:
+    """One model: ``kind`` builtin/file/bundle, ``source`` its name or absolute path, and ``key``, a hash of what
+    builds it (a file's bytes, not its name)."""
+
+    kind: str
+    source: str
+    resolution: int | None
+    scale: float
+    repair: bool
+    key: str
+
+    @property
+    def label(self) -> str:
+        return self.source if self.kind == "builtin" else Path(self.source).stem
+
+
+@dataclass(frozen=True)
+class Case:
+    """One case. Forces [N], lengths [m]; ``direction`` a unit ``(3,)`` tuple, or None for a random load (then
+    ``random`` = (seed, index, lowest N, highest N) and the worker draws node, direction and force)."""
+
+    model: ModelRef
+    method: str
+    options: str                    # the method's options as canonical JSON
+    material: tuple                 # (label, E [Pa], ν, ρ [kg/m³])
+    radius: float | None
+    force_N: float | None
+    direction: tuple | None
+    random: tuple | None
+    record: tuple                   # (metrics, field, step_times, samples, timing_steps, max_steps)
+
+    @property
+    def reference_key(self) -> str:
+        """The hash of the fem reference this case is measured against (shared by every method)."""
+        return content_hash("reference", self.model.key, self.material, self.radius, self.force_N, self.direction,
+                            self.random, self.record[5])
+
+    @property
+    def case_id(self) -> str:
+        return content_hash("case", asdict(self))
+
+
+def expand(loaded: StudyFile) -> list[Case]:
+    """Every case of the study, in the file's order (models, then methods, materials, loads)."""
+    study = loaded.study
+    models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
+    methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
+    record = tuple(study.record.model_dump().values())
+    cases = [Case(model, name, options, material, load[0], load[1], load[2], load[3], record)
+             for model, (name, options), material, load in product(models, methods, _materials(study), _loads(study))]
+    ids = [case.case_id for case in cases]
+    if len(set(ids)) < len(ids):
+        raise StudyError("the study lists the same case twice (a model, method, material or load repeated); "
+                         "remove the repetition")
+    return cases
+
+
+def _models(loaded: StudyFile, index: int, spec) -> list[ModelRef]:
+    from ..io import SURFACE_EXTENSIONS
+
+    if spec.name is not None:
+        return [ModelRef("builtin", spec.name, spec.resolution, spec.scale, spec.repair,
+                         content_hash("builtin", spec.name, spec.resolution, spec.scale))]
+    key = "folder" if spec.folder is not None else ("file" if spec.file is not None else "bundle")
+    path = loaded.resolve(getattr(spec, key)).resolve()
+    if key == "folder":
+        if not path.is_dir():
+            raise StudyError(f"{loaded.path.name}: models[{index}].folder: no folder {str(path)!r}; fix the path")
+        files = sorted(p for p in path.iterdir() if p.suffix.lower() in SURFACE_EXTENSIONS)
+        if not files:
+            raise StudyError(f"{loaded.path.name}: models[{index}].folder: no surface file "
+                             f"({', '.join(SURFACE_EXTENSIONS)}) in {str(path)!r}")
+        return [_file_model("file", f, spec) for f in files]
+    if not path.is_file():
+        raise StudyError(f"{loaded.path.name}: models[{index}].{key}: no file {str(path)!r} (names are relative to "
+                         "the study file's folder); fix the name or the path")
+    return [_file_model(key, path, spec)]
+
+
+def _file_model(kind: str, path: Path, spec) -> ModelRef:
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    scale = 1.0 if kind == "bundle" else spec.scale
+    return ModelRef(kind, str(path), None, scale, spec.repair, content_hash(kind, digest, scale, spec.repair))
+
+
+def _materials(study) -> list[tuple]:
+    spec = study.materials
+    materials = [(name, *preset(name).options().values()) for name in spec.presets]
+    if spec.youngs_modulus is not None or spec.poisson_ratio is not None or not materials:
+        moduli = _values(spec.youngs_modulus, PAPER_MATERIAL[1])
+        ratios = _values(spec.poisson_ratio, PAPER_MATERIAL[2])
+        label = "paper" if spec.youngs_modulus is None and spec.poisson_ratio is None else ""
+        materials += [(label or f"E={e:g} nu={nu:g}", e, nu, spec.density) for e, nu in product(moduli, ratios)]
+    return materials
+
+
+def _values(spec, default: float) -> list[float]:
+    if spec is None:
+        return [default]
+    return spec.values() if hasattr(spec, "values") else [float(v) for v in spec]
+
+
+def _loads(study) -> list[tuple]:
+    """(radius, force, direction, random) of every load."""
+    loads = study.loads
+    if loads.random is not None:
+        r = loads.random
+        return [(loads.radius, None, None, (r.seed, i, *r.force)) for i in range(r.count)]
+    directions = [tuple(LOAD_DIRECTIONS[d]) if isinstance(d, str) else tuple(d) for d in loads.directions]
+    return [(loads.radius, float(f), d, None) for d in directions for f in loads.forces]

@@ -1,0 +1,92 @@
+"""Reading a study file: TOML → the validated :class:`~.schema.Study`, or one :class:`StudyError` naming every
+defect by its key (``materials.youngs_modulus.count``), what is wrong and the fix."""
+
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+
+from pydantic import ValidationError
+
+from ..errors import TissuesimError
+from ..scene.schema import LOCATED
+from .schema import Study
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - the dependency is declared for these versions
+    import tomli as tomllib
+
+#: At most this many defects are listed in one message; the rest are counted.
+MAX_LISTED = 8
+
+
+class StudyError(TissuesimError, ValueError):
+    """A study file is unreadable, a key in it is missing, unknown or out of range, or a study's output folder
+    belongs to another study."""
+
+
+@dataclass(frozen=True)
+class StudyFile:
+    """A validated study and where it came from (file names in it are relative to its folder)."""
+
+    study: Study
+    path: Path
+
+    def resolve(self, name: str) -> Path:
+        """``name`` (a file named in the study) as a path: relative names are relative to the study file."""
+        path = Path(name).expanduser()
+        return path if path.is_absolute() else self.path.parent / path
+
+
+def read_study(path) -> StudyFile:
+    """The study in the TOML file ``path``, validated; StudyError for an unreadable file or any invalid key."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as error:
+        raise StudyError(f"cannot read the study file {str(path)!r}: {error}") from None
+    return parse_study(text, path)
+
+
+def parse_study(text: str, path) -> StudyFile:
+    """The study in the TOML ``text`` of the file ``path`` (which names its folder), validated."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise StudyError(f"{path.name} is not valid TOML: {error}; see docs/studies.md for the format") from None
+    try:
+        study = Study.model_validate(data)
+    except ValidationError as error:
+        raise StudyError(describe(error, path.name)) from None
+    return StudyFile(study, path)
+
+
+def describe(error: ValidationError, name: str) -> str:
+    """One message for every defect pydantic found in the study file ``name``."""
+    lines = list(dict.fromkeys(_line(item) for item in error.errors(include_url=False)))
+    more = len(lines) - MAX_LISTED
+    listed = " | ".join(lines[:MAX_LISTED]) + (f" | and {more} more" if more > 0 else "")
+    return f"{name}: {len(lines)} problem{'s' if len(lines) > 1 else ''}: {listed}"
+
+
+def _line(item: dict) -> str:
+    loc, message, kind = [str(p) if isinstance(p, str) else p for p in item["loc"]], item["msg"], item["type"]
+    message = message.removeprefix("Value error, ")
+    if message.startswith(LOCATED):
+        _, below, message = message.split(LOCATED, 2)
+        loc.append(below)
+    # a union's member names (list[...], Range, a Literal) are pydantic's, not keys of the file
+    where = "".join(f"[{p}]" if isinstance(p, int) else (p if p.startswith("[") else f".{p}")
+                    for p in loc if isinstance(p, int) or not _member(p)).lstrip(".") or "the study"
+    if kind == "extra_forbidden":
+        return f"{where}: unknown key; see docs/studies.md for the keys of this table"
+    if kind == "missing":
+        return f"{where}: missing; add it (docs/studies.md)"
+    return f"{where}: {message[0].lower() + message[1:]}"
+
+
+def _member(part: str) -> bool:
+    return part.startswith(("list[", "literal[", "function-")) or part in ("Range", "str")

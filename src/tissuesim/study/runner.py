@@ -1,0 +1,143 @@
+"""Running a study's cases: on a Dask cluster (each case a task, each fem reference a task of its own), or in this
+process, one after the other (``client=None``: the same functions, the same answers).
+
+The client writes each result as it arrives (:class:`~.store.Store`), so workers need no shared file system, and
+an interruption (Ctrl-C, a crash, a killed worker) loses only the cases still running. A reference is computed once
+per study (its task key is its content hash, so Dask shares it between the cases that need it) and kept in
+``OUTPUT/references/`` for later runs.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import work
+from .cases import Case
+from .store import Store
+
+REFERENCES = "references"
+
+
+@dataclass
+class Summary:
+    """What a run did: cases in the study, already done before, run now, and failed now."""
+
+    cases: int
+    skipped: int
+    done: int = 0
+    failed: int = 0
+
+
+def run_study(cases: list[Case], store: Store, *, client=None, progress: bool = True) -> Summary:
+    """Run every case of ``cases`` that ``store`` does not hold yet; a failed case is written with its error."""
+    pending = [case for case in cases if not store.done(case)]
+    summary = Summary(cases=len(cases), skipped=len(cases) - len(pending))
+    bar = _bar(len(pending), progress)
+    try:
+        results = _serial(pending, store) if client is None else _distributed(pending, store, client)
+        for case, result in results:
+            store.write(case, result["row"], result["field"])
+            failed = result["row"]["status"] == "failed"
+            summary.done += not failed
+            summary.failed += failed
+            bar.update(1)
+            bar.set_postfix(failed=summary.failed, refresh=False)
+    finally:
+        bar.close()
+    return summary
+
+
+def _serial(pending: list[Case], store: Store):
+    references: dict = {}
+    for case in pending:
+        try:
+            reference = _reference_here(case, store, references)
+        except Exception as error:  # noqa: BLE001 - the reference's failure is the case's
+            yield case, _failure(error)
+            continue
+        yield case, work.run_case(case, reference)
+
+
+def _reference_here(case: Case, store: Store, references: dict):
+    if not case.record[0]:
+        return None
+    key = case.reference_key
+    if key not in references:
+        references[key] = _cached(store, key)
+        if references[key] is None:
+            references[key] = work.reference(case)
+            _keep(store, key, references[key])
+    return references[key]
+
+
+def _distributed(pending: list[Case], store: Store, client):
+    from distributed import as_completed
+
+    references, futures = {}, {}
+    for case in pending:
+        reference = None
+        if case.record[0]:
+            reference = references.get(case.reference_key)
+            if reference is None:
+                reference = _reference_task(case, store, client)
+                references[case.reference_key] = reference
+        future = client.submit(work.run_case, case, reference, key=f"case-{case.case_id}", pure=False)
+        futures[future.key] = (future, case)
+    try:
+        for future in as_completed([f for f, _ in futures.values()]):
+            case = futures[future.key][1]
+            if future.status == "finished":
+                yield case, future.result()
+            else:
+                yield case, _failure(future.exception())
+            if case.record[0]:
+                _keep_future(store, case.reference_key, references[case.reference_key])
+    finally:
+        client.cancel([f for f, _ in futures.values()] + [f for f in references.values() if hasattr(f, "key")])
+
+
+def _reference_task(case: Case, store: Store, client):
+    cached = _cached(store, case.reference_key)
+    if cached is not None:
+        return client.scatter(cached, hash=False)
+    return client.submit(work.reference, case, key=f"reference-{case.reference_key}", pure=False)
+
+
+def _keep_future(store: Store, key: str, future) -> None:
+    if getattr(future, "status", None) == "finished" and not _path(store, key).exists():
+        _keep(store, key, future.result())
+
+
+def _failure(error) -> dict:
+    return {"row": {"status": "failed", "error": f"{type(error).__name__}: {error}"}, "field": None}
+
+
+def _path(store: Store, key: str) -> Path:
+    return store.root / REFERENCES / f"{key}.npy"
+
+
+def _cached(store: Store, key: str):
+    """The reference positions kept under ``key``, or None (also for an unreadable file, which is recomputed)."""
+    try:
+        positions = np.load(_path(store, key))
+    except (OSError, ValueError):
+        return None
+    return positions if positions.ndim == 2 and positions.shape[1] == 3 else None
+
+
+def _keep(store: Store, key: str, positions: np.ndarray) -> None:
+    path = _path(store, key)
+    path.parent.mkdir(exist_ok=True)
+    temporary = path.with_name(f".{key}.{os.getpid()}.tmp.npy")
+    np.save(temporary, positions)
+    os.replace(temporary, path)
+
+
+def _bar(total: int, progress: bool):
+    from tqdm import tqdm
+
+    return tqdm(total=total, unit="case", disable=not progress, desc="cases")

@@ -1,0 +1,148 @@
+"""The shape of a study file, validated by pydantic: every table and key, its type, unit, default and range.
+
+A study declares lists (models, methods, materials, loads); :mod:`.cases` expands their product into cases. Each
+table refuses unknown keys and numbers are strict, as in a scene file (the same base types,
+:mod:`tissuesim.scene.schema`); lengths are in metres, forces in newtons. ``docs/studies.md`` documents every key.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Any, Literal, Union
+
+import numpy as np
+from pydantic import Field, field_validator, model_validator
+
+from ..experiments.protocol import LOAD_DIRECTIONS, RMSE_SAMPLES
+from ..fem.presets import PRESETS
+from ..mesh.models import MODELS
+from ..scene.schema import Flag, Positive, Strict, Vector, located
+
+Count = Annotated[int, Field(strict=True, ge=1)]
+
+#: What a model entry may name, exactly one of them.
+MODEL_SOURCES = ("name", "file", "bundle", "folder")
+
+
+class ModelSpec(Strict):
+    """``[[models]]``: a built-in model, a surface file, a saved hybrid bundle, or a folder of surface files."""
+
+    name: str | None = Field(None, description="a built-in model: " + ", ".join(MODELS))
+    file: str | None = Field(None, description="a surface file (.obj, .stl, .ply, .off), relative to the study file")
+    bundle: str | None = Field(None, description="a saved hybrid bundle with its fine volume, relative to the study")
+    folder: str | None = Field(None, description="a folder whose surface files are each a model")
+    resolution: Annotated[int, Field(strict=True, ge=50)] | None = Field(
+        None, description="the vertex count of a built-in model (at least 50)")
+    scale: Positive = Field(1.0, description="the factor from a surface file's unit to metres (0.01 for cm)")
+    repair: Flag = Field(False, description="true to repair a surface file's safe defects")
+
+    @model_validator(mode="after")
+    def _one_source(self):
+        given = [key for key in MODEL_SOURCES if getattr(self, key) is not None]
+        if len(given) != 1:
+            raise ValueError(f"a model takes exactly one of {', '.join(MODEL_SOURCES)}, got "
+                             f"{', '.join(given) or 'none'}; e.g. {{ name = \"cube\" }}")
+        if self.name is not None and self.name not in MODELS:
+            raise located("name", f"unknown built-in model {self.name!r}; choose one of {', '.join(MODELS)}")
+        if self.resolution is not None and self.name is None:
+            raise located("resolution", "only a built-in model takes a resolution; remove it")
+        return self
+
+
+class MethodSpec(Strict):
+    """``[[methods]]``: a deformation method and its own keyword options."""
+
+    name: str = Field(description="the method: hybrid, pbd, mass-spring, embedded or fem")
+    options: dict[str, Any] = Field(default_factory=dict, description="the method's own keyword options")
+
+
+class Range(Strict):
+    """``{ start, stop, count }``: ``count`` values evenly spaced from ``start`` to ``stop``, both included."""
+
+    start: Positive = Field(description="the first value")
+    stop: Positive = Field(description="the last value")
+    count: Count = Field(description="how many values (1: start alone)")
+
+    def values(self) -> list[float]:
+        return [float(v) for v in np.linspace(self.start, self.stop, self.count)]
+
+
+Values = Union[Annotated[list[Positive], Field(min_length=1)], Range]
+
+
+class Materials(Strict):
+    """``[materials]``: tissue presets, and/or the product of E and ν values (each a list or a range)."""
+
+    presets: list[str] = Field(default_factory=list, description="tissue presets: " + ", ".join(PRESETS))
+    youngs_modulus: Values | None = Field(None, description="Young's moduli E [Pa]: a list or { start, stop, count }")
+    poisson_ratio: Values | None = Field(None, description="Poisson's ratios ν: a list or { start, stop, count }")
+    density: Positive = Field(1000.0, description="density ρ [kg/m³] of the E, ν materials")
+
+    @field_validator("presets")
+    @classmethod
+    def _known(cls, presets):
+        for i, name in enumerate(presets):
+            if name not in PRESETS:
+                raise located(f"[{i}]", f"unknown preset {name!r}; choose among {', '.join(PRESETS)}")
+        return presets
+
+
+class RandomLoads(Strict):
+    """``[loads.random]``: ``count`` pin-head loads, each on a random free surface node, in a random direction,
+    of a force drawn uniformly from ``force``."""
+
+    count: Count = Field(description="how many random loads per model, method and material")
+    seed: Annotated[int, Field(strict=True, ge=0)] = Field(0, description="the seed: the same seed, the same loads")
+    force: Annotated[list[Positive], Field(min_length=2, max_length=2)] = Field(
+        description="[lowest, highest] force magnitude [N]")
+
+    @field_validator("force")
+    @classmethod
+    def _ordered(cls, force):
+        if force[0] > force[1]:
+            raise ValueError(f"[{force[0]:g}, {force[1]:g}] is not [lowest, highest]; swap them")
+        return force
+
+
+Direction = Union[Literal[tuple(LOAD_DIRECTIONS)], Vector]
+
+
+class Loads(Strict):
+    """``[loads]``: a pin-head on the protocol's load node (§8.3), each force in each direction; or random ones."""
+
+    kind: Literal["pin-head"] = Field("pin-head", description="the tool: pin-head (a probe is not run yet)")
+    radius: Positive | None = Field(0.008, description="the tip's contact radius [m]; none: one node")
+    forces: list[Positive] = Field(default_factory=lambda: [1.0], description="force magnitudes [N]")
+    directions: list[Direction] = Field(default_factory=lambda: ["tension"],
+                                        description="tension, pressure, or unit vectors [x, y, z]")
+    random: RandomLoads | None = Field(None, description="random loads instead of forces × directions")
+
+    @field_validator("directions")
+    @classmethod
+    def _unit(cls, directions):
+        for i, direction in enumerate(directions):
+            if not isinstance(direction, str) and abs(float(np.linalg.norm(direction)) - 1.0) > 1e-6:
+                raise located(f"[{i}]", f"{direction} is not a unit vector (length "
+                                        f"{float(np.linalg.norm(direction)):.6g}); divide it by its length")
+        return directions
+
+
+class Record(Strict):
+    """``[record]``: what each case keeps beside its inputs."""
+
+    metrics: Flag = Field(True, description="RMSE (eq 26) and relative RMSE against the fem reference")
+    field: Flag = Field(False, description="the displacement field (n, 3) [m] of every surface node, in Zarr")
+    step_times: Flag = Field(False, description="the median time of a step under the load [ms]")
+    samples: Count = Field(RMSE_SAMPLES, description="sample nodes of the RMSE (50 as in §8.3.1)")
+    timing_steps: Count = Field(10, description="timed steps per case when step_times is on")
+    max_steps: Count = Field(1000, description="cap on the steps of a quasi-static solve")
+
+
+class Study(Strict):
+    """A whole study file."""
+
+    title: str = Field("", description="a title for the reports")
+    models: Annotated[list[ModelSpec], Field(min_length=1)] = Field(description="the [[models]] tables")
+    methods: Annotated[list[MethodSpec], Field(min_length=1)] = Field(description="the [[methods]] tables")
+    materials: Materials = Field(default_factory=Materials, description="the [materials] table")
+    loads: Loads = Field(default_factory=Loads, description="the [loads] table")
+    record: Record = Field(default_factory=Record, description="the [record] table")

@@ -1,0 +1,137 @@
+"""What a worker does for one task: the fem reference of a load, or one case measured against it.
+
+Each worker process keeps a small cache (:data:`CACHE`): the hybrid mesh of a model (keyed by its content hash)
+and each solver built on it (keyed by model, method, options and material), so the mesh and the solver's
+factorisation are built once per worker, not once per case. A solver is reset before every case, so the cache
+never changes an answer. Threads of one worker share the cache under a lock.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+import time
+
+import numpy as np
+
+from ..experiments import protocol
+from .cases import Case, ModelRef
+
+#: Distinct solvers a worker keeps at most (the oldest goes first); meshes are kept while a solver uses them.
+MAX_SOLVERS = 8
+
+_LOCK = threading.RLock()
+CACHE: dict = {"meshes": {}, "solvers": {}, "builds": 0}
+
+
+def hybrid_of(model: ModelRef):
+    """The :class:`~tissuesim.mesh.hybrid.HybridMesh` (with fine volume) of ``model``, built once per worker."""
+    with _LOCK:
+        if model.key not in CACHE["meshes"]:
+            CACHE["meshes"][model.key] = _build(model)
+            CACHE["builds"] += 1
+        return CACHE["meshes"][model.key]
+
+
+def _build(model: ModelRef):
+    from ..experiments.inputs import builtin_surface, check_fine_volume
+    from ..mesh.hybrid import HybridMesh
+
+    if model.kind == "bundle":
+        hybrid = HybridMesh.load(model.source)
+        check_fine_volume(hybrid, model.source)
+        return hybrid
+    if model.kind == "builtin":
+        surface = builtin_surface(model.source, resolution=model.resolution, scale=model.scale)
+    else:
+        from ..io import read_surface
+
+        surface = read_surface(model.source, scale=model.scale, repair=model.repair)
+    return HybridMesh.build(surface, fine_volume=True, progress=False)
+
+
+def solver_of(model: ModelRef, method: str, options: str, material: tuple):
+    """The solver of ``method`` with ``options`` (JSON) and ``material`` on ``model``, reset, built once per
+    worker."""
+    from ..solvers.registry import make_solver
+
+    key = (model.key, method, options, material[1:])
+    with _LOCK:
+        solvers = CACHE["solvers"]
+        if key not in solvers:
+            if len(solvers) >= MAX_SOLVERS:
+                solvers.pop(next(iter(solvers)))
+            _, youngs_modulus, poisson_ratio, density = material
+            solvers[key] = make_solver(method, hybrid_of(model), youngs_modulus=youngs_modulus,
+                                       poisson_ratio=poisson_ratio, density=density, **json.loads(options))
+        solver = solvers.pop(key)
+        solvers[key] = solver            # most recently used last
+    solver.clear_load()
+    solver.reset()
+    return solver
+
+
+def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
+    """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid``: the protocol's load node
+    (§8.3), or for a random load a node drawn among the free ones, a direction uniform on the sphere and a
+    magnitude uniform in the range, from the case's own seed (the same draw wherever it runs)."""
+    vertices = hybrid.surface.vertices
+    if case.random is None:
+        node = protocol.load_node(vertices, hybrid.surface.triangles)
+        return node, float(case.force_N) * np.asarray(case.direction, dtype=np.float64)
+    seed, index, lowest, highest = case.random
+    rng = np.random.default_rng([seed, index])
+    free = np.setdiff1d(np.arange(len(vertices)), protocol.fixed_nodes(vertices))
+    node = int(free[rng.integers(len(free))])
+    direction = rng.normal(size=3)
+    return node, rng.uniform(lowest, highest) * direction / np.linalg.norm(direction)
+
+
+def reference(case: Case) -> np.ndarray:
+    """``(n, 3) float64`` M_S positions [m] of the fem reference under ``case``'s load (a task of its own)."""
+    solver = solver_of(case.model, protocol.REFERENCE, "{}", case.material)
+    node, force = load_of(case, solver.hybrid)
+    return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record[5]))
+
+
+def run_case(case: Case, reference_positions: np.ndarray | None) -> dict:
+    """One case measured: ``{"row": metrics, "field": (n, 3) float32 displacement [m] or None}``; an error of the
+    case's own (a refused option, a solve that does not settle) is returned as the row's ``error``, not raised."""
+    start = time.perf_counter()
+    try:
+        return _measured(case, reference_positions, start)
+    except Exception as error:  # noqa: BLE001 - a case's failure is its result; the study goes on
+        return {"row": {"status": "failed", "error": f"{type(error).__name__}: {error}",
+                        "case_ms": 1e3 * (time.perf_counter() - start)}, "field": None}
+
+
+def _measured(case: Case, reference_positions, start: float) -> dict:
+    metrics, want_field, step_times, samples, timing_steps, max_steps = case.record
+    solver = solver_of(case.model, case.method, case.options, case.material)
+    node, force = load_of(case, solver.hybrid)
+    solved = time.perf_counter()
+    positions = np.array(solver.solve_static(node, force, radius=case.radius, max_steps=max_steps))
+    rest = np.asarray(solver.rest_positions)
+    row = {"status": "done", "error": "", "node": node, "force_x": force[0], "force_y": force[1],
+           "force_z": force[2], "surface_nodes": len(rest), "solve_ms": 1e3 * (time.perf_counter() - solved),
+           "max_displacement_m": float(np.linalg.norm(positions - rest, axis=1).max())}
+    if metrics:
+        nodes = protocol.sample_nodes(rest, node, min(samples, len(rest)))
+        row["rmse_m"] = protocol.rmse(positions, reference_positions, nodes)
+        row["relative_rmse"] = protocol.relative_rmse(positions, reference_positions, rest, nodes)
+    if step_times:
+        row["step_ms"] = _median_step_ms(solver, node, force, case.radius, timing_steps)
+    solver.clear_load()
+    row["case_ms"] = 1e3 * (time.perf_counter() - start)
+    return {"row": row, "field": (positions - rest).astype(np.float32) if want_field else None}
+
+
+def _median_step_ms(solver, node: int, force: np.ndarray, radius, count: int) -> float:
+    solver.reset()
+    solver.set_load(node, force, radius=radius)
+    times = []
+    for _ in range(count):
+        begin = time.perf_counter()
+        solver.step()
+        times.append(time.perf_counter() - begin)
+    return 1e3 * float(np.median(times))
