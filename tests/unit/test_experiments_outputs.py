@@ -1,4 +1,5 @@
-"""Results schema, Markdown tables, report, radar plots and the all-or-nothing results folder, on synthetic results."""
+"""Results schema, Markdown tables, report and the all-or-nothing results folder, on synthetic results (the radar
+plots: test_plots_radar.py)."""
 
 import copy
 import json
@@ -6,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from tissuesim.experiments import output, plots, report, tables
+from tissuesim.experiments import output, report, tables
 from tissuesim.experiments.schema import ResultsError, check_results
 
 # Synthetic figures: method -> (RMSE per newton [mm/N], step time [ms]).
@@ -106,22 +107,6 @@ def test_report_names_winners_and_ratios():
 
 
 # ------------------------------------------------------------------------------------------------ plots, folder
-def test_radar_figure_has_a_subplot_per_case_and_a_line_per_method():
-    figure = plots.radar_figure(synthetic_results(models=("cube",), forces=(1.0, 2.0, 5.0)), "cube")
-    axes = figure.get_axes()
-    assert len(axes) == 2 * 3
-    for ax in axes:
-        lines = {line.get_label(): line for line in ax.get_lines() if not line.get_label().startswith("_")}
-        assert sorted(lines) == sorted(tables.LABELS[m] for m in SYNTHETIC)
-    fem = {line.get_label(): line for line in axes[0].get_lines()}["FEM"]  # tension 1 N
-    x, y = fem.get_xdata(), fem.get_ydata()
-    radii = np.hypot(x, y)
-    # Closed polygon over 10 spokes, spoke 1 straight up, radii proportional to d (2.0 ... 0.5 mm).
-    assert len(radii) == 11 and radii[-1] == pytest.approx(radii[0])
-    assert x[0] == pytest.approx(0.0, abs=1e-12) and y[0] > 0
-    assert radii[:10] / radii[0] == pytest.approx(np.linspace(2.0, 0.5, 10) / 2.0)
-
-
 def test_write_outputs_writes_every_file(tmp_path):
     data = synthetic_results()
     paths = output.write_outputs(data, tmp_path / "results")
@@ -163,18 +148,3 @@ def test_write_outputs_refuses_malformed_results(tmp_path):
     with pytest.raises(ResultsError):
         output.write_outputs(data, tmp_path / "out")
     assert not (tmp_path / "out").exists()
-
-
-def test_radar_clips_a_method_far_off_the_reference():
-    data = synthetic_results(models=("cube",), forces=(1.0,))
-    for record in data["records"]:
-        if record["method"] == "pbd":
-            record["displacements_mm"] = [100.0] * 10  # 50x the reference's largest d
-    figure = plots.radar_figure(data, "cube")
-    ax = figure.get_axes()[0]
-    lines = {line.get_label(): line for line in ax.get_lines()}
-    rim = np.hypot(lines["PBD"].get_xdata(), lines["PBD"].get_ydata())
-    fem = np.hypot(lines["FEM"].get_xdata(), lines["FEM"].get_ydata())
-    assert rim == pytest.approx(np.ones(11))  # drawn at the rim
-    assert fem.max() == pytest.approx(1.0 / plots.CLIP_FACTOR)  # the rim is 3x the reference's largest d
-    assert any("clipped at rim: PBD" in text.get_text() for text in ax.texts)
