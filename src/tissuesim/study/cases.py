@@ -14,11 +14,16 @@ from itertools import product
 from pathlib import Path
 
 from ..experiments.protocol import LOAD_DIRECTIONS
+from ..errors import MaterialError
+from ..fem.material import Material
 from ..fem.presets import preset
 from .load import StudyError, StudyFile
 
 #: Changes whenever a case's answer would change for the same inputs; part of every hash.
 FORMAT = "tissuesim-study-1"
+
+#: Solver options a study sets in [materials], not in a method's options.
+MATERIAL_KEYS = ("youngs_modulus", "poisson_ratio", "density")
 
 #: The paper's material (§8.2), when the study names none: E [Pa], ν [-], ρ [kg/m³].
 PAPER_MATERIAL = ("paper", 5500.0, 0.3, 1000.0)
@@ -76,6 +81,7 @@ class Case:
 def expand(loaded: StudyFile) -> list[Case]:
     """Every case of the study, in the file's order (models, then methods, materials, loads)."""
     study = loaded.study
+    _check_methods(loaded)
     models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
     methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
     record = tuple(study.record.model_dump().values())
@@ -86,6 +92,24 @@ def expand(loaded: StudyFile) -> list[Case]:
         raise StudyError("the study lists the same case twice (a model, method, material or load repeated); "
                          "remove the repetition")
     return cases
+
+
+def _check_methods(loaded: StudyFile) -> None:
+    """StudyError unless each method exists and takes each of its options (the material is the study's)."""
+    from ..solvers.registry import available_solvers, solver_options
+
+    for i, method in enumerate(loaded.study.methods):
+        where = f"{loaded.path.name}: methods[{i}]"
+        if method.name not in available_solvers():
+            raise StudyError(f"{where}.name: unknown method {method.name!r}; choose one of "
+                             f"{', '.join(available_solvers())}")
+        accepted = solver_options(method.name)
+        for key in method.options:
+            if key in MATERIAL_KEYS:
+                raise StudyError(f"{where}.options.{key}: a study sets the material in [materials]; move it there")
+            if key not in accepted:
+                raise StudyError(f"{where}.options.{key}: the {method.name} method has no option {key!r}; its "
+                                 f"options are {', '.join(sorted(set(accepted) - set(MATERIAL_KEYS)))}")
 
 
 def _models(loaded: StudyFile, index: int, spec) -> list[ModelRef]:
@@ -124,6 +148,11 @@ def _materials(study) -> list[tuple]:
         ratios = _values(spec.poisson_ratio, PAPER_MATERIAL[2])
         label = "paper" if spec.youngs_modulus is None and spec.poisson_ratio is None else ""
         materials += [(label or f"E={e:g} nu={nu:g}", e, nu, spec.density) for e, nu in product(moduli, ratios)]
+    for _, youngs_modulus, poisson_ratio, _ in materials:
+        try:
+            Material(youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio)
+        except MaterialError as error:
+            raise StudyError(f"materials: {error}") from None
     return materials
 
 
