@@ -24,23 +24,23 @@ def two_pinheads(pull_a, pull_b, *, resolution: int = 800) -> dict:
     equilibrium; grab a second point B 40 mm away, pull by ``pull_b``, solve under both; release A, solve under B
     alone.
 
-    Returns a dict: the forces of the two pin-heads [N] and the ``(n, 3)`` displacements [m] under both, under A
-    alone and under B alone.
+    Returns a dict: the forces of the two pin-heads [N], the ``(n, 3)`` displacements [m] under both, under A
+    alone and under B alone, and the two grabbed nodes.
     """
     solver = _block(resolution)
     top = solver.rest_positions[:, 2].max()
     grab_a, grab_b = np.array([-0.02, 0.0, top]), np.array([0.02, 0.01, top])
     pin_a, pin_b = (tissuesim.PinHead(solver, stiffness=STIFFNESS) for _ in range(2))
-    pin_a.grab(grab_a)
+    node_a = pin_a.grab(grab_a)
     force_a = pin_a.drag(grab_a + pull_a)
     alone_a = solver.solve_static() - solver.rest_positions
-    pin_b.grab(grab_b)       # from where A left the surface: the node nearest the point there
+    node_b = pin_b.grab(grab_b)       # from where A left the surface: the node nearest the point there
     force_b = pin_b.drag(grab_b + pull_b)
     both = solver.solve_static() - solver.rest_positions           # every load acting: both pin-heads
     pin_a.release()
     alone_b = solver.solve_static() - solver.rest_positions
     return {"force_a_N": force_a, "force_b_N": force_b, "both_m": both, "a_m": alone_a, "b_m": alone_b,
-            "nodes": (pin_a.node, pin_b.node)}
+            "nodes": (node_a, node_b)}
 
 
 def hold_and_cut(*, pull: float = 0.01, length: float = 0.04, resolution: int | None = None) -> dict:
