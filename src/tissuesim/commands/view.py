@@ -50,16 +50,28 @@ def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool 
     runs), or a saved bundle as it is (without a fine volume the fem method is refused, saying why); and its name."""
     from ..experiments.inputs import model_name
     from ..experiments.sweep_config import ExperimentConfig, load_model
-    from ..io import SURFACE_EXTENSIONS
     from ..mesh.hybrid import HybridMesh
+
+    if is_bundle(spec):
+        return HybridMesh.load(Path(spec)), Path(spec).stem
+    config = ExperimentConfig(models=(spec,), resolution=resolution, scale=scale, repair=repair)
+    return load_model(spec, config, progress=progress), model_name(spec)
+
+
+def is_bundle(spec: str) -> bool:
+    """Whether ``spec`` names a saved hybrid bundle (loaded as it is) rather than a model to build. A built-in name
+    wins over a file of that name, as in every command (``./cube`` names the file)."""
+    from ..io import SURFACE_EXTENSIONS
     from ..mesh.models import MODELS
 
     path = Path(spec)
-    # a built-in name wins over a file of that name, as in every command (``./cube`` names the file)
-    if spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_EXTENSIONS:
-        return HybridMesh.load(path), path.stem
-    config = ExperimentConfig(models=(spec,), resolution=resolution, scale=scale, repair=repair)
-    return load_model(spec, config, progress=progress), model_name(spec)
+    return spec not in MODELS and path.is_file() and path.suffix.lower() not in SURFACE_EXTENSIONS
+
+
+def announce_mesh(spec: str) -> None:
+    """Say on stderr what comes before the window: a bundle is loaded, a model is built (that takes a while)."""
+    print(f"{'loading the hybrid bundle' if is_bundle(spec) else 'building the hybrid mesh of'} {spec}",
+          file=sys.stderr)
 
 
 def scene_hybrid(loaded, *, progress: bool = True):
@@ -67,7 +79,7 @@ def scene_hybrid(loaded, *, progress: bool = True):
     and its name."""
     model = loaded.scene.model
     spec = model.name if model.name is not None else str(loaded.resolve(model.file))
-    print(f"building the hybrid mesh of {spec}", file=sys.stderr)
+    announce_mesh(spec)
     return load_hybrid(spec, resolution=model.resolution, scale=model.scale, repair=model.repair, progress=progress)
 
 
@@ -95,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     check_fix(args.fix)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
-    print(f"building the hybrid mesh of {args.model}", file=sys.stderr)
+    announce_mesh(args.model)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
     fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
     print(held, file=sys.stderr)

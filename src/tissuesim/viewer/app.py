@@ -5,7 +5,11 @@ on the surface grabs (pin-head) or starts a cut (scalpel) and turns the camera's
 button is released; a click beside the surface turns the camera as usual — (2) lets the controller run the steps
 the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a recording frame, (5) draws
 the panel (:mod:`.panel`). Keys: S switches pin-head / scalpel, X lets go of the held pin-heads, R resets, space
-pauses; releasing the button with Shift held leaves the pin-head holding (a second hand).
+pauses, Q or Esc closes the window; releasing the button with Shift held leaves the pin-head holding (a second hand).
+
+The window is the model's view plus the panel beside it (:data:`VIEW_SIZE` + :data:`PANEL_WIDTH`), and the camera
+centres the model in the free part (:func:`~tissuesim.viewer.gl.look_at_oblique`'s ``pane``), so the panel never
+covers it. M_S is drawn as tissue (:mod:`.look`); the displacement colours are a switch of the panel.
 
 :class:`ReplayApp` plays a recording (``tissuesim view --replay FILE.pvd``) with a frame slider.
 """
@@ -25,11 +29,14 @@ from ..recording_place import session_path
 from .controller import Controller
 from .figures import WALL_COLOR
 from .gl import look_at_oblique, polyscope
+from .look import SURFACE, TissueSurface  # noqa: F401  (SURFACE: the name scripts look the model up by)
 from .panel import PanelWidgets
 
-SURFACE = "M_S"
-WINDOW_SIZE = (1024, 720)  # pixels
-PANEL_WIDTH = 330  # pixels: the panel leaves the model in view
+VIEW_SIZE = (940, 760)  # pixels: the model's part of the window
+PANEL_WIDTH = 340  # pixels: the panel, beside the view
+WINDOW_SIZE = (VIEW_SIZE[0] + PANEL_WIDTH, VIEW_SIZE[1])  # pixels
+CUT_COLOR = (0.95, 0.85, 0.1)  # the cut's edges: yellow, apart from tissue, wound walls and the colour map
+HOME_DISTANCE = 2.8  # camera distance at start, in half-diagonals of the model's box
 FRAME_SMOOTHING = 0.05  # weight of the newest frame in the frame-rate running mean
 
 
@@ -50,7 +57,7 @@ class ViewerApp(PanelWidgets):
         self.record_path = None if record is None else self.recorder.path
         self.recorded: Path | None = None  # the last recording finished and in place
         self.record_folder = Path(".") if record is None else self.record_path.parent
-        self.show_wireframe, self.show_control, self.show_colours = False, False, True
+        self.show_wireframe, self.show_control, self.show_colours = False, False, False
         self.colour_top = 1.0  # mm at the top of the colour map
         self.frame_seconds = 0.0  # running mean of the wall time between frames [s]
         self.render_seconds = 0.0  # last frame's time outside the callback: polyscope's drawing [s]
@@ -94,7 +101,7 @@ class ViewerApp(PanelWidgets):
         """End the session: :meth:`stop_recording`, then let go of polyscope's callback and of every structure of
         this window (:func:`let_go`)."""
         self.stop_recording()
-        self.mesh = self.cut = self.walls = None
+        self.mesh = self.surface = self.cut = self.walls = None
         self._shown, self._topology, self._home_view = {}, None, True
         let_go(self.ps)
 
@@ -128,35 +135,35 @@ class ViewerApp(PanelWidgets):
         x = solver.positions
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
-            self.mesh, self.cut, self.walls, self._shown = None, None, None, {}  # drop the wrappers first
+            self.mesh, self.surface, self.cut, self.walls, self._shown = None, None, None, None, {}  # wrappers first
             ps.remove_all_structures()
-            self.mesh = ps.register_surface_mesh(SURFACE, x, triangles, smooth_shade=True, material="clay")
+            self.surface = TissueSurface(ps, x, triangles, solver.rest_positions)
+            self.mesh = self.surface.mesh
             cut = border_edges(triangles)
             self.cut = self.walls = None
             if len(cut):  # only the cut's own nodes: a network over every vertex would dot the whole surface
                 self._cut_nodes, local = np.unique(cut, return_inverse=True)
                 self.cut = ps.register_curve_network("cut edges", x[self._cut_nodes], local.reshape(-1, 2),
-                                                     color=(0.9, 0.05, 0.05))
+                                                     color=CUT_COLOR)
                 self._lips = coincident_pairs(solver.rest_positions)      # the two sides of each cut vertex
                 points, faces = self._wound_walls(x)
                 if len(faces):
                     self.walls = ps.register_surface_mesh("wound walls", points, faces, color=WALL_COLOR,
                                                           material="flat", back_face_policy="identical")
             if self._home_view:  # first frame and reset only: a cut or a method change keeps the user's camera
-                look_at_oblique(ps, x, distance=3.4)
+                look_at_oblique(ps, x, distance=HOME_DISTANCE, pane=PANEL_WIDTH)
                 self._home_view = False
         else:
-            self.mesh.update_vertex_positions(x)
+            self.surface.update(x)
             if self.cut is not None:
                 self.cut.update_node_positions(x[self._cut_nodes])
             if self.walls is not None:
                 self.walls.update_vertex_positions(self._wound_walls(x)[0])
+        mm = None
         if self.show_colours:
             mm = 1e3 * np.linalg.norm(solver.displacements, axis=1)
             self.colour_top = max(float(mm.max()), 1.0)
-            self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, self.colour_top))
-        else:
-            self.mesh.remove_all_quantities()
+        self.surface.colour(mm, self.colour_top)
         self._layers(x)
 
     def _wound_walls(self, x):
@@ -168,13 +175,13 @@ class ViewerApp(PanelWidgets):
     def _layers(self, x) -> None:
         """The optional layers: registered when switched on (or after a re-registration), then only moved."""
         ps, hybrid, c = self.ps, self.controller.solver.hybrid, self.controller
-        held = c.cursor is not None and c.pin.grabbed
+        held = c.cursor is not None and c.pin.grabbed      # the pin-head is drawn while it holds, not after
         self._layer("M_V wireframe", self.show_wireframe, x[self._coarse_nodes()],  # M'_S: M_V's boundary
                     lambda p: ps.register_curve_network("M_V wireframe", p, hybrid.coarse_surface.edges,
                                                         color=(0.1, 0.2, 0.6), radius=0.0015))
         self._layer("control nodes", self.show_control, x[hybrid.control],
                     lambda p: ps.register_point_cloud("control nodes", p, color=(0.95, 0.6, 0.1), radius=0.004))
-        self._layer("pin-head", c.cursor is not None, None if c.cursor is None else c.cursor[None],
+        self._layer("pin-head", held, c.cursor[None] if held else None,
                     lambda p: ps.register_point_cloud("pin-head", p, color=(0.85, 0.1, 0.1), radius=0.01))
         self._layer("spring", held, np.array([x[c.pin.node], c.cursor]) if held else None,  # eq 24's spring
                     lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
@@ -272,6 +279,9 @@ class ViewerApp(PanelWidgets):
     def _keys(self, psim) -> None:
         if psim.GetIO().WantCaptureKeyboard:
             return
+        if quit_pressed(psim):
+            self.ps.unshow()  # the window closes after this frame; run() then ends the session
+            return
         for key, name in ((psim.ImGuiKey_S, "s"), (psim.ImGuiKey_X, "x"), (psim.ImGuiKey_R, "r"),
                           (psim.ImGuiKey_Space, "space")):
             if psim.IsKeyPressed(key, False):
@@ -306,14 +316,21 @@ class ViewerApp(PanelWidgets):
 
 
 def style_window(ps) -> None:
-    """z up, no ground shadow (its pass costs more than the rest of a software-rendered frame), our panel only."""
+    """z up, no ground shadow (its pass costs more than the rest of a software-rendered frame), our panel only, beside
+    the view."""
     ps.set_up_dir("z_up")
     ps.set_front_dir("neg_y_front")
     ps.set_ground_plane_mode("none")
+    ps.set_transparency_mode("simple")  # one pass: the surface's slight translucency costs no depth peeling
     ps.set_window_size(*WINDOW_SIZE)
     ps.set_build_default_gui_panels(False)
     ps.set_user_gui_is_on_right_side(True)
     ps.set_right_gui_pane_width(PANEL_WIDTH)
+
+
+def quit_pressed(psim) -> bool:
+    """Whether Q or Esc went down this frame (the window's quit keys)."""
+    return psim.IsKeyPressed(psim.ImGuiKey_Q, False) or psim.IsKeyPressed(psim.ImGuiKey_Escape, False)
 
 
 def show_window(ps, frame, end) -> None:
@@ -334,13 +351,17 @@ def let_go(ps) -> None:
 
 
 class ReplayApp:
-    """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button."""
+    """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button:
+    the tissue as the simulator draws it, the cut's edges in :data:`CUT_COLOR`, and the |u| colour map (with its
+    legend) as a switch."""
 
     def __init__(self, frames, *, title: str = "", headless: bool = False):
         if not frames:
             raise TissuesimError("the recording holds no frame")
         self.frames, self.title = frames, title
         self.index, self.playing, self._topology = 0, True, None
+        self.show_colours, self.headless = False, headless
+        self.surface = self.cut = None
         self.ps = polyscope(headless=headless)
         style_window(self.ps)
 
@@ -350,7 +371,8 @@ class ReplayApp:
 
     def close(self) -> None:
         """Let go of polyscope (:func:`let_go`)."""
-        self.mesh, self._topology = None, None
+        self.mesh = self.surface = self.cut = None
+        self._topology = None
         let_go(self.ps)
 
     def frame(self) -> None:
@@ -358,18 +380,36 @@ class ReplayApp:
 
         frame = self.frames[self.index]
         if self._topology is not frame.triangles:
-            self._topology, self.mesh = frame.triangles, None
+            self._topology, self.mesh, self.surface, self.cut = frame.triangles, None, None, None
             self.ps.remove_all_structures()
-            self.mesh = self.ps.register_surface_mesh(SURFACE, frame.positions, frame.triangles, smooth_shade=True,
-                                                      material="clay")
+            rest = frame.positions - frame.displacement
+            self.surface = TissueSurface(self.ps, frame.positions, frame.triangles, rest)
+            self.mesh = self.surface.mesh
+            cut = frame.cut_edges
+            if len(cut):
+                self._cut_nodes, local = np.unique(cut, return_inverse=True)
+                self.cut = self.ps.register_curve_network("cut edges", frame.positions[self._cut_nodes],
+                                                          local.reshape(-1, 2), color=CUT_COLOR)
             if self.index == 0:
-                look_at_oblique(self.ps, frame.positions, distance=3.4)
-        self.mesh.update_vertex_positions(frame.positions)
+                look_at_oblique(self.ps, frame.positions, distance=HOME_DISTANCE, pane=PANEL_WIDTH)
+        self.surface.update(frame.positions)
+        if self.cut is not None:
+            self.cut.update_node_positions(frame.positions[self._cut_nodes])
         mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
-        self.mesh.add_scalar_quantity("|u| [mm]", mm, enabled=True, cmap="viridis", vminmax=(0.0, max(mm.max(), 1.0)))
+        top = max(float(mm.max()), 1.0)
+        self.surface.colour(mm if self.show_colours else None, top)
         force = np.linalg.norm(frame.force, axis=1).max()
-        psim.TextUnformatted(f"{self.title}  t = {frame.time:.3f} s, force {force:.3f} N")
+        psim.TextUnformatted(self.title or " ")
+        psim.TextUnformatted(f"t = {frame.time:.3f} s   force {force:.3f} N")
+        psim.TextUnformatted(f"{len(self._cut_nodes) if self.cut is not None else 0} vertices on cut edges (yellow)")
+        _, self.show_colours = psim.Checkbox("|u| colours", self.show_colours)
+        psim.SameLine()
+        psim.TextDisabled(f"0 to {top:.1f} mm, viridis" if self.show_colours else "off: tissue shading")
         _, self.playing = psim.Checkbox("play", self.playing)
+        psim.SameLine()
+        psim.TextDisabled("Q or Esc quits")
+        if not self.headless and quit_pressed(psim):
+            self.ps.unshow()
         changed, index = psim.SliderInt("frame", self.index, 0, len(self.frames) - 1)
         if changed:
             self.index, self.playing = index, False

@@ -96,9 +96,14 @@ def _quiet_stdout():
         os.close(saved)
 
 
-def look_at_oblique(ps, points, *, elevation: float = 35.0, azimuth: float = -60.0, distance: float = 2.2) -> None:
+def look_at_oblique(ps, points, *, elevation: float = 35.0, azimuth: float = -60.0, distance: float = 2.2,
+                    pane: int = 0) -> None:
     """Point polyscope's camera at the bounding box of ``points`` ``(p, 3)`` [m] from ``elevation`` degrees above
-    and ``azimuth`` degrees around z (front-left), ``distance`` box half-diagonals away, so all of it is framed."""
+    and ``azimuth`` degrees around z (front-left), ``distance`` box half-diagonals away, so all of it is framed.
+
+    ``pane``: pixels on the window's right taken by a panel. The camera then slides right by half of it, so the box
+    sits in the middle of the free part, and the view centre (which the mouse turns about) stays on the box: a turn
+    moves the camera rigidly about it, so the box's centre keeps its place on the screen."""
     import numpy as np
 
     points = np.asarray(points, dtype=np.float64)
@@ -109,4 +114,11 @@ def look_at_oblique(ps, points, *, elevation: float = 35.0, azimuth: float = -60
     ps.set_automatically_compute_scene_extents(False)
     ps.set_length_scale(2.0 * radius)
     ps.set_bounding_box(lo, hi)
-    ps.look_at(centre + distance * radius * view, centre)
+    height = ps.get_window_size()[1]
+    # a pixel at the box's depth spans 2 d tan(fov / 2) / height metres
+    slide = pane * distance * radius * np.tan(np.radians(0.5 * ps.get_vertical_fov_degrees())) / height
+    right = np.cross(-view, [0.0, 0.0, 1.0])
+    right *= slide / max(float(np.linalg.norm(right)), np.finfo(float).tiny)
+    ps.look_at(centre + distance * radius * view + right, centre + right)
+    if pane:
+        ps.set_view_center_raw(centre)

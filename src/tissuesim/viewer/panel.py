@@ -1,5 +1,11 @@
-"""The simulator window's panel (:class:`~tissuesim.viewer.app.ViewerApp`'s ImGui widgets): tool, method, material
-and time settings, timings, record and reset buttons, the layers to show and the controller's notice.
+"""The simulator window's panel (:class:`~tissuesim.viewer.app.ViewerApp`'s ImGui widgets): tool, hints, method,
+material and time settings, timings, record and reset buttons, the layers to show and the controller's notice.
+
+Its rows keep their places: a row that says something only at times (the held pin-heads, the slower-than-real-time
+and beyond-small-strain status, the colour legend, the near field after a cut) is always drawn, blank or greyed out
+when it has nothing to say, so the next click lands on the widget it was aimed at. What changes with the user's own
+choice (the method's options, the tool's settings) sits below the fixed rows, and the notice comes last.
+A control shows where it acts: the iterations only for a step that iterates (:func:`iterations_act`).
 
 A setting that rebuilds the solver goes to the controller through :meth:`PanelWidgets._configure`; one whose slider
 would rebuild it on every pixel of a drag waits until the slider is let go.
@@ -19,6 +25,21 @@ MODE_LABELS = {"pin": "pin-head", "probe": "probe", "scalpel": "scalpel", "suppo
 STANDARD_GRAVITY = 9.81  # m/s²: the panel's gravity, straight down the model's z
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
+#: The keys, two lines that fit the panel.
+KEY_HINTS = ("keys: S pin-head / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
+#: What the mouse does on the model in each mode (beside it, a drag turns the view, the wheel zooms).
+MOUSE_HINTS = {"pin": "drag on the tissue: pull; Shift + release: hold",
+               "probe": "press on the tissue; Shift + release: keep pressing",
+               "scalpel": "drag across the tissue: cut",
+               "support": "drag on the tissue: paint the region"}
+VIEW_HINT = "beside the model: drag turns, wheel zooms"
+
+
+def iterations_act(solver) -> bool:
+    """Whether ``solver``'s step depends on its PBD iterations: the paper's pbd form, or the layer's xpbd
+    integrator. The default step of the hybrid and pbd methods (xpbd form, implicit integrator) solves the layer's
+    linear system, and the other methods have no iterations."""
+    return getattr(solver, "form", None) == "pbd" or getattr(solver, "integrator", None) == "xpbd"
 
 
 class PanelWidgets:
@@ -33,20 +54,19 @@ class PanelWidgets:
         """The panel, drawn each frame after the surface."""
         c, s = self.controller, self.controller.settings
         psim.PushItemWidth(PANEL_ITEM_WIDTH)
-        if self.title:
-            psim.TextUnformatted(self.title)
+        psim.TextUnformatted(self.title or " ")
         for number, mode in enumerate(MODES):      # two to a row: four in one would run past the panel
             if psim.RadioButton(MODE_LABELS[mode], c.mode == mode):
                 c.set_mode(mode)
             if number % 2 == 0:
                 psim.SameLine()
-        psim.TextUnformatted("S: pin-head / scalpel")
-        self._tools(psim)
-        methods = list(available_solvers())
-        changed, index = psim.Combo("method", methods.index(s.method), methods)
-        if changed:
-            self._configure(method=methods[index])
-        self._material(psim, s)
+        for line in KEY_HINTS:
+            psim.TextDisabled(line)
+        psim.TextUnformatted(MOUSE_HINTS[c.mode])
+        psim.TextDisabled(VIEW_HINT)
+        psim.Separator()
+        self._held(psim, c)
+        self._gravity(psim, c)
         self._timing(psim)
         if psim.Button("reset (R)"):
             c.reset()
@@ -55,29 +75,42 @@ class PanelWidgets:
         if psim.Button("stop recording" if self.recorder else "record"):
             self._toggle_recording()
         _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
+        psim.SameLine()
         _, self.show_control = psim.Checkbox("control nodes", self.show_control)
-        _, self.show_colours = psim.Checkbox("displacement colours", self.show_colours)
-        if self.show_colours:
-            psim.TextUnformatted(f"colours: |u| from 0 to {self.colour_top:.1f} mm (viridis)")
+        _, self.show_colours = psim.Checkbox("|u| colours", self.show_colours)
+        psim.SameLine()
+        psim.TextDisabled(f"0 to {self.colour_top:.1f} mm, viridis" if self.show_colours else "off: tissue shading")
+        psim.Separator()
+        methods = list(available_solvers())
+        changed, index = psim.Combo("method", methods.index(s.method), methods)
+        if changed:
+            self._configure(method=methods[index])
+        self._material(psim, s)
+        if c.mode in ("probe", "support"):
+            psim.Separator()
+            if c.mode == "probe":
+                self._probe(psim, c.probe)
+            else:
+                self._support(psim, c)
         if c.notice:
+            psim.Separator()
             psim.TextWrapped(c.notice)
         psim.PopItemWidth()
 
-    def _tools(self, psim) -> None:
-        """The held pin-heads and the support: what acts, and how to let go or go back."""
-        c = self.controller
-        if len(c.held):
-            pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
-            psim.TextUnformatted(f"holding {len(c.held)} pin-head{'s' * (len(c.held) > 1)}, {pulling:.2f} N")
-            psim.SameLine()
-            if psim.Button("let go (X)"):
-                c.release_held()
-        elif c.mode == "pin":
-            psim.TextUnformatted("Shift + release: leave the pin-head holding")
-        if c.mode == "probe":
-            self._probe(psim, c.probe)
-        if c.mode == "support":
-            self._support(psim, c)
+    @staticmethod
+    def _held(psim, c) -> None:
+        """One row: the pin-heads left holding, their pull and the button that lets them go (greyed when none)."""
+        count = len(c.held)
+        pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
+        psim.BeginDisabled(count == 0)
+        if psim.Button("let go (X)"):
+            c.release_held()
+        psim.EndDisabled()
+        psim.SameLine()
+        psim.TextUnformatted(f"holding {count} pin-head{'s' * (count != 1)}, {pulling:.2f} N" if count else
+                             "no pin-head holding")
+
+    def _gravity(self, psim, c) -> None:
         gravity = c.solver_options.get("gravity") is not None
         changed, gravity = psim.Checkbox("gravity (9.81 m/s², -z)", gravity)
         if changed:
@@ -149,20 +182,21 @@ class PanelWidgets:
         changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
         if changed:
             self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
-        if "iterations" in solver_options(s.method):
+        if "iterations" in solver_options(s.method) and iterations_act(self.controller.solver):
             current = s.iterations or solver_options(s.method)["iterations"]
             _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
                                                             1, 50)
             self._apply_on_release(psim, "iterations")
         self._finite_strain(psim, s)
         if "near_field" in solver_options(s.method):
-            if self.controller.near_field_available():
-                changed, on = psim.Checkbox(f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)",
-                                            s.near_field is not None)
-                if changed:
-                    self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
-            elif s.near_field is not None:
-                psim.TextUnformatted("near field off: the mesh is cut, or has no fine volume")
+            available = self.controller.near_field_available()
+            psim.BeginDisabled(not available)       # one row either way: a cut greys it out
+            label = (f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)" if available else
+                     "near field: off (cut, or no fine volume)")
+            changed, on = psim.Checkbox(label, available and s.near_field is not None)
+            psim.EndDisabled()
+            if changed and available:
+                self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
         if "prestrain" in solver_options(s.method):
             _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
                                                              0.0, 0.3, "%.3f")
@@ -176,16 +210,18 @@ class PanelWidgets:
         step_ms = 1e3 * st.step_seconds if st else 0.0
         fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
         psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
-        psim.TextUnformatted(f"simulated {self.sim_time:.2f} s")
-        psim.TextUnformatted(f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else ""))
-        if st and (st.behind or st.dropped > 0.0):
-            psim.TextColored(BEHIND, "slower than real time (a step > dt)" if st.behind else
-                             "slower than real time (drawing)")
+        psim.TextUnformatted(f"t = {self.sim_time:.2f} s   force {c.force_newtons:.3f} N" +
+                             (f" on node {c.pin.node}" if c.pin.grabbed else ""))
+        pace = ""                                    # two status rows, blank when all is well
         if c.paused:
-            psim.TextColored(BEHIND, "paused (space)")
+            pace = "paused (space)"
+        elif st and (st.behind or st.dropped > 0.0):
+            pace = "slower than real time (a step > dt)" if st.behind else "slower than real time (drawing)"
+        psim.TextColored(BEHIND, pace or " ")
+        strain = ""
         if c.solver.warning and c.settings.material == "linear":    # a model used beyond its validity says so
-            moved = c.solver.largest_displacement / c.solver.size
-            psim.TextColored(BEHIND, f"beyond small strain ({moved:.2f} of the size)")
+            strain = f"beyond small strain ({c.solver.largest_displacement / c.solver.size:.2f} of the size)"
+        psim.TextColored(BEHIND, strain or " ")
 
     def _apply_on_release(self, psim, name: str) -> None:
         """Settings that rebuild the solver change when the slider is let go, not on every pixel of the drag."""
