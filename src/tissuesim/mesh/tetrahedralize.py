@@ -124,7 +124,8 @@ def _no_leftovers():
 def _quiet_stdout():
     """Silence text the TetGen wrapper prints to the C-level stdout (it ignores ``Q``), so CLI output stays clean."""
     try:
-        fd = sys.stdout.fileno()
+        # the C code writes to the process's stdout, which sys.stdout need not be (a notebook kernel's stream)
+        fd = sys.__stdout__.fileno()
     except (AttributeError, OSError, ValueError):
         yield
         return
