@@ -1,7 +1,9 @@
 """``tissuesim build MESH``: build the hybrid mesh of §5 and print its Table-1 row.
 
 MESH is a surface file (OBJ, STL, PLY, OFF, VTK, VTU) or a built-in model name (cube, sphere, liver, steak).
-Progress goes to stderr; the Table-1 row (Markdown, with header) and a one-line build summary go to stdout.
+The Table-1 row (Markdown, with header) goes to stdout; progress, a one-line build summary and what the size
+columns measure (:data:`tissuesim.experiments.tables.SIZE_DEFINITION`, as in the experiments' ``tables.md``) go to
+stderr.
 """
 
 from __future__ import annotations
@@ -49,6 +51,7 @@ def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..experiments.tables import SIZE_DEFINITION
     from ..mesh.bundle_check import check_bundle_target
     from ..mesh.hybrid import HybridMesh
     from ..mesh.table1 import table1_markdown, table1_row
@@ -66,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"built in {seconds:.2f} s: {report['rounds']} simplification rounds, {report['collapses']} collapses, "
           f"skipped {sum(report['rejected'].values())} ({_reasons(report['rejected'])})", file=sys.stderr)
     print(table1_markdown({Path(args.mesh).stem if Path(args.mesh).suffix else args.mesh: table1_row(hybrid)}))
+    print(f"size (kB): {SIZE_DEFINITION}", file=sys.stderr)
     if args.output is not None:
         path = hybrid.save(args.output)
         print(f"saved {path}", file=sys.stderr)

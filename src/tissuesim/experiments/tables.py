@@ -4,7 +4,9 @@ Column names follow the paper: "Ours" is the ``hybrid`` method, "MSM" is ``mass-
 reference; "Emb." is the embedded-surface baseline the paper does not have. Ratios: Ours/PBD and Ours/MSM of the
 RMSE (below 1: the hybrid is more accurate), Ours/PBD and FEM/Ours of the per-step time (FEM/Ours above 1: the
 hybrid is faster than the fine FEM). Ratio summaries are medians over load cases of the per-case ratios (one
-diverged case must not swamp a model's summary), for ours and the paper's alike.
+diverged case must not swamp a model's summary), for ours and the paper's alike. Every column is defined once, in
+the legend at the top of ``tables.md`` (:func:`column_legend`); Table 1's size is :data:`SIZE_DEFINITION`, as
+``tissuesim build`` prints it.
 """
 
 from __future__ import annotations
@@ -19,6 +21,11 @@ from .protocol import REFERENCE
 LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM",
           "hybrid-near": "Ours+NF"}
 COMPARED = ("hybrid", "pbd", "mass-spring", "embedded")
+
+#: What Table 1's "size (kB)" is, here, in ``tissuesim build`` and in the README: the paper's Table 1 gives sizes in
+#: kB without saying of what; a file's size is what a reader can check, and these land in the paper's range.
+SIZE_DEFINITION = ("the mesh written as an ASCII file, in kB of 1000 bytes: OBJ for M_S (`v x y z` with %.8g "
+                   "coordinates in metres, `f a b c`), TetGen `.node` + `.ele` for a volume")
 
 # name -> (table, numerator method, denominator method, quantity): the ratios of the closing summary.
 RATIOS = {
@@ -161,13 +168,12 @@ def tables_markdown(data: dict) -> str:
         "# The paper's Tables 1–5, reproduced",
         "",
         f"tissuesim {meta['tissuesim']}, {meta['date']}, {meta['machine']['processor']} "
-        f"({meta['machine']['cpus']} CPUs), Python {meta['python']}. Forces {', '.join(f'{f:g}' for f in options['forces'])} N; "
-        f"step times are medians of {options['timing_steps']} steps after {options['warmup_steps']} warm-up steps.",
+        f"({meta['machine']['cpus']} CPUs), Python {meta['python']}. Forces "
+        f"{', '.join(f'{f:g}' for f in options['forces'])} N.",
         "",
-        "Ours = hybrid (§6), PBD = surface-only PBD, MSM = mass-spring, Emb. = embedded surface (not in the paper), "
-        "FEM = fine-volume linear FEM, the reference. RMSE is eq 26 over the 50 surface nodes nearest the load "
-        "node [mm]; rel. = RMSE / the reference's RMS displacement over those nodes. Paper columns are the "
-        "published figures (– where it has none).",
+        "Column legend:",
+        "",
+        *column_legend(meta),
         "",
         "## Headline ratios (medians over load cases)",
         "",
@@ -175,7 +181,7 @@ def tables_markdown(data: dict) -> str:
         "",
         "## Table 1: models",
         "",
-        "Sizes are in-memory (float64 coordinates + int32 indices); the paper's are file sizes.",
+        "The paper does not say what its size column measures; ours is the file size defined in the legend.",
         "",
         table1(data),
     ]
@@ -195,6 +201,27 @@ def tables_markdown(data: dict) -> str:
                   "### Time (ms)", "", time_table(data, model)]
     parts += ["", "## Notes on the published tables", ""] + [f"- {note}" for note in paper.NOTES]
     return "\n".join(parts) + "\n"
+
+
+def column_legend(meta: dict) -> list[str]:
+    """The Markdown bullets defining every column of ``tables.md`` (``meta``: the results document's metadata)."""
+    options = meta["options"]
+    material = options.get("material", "linear")
+    return [
+        f"- **Methods**: Ours = hybrid (§6), PBD = surface-only PBD, MSM = mass-spring, Emb. = embedded surface (not "
+        f"in the paper), FEM = fine-volume FEM ({material}), the reference.",
+        "- **#node, #elem**: the mesh's nodes and elements (triangles for M_S, tetrahedra for a volume); "
+        f"**size (kB)**: {SIZE_DEFINITION}.",
+        "- **X (mm)**: method X's RMSE against FEM (eq 26) over the 50 surface nodes nearest the load node; "
+        "**X rel.**: that RMSE over the reference's RMS displacement over the same nodes (0.1 = 10 % of the "
+        "deformation).",
+        f"- **X step (ms)**: median wall time of one `step(dt)` under the load, over {options['timing_steps']} steps "
+        f"after {options['warmup_steps']} warm-up steps; **X equil. (ms)**: wall time of the static solve to "
+        "equilibrium (`solve_static`).",
+        "- **A/B**: A's figure over B's in the same row (RMSE: below 1, Ours is more accurate; FEM/Ours step: above "
+        "1, Ours is faster); **best**: the method with the lowest RMSE in the row.",
+        "- **paper …**: the published figure (– where the paper has none).",
+    ]
 
 
 def _div(a, b):
