@@ -21,7 +21,8 @@ def add_arguments(parser) -> None:
                         help="contact protocol: patch radii in millimetres (default: 4 8)")
     parser.add_argument("--cache", metavar="DIR", help="contact protocol: folder caching the converged references "
                         "(default: $TISSUESIM_CACHE or the user cache folder)")
-    parser.add_argument("--no-cache", action="store_true", help="contact protocol: recompute every reference")
+    parser.add_argument("--no-cache", action="store_true", help="contact protocol: recompute every reference, "
+                        "those shipped with tissuesim included")
     parser.add_argument("--levels", metavar="COUNT",
                         help="contact protocol: last refinement level of the reference (default: 4; quick: 2; with a "
                              "finite-strain --material: 2)")
@@ -143,6 +144,7 @@ def _run_contact(args, output) -> int:
                                                                        integer=True)))
     elif options["material"] != "linear":
         options["settings"] = replace(settings, max_levels=min(settings.max_levels, contact.FINITE_MAX_LEVELS))
+    options["shipped"] = not args.no_cache
     options["cache_dir"] = None if args.no_cache else str(check_cache_dir(default_cache_dir() if args.cache is None
                                                                           else args.cache))
     start = time.perf_counter()

@@ -78,6 +78,8 @@ class ContactConfig:
         max_steps: cap on one quasi-static solve's steps (unsettled solves are recorded, not fatal).
         settings: the reference's refinement settings.
         cache_dir: where converged references are cached (None: no cache).
+        shipped: read the references shipped with the package where they were computed for exactly this case
+            (:mod:`.reference_cache`); False: compute (or read from ``cache_dir``) every one.
         material: ``"linear"`` or a finite-strain material; the default methods are then those that have it, and a
             named method without it is refused. Each finite-strain load is a Newton solve per level, so the command
             line caps its refinement at :data:`FINITE_MAX_LEVELS` unless ``--levels`` says otherwise.
@@ -93,6 +95,7 @@ class ContactConfig:
     max_steps: int = 1000
     settings: RefinementSettings = field(default_factory=RefinementSettings)
     cache_dir: str | None = None
+    shipped: bool = True
     material: str = "linear"
 
     def __post_init__(self):
@@ -131,7 +134,7 @@ def run_contact(config: ContactConfig | None = None, *, progress: bool = True) -
     say = (lambda text: print(text, file=sys.stderr, flush=True)) if progress else (lambda text: None)
     records, info = [], {}
     for spec, name in zip(config.models, _names(config.models)):
-        info[name] = _run_model(spec, name, methods, config, say, records)
+        info[name] = _run_model(spec, name, methods, config, say, records, bar=progress)
     return {"schema": SCHEMA, "metadata": _metadata(config, methods, info, time.perf_counter() - start),
             "records": records}
 
@@ -148,7 +151,8 @@ class _Site:
     solvers: dict
 
 
-def _run_model(spec: str, name: str, methods: tuple, config: ContactConfig, say, records: list) -> dict:
+def _run_model(spec: str, name: str, methods: tuple, config: ContactConfig, say, records: list, *,
+               bar: bool = False) -> dict:
     """Every method in every case of one model, appended to ``records``; return the model's metadata (references,
     skipped radii, presses beyond the stable range, references without a stable equilibrium)."""
     hybrid = load_model(spec, ExperimentConfig(models=(spec,), resolution=config.resolution,
@@ -162,7 +166,7 @@ def _run_model(spec: str, name: str, methods: tuple, config: ContactConfig, say,
     kept = list(patches)    # a skipped radius costs no reference
     say(f"{name}: reference for R = {', '.join(f'{r:g}' for r in kept) or 'none'} mm")
     cases = {r: _stable_cases(first, node, r, protocol.load_cases(config.forces, config.loads)) for r in kept}
-    refs = _references(hybrid, node, kept, cases, config, lambda line: say(f"  {name} {line}"))
+    refs = _references(hybrid, node, kept, cases, config, lambda line: say(f"  {name} {line}"), bar=bar)
     info = _model_info(spec, hybrid, node, refs, kept, config.settings)
     if skipped:
         info["skipped"] = skipped
@@ -260,13 +264,14 @@ def _stable_cases(solver, node: int, radius_mm: float, cases: list) -> tuple[lis
     return kept, beyond
 
 
-def _references(hybrid, node: int, radii_mm: list, cases: dict, config: ContactConfig, say) -> list:
+def _references(hybrid, node: int, radii_mm: list, cases: dict, config: ContactConfig, say, *,
+                bar: bool = False) -> list:
     """One reference per radius: the linear response, or the finite-strain fields of that radius's stable cases."""
     if not radii_mm:
         return []
     if config.material == "linear":
         return contact_references(hybrid, node, [1e-3 * r for r in radii_mm], settings=config.settings,
-                                  cache_dir=config.cache_dir, progress=say)
+                                  cache_dir=config.cache_dir, progress=say, shipped=config.shipped, bar=bar)
     from .finite_contact import finite_contact_reference
 
     return [finite_contact_reference(hybrid, node, 1e-3 * r, [case.vector for case in cases[r][0]] or [(0, 0, 1.0)],

@@ -32,7 +32,9 @@ traction of finite density, whose displacement field has a limit. This module co
 
 Linear elasticity makes the response linear in the force: the result is the M_S displacement per unit force along
 each axis, ``(n, 3, 3)`` [m/N], and any force is ``response @ f``. Converged references are cached on disk keyed by
-the mesh (hash of M_S), the node, R, the material and the refinement settings, so a rerun reads them in milliseconds.
+the mesh (hash of M_S, its positions to the nanometre), the node, R, the material and the refinement settings, so a
+rerun reads them in milliseconds; the contact protocol's own references ship with the package under the same keys
+(:mod:`.reference_cache`).
 """
 
 from __future__ import annotations
@@ -51,10 +53,11 @@ from ..mesh.refine import refine_surface
 from ..mesh.regions import bottom_height, nodes_below
 from ..mesh.tetrahedralize import FINE_SWITCHES, tetrahedralize
 from . import protocol
-from .reference_cache import load_entry, save_entry
+from .reference_cache import load_entry, load_shipped, save_entry
 from .reference_data import ContactReference, LevelRow, RefinementSettings, format_row
+from .reference_progress import LevelProgress
 
-# Bump when the computation changes, so stale cache entries are never read.
+# Bump when the computation changes, so stale cache entries (and shipped references) are never read.
 CACHE_FORMAT = 4
 
 __all__ = ["ContactReference", "LevelRow", "RefinementSettings", "contact_reference", "contact_references",
@@ -71,7 +74,7 @@ def default_cache_dir() -> Path:
 
 def contact_reference(mesh, node: int, radius: float | None, *, youngs_modulus: float = 5500.0,
                       poisson_ratio: float = 0.3, settings: RefinementSettings | None = None,
-                      cache_dir=None, progress=None) -> ContactReference:
+                      cache_dir=None, progress=None, shipped: bool = False) -> ContactReference:
     """The reference response of the M_S nodes to a unit force per axis on the contact patch of ``node``.
 
     Args:
@@ -83,15 +86,22 @@ def contact_reference(mesh, node: int, radius: float | None, *, youngs_modulus: 
         settings: refinement settings (default :class:`RefinementSettings`).
         cache_dir: folder of the on-disk cache; None: no cache.
         progress: optional callable receiving one line of text per level computed.
+        shipped: read the reference shipped with the package for exactly these parameters, if there is one.
     """
     return contact_references(mesh, node, (radius,), youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
-                              settings=settings, cache_dir=cache_dir, progress=progress)[0]
+                              settings=settings, cache_dir=cache_dir, progress=progress, shipped=shipped)[0]
 
 
 def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
-                       settings: RefinementSettings | None = None, cache_dir=None, progress=None) -> list:
+                       settings: RefinementSettings | None = None, cache_dir=None, progress=None,
+                       shipped: bool = False, bar: bool = False) -> list:
     """:func:`contact_reference` for several radii on one shared sequence of meshes (refined around the largest
-    patch), until every radius has converged; cached per radius. Returns one :class:`ContactReference` per radius."""
+    patch), until every radius has converged; cached per radius. Returns one :class:`ContactReference` per radius.
+
+    ``shipped``: read a reference shipped with the package under the same key before the cache (the contact
+    protocol's own cases; :data:`.reference_cache.SHIPPED_DIR`). ``bar``: while computing, a progress bar over the
+    levels with an estimate of their time on stderr (:class:`.reference_progress.LevelProgress`), beside the lines
+    sent to ``progress``."""
     surface = getattr(mesh, "surface", mesh)
     settings = settings or RefinementSettings()
     node = int(node)
@@ -99,11 +109,16 @@ def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0
         raise SolverError(f"contact node {node} is outside the surface's vertices 0..{surface.vertex_count - 1}")
     radii = [None if r is None else contact_radius(r) for r in radii]
     keys = [_cache_key(surface, node, r, youngs_modulus, poisson_ratio, settings) for r in radii]
-    cached = [load_entry(cache_dir, key, settings) for key in keys]
+    cached = [(load_shipped(key, settings) if shipped else None) or load_entry(cache_dir, key, settings)
+              for key in keys]
     missing = [i for i, ref in enumerate(cached) if ref is None]
     if missing:
-        computed = _compute(surface, node, [radii[i] for i in missing], youngs_modulus, poisson_ratio, settings,
-                            progress, stop=True)
+        tracker = LevelProgress(progress, settings.max_levels, bar=bar)
+        try:
+            computed = _compute(surface, node, [radii[i] for i in missing], youngs_modulus, poisson_ratio, settings,
+                                tracker, stop=True)
+        finally:
+            tracker.close()
         for i, ref in zip(missing, computed):
             cached[i] = ref
             save_entry(cache_dir, keys[i], ref)
@@ -118,7 +133,8 @@ def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, you
     settings = settings or RefinementSettings()
     settings = RefinementSettings(**{**asdict(settings), "max_levels": int(levels)})
     radius = None if radius is None else contact_radius(radius)
-    return _compute(surface, int(node), [radius], youngs_modulus, poisson_ratio, settings, progress, stop=False)[0]
+    return _compute(surface, int(node), [radius], youngs_modulus, poisson_ratio, settings,
+                    LevelProgress(progress, settings.max_levels), stop=False)[0]
 
 
 def point_load_divergence(mesh, node: int, *, levels: int = 3, youngs_modulus: float = 5500.0,
@@ -148,10 +164,10 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
     for level in range(settings.max_levels + 1):
         level_mesh = _level_volume(surface, rest[node], core, h0, level, settings)
         if level_mesh is None:
-            if progress is not None:
-                progress(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
+            progress.say(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
             break
         refined, volume, parents = level_mesh
+        progress.level_meshed(level, len(volume.tets))
         solve, solve_nodal = _level_solver(volume, refined, surface, parents, rest[node], height, youngs_modulus,
                                            poisson_ratio, settings)
         for k, radius in enumerate(radii):
@@ -162,11 +178,11 @@ def _compute(surface, node, radii, youngs_modulus, poisson_ratio, settings, prog
             previous[k] = response
             row = level_row(level, volume, h0, settings, samples, -response[:, :, 2], node, change)  # 1 N, −z
             tables[k].append(row)
-            if progress is not None:
-                progress(f"R = {_radius_text(radius)}: " + format_row(row))
+            progress.say(f"R = {_radius_text(radius)}: " + format_row(row))
             if stop and change is not None and level >= settings.min_levels and change < settings.tolerance:
                 done[k] = True
                 nodal[k] = solve_nodal(node, radius)   # on the level the reference stops at
+        progress.level_solved()
         if stop and all(done):
             break
     for k, radius in enumerate(radii):
@@ -317,7 +333,9 @@ def _radius_text(radius) -> str:
 
 def _cache_key(surface, node, radius, youngs_modulus, poisson_ratio, settings) -> str:
     digest = hashlib.sha256()
-    digest.update(np.ascontiguousarray(surface.vertices, dtype=np.float64).tobytes())
+    # To the nanometre (-0.0 made 0.0): a last-bit difference in a model's positions between two machines' maths
+    # libraries changes no reference, and must not miss a shipped one.
+    digest.update(np.ascontiguousarray(np.round(surface.vertices, 9) + 0.0, dtype=np.float64).tobytes())
     digest.update(np.ascontiguousarray(surface.triangles, dtype=np.int64).tobytes())
     digest.update(json.dumps({"format": CACHE_FORMAT, "node": int(node), "radius": radius,
                               "E": float(youngs_modulus), "nu": float(poisson_ratio), "switches": FINE_SWITCHES,

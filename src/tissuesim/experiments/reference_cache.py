@@ -1,5 +1,11 @@
 """The on-disk cache of converged contact references (:mod:`.reference`): one ``<key>.npz`` per reference, written
-whole (a partial ``.<key>.<pid>.npz`` renamed into place), a damaged entry recomputed, never trusted."""
+whole (a partial ``.<key>.<pid>.npz`` renamed into place), a damaged entry recomputed, never trusted.
+
+The contact protocol's own references also ship with the package (:data:`SHIPPED_DIR`, written by
+benchmarks/contact_references.py): the same keys, compressed, the responses rounded to float32 (a relative error
+below 6e-8, against the references' 1 % convergence criterion), each with :data:`SHIPPED_SCHEMA` and the parameters it
+was computed for. A shipped entry is read only under the key of exactly those parameters, so a changed model, load,
+material or refinement setting is computed (and cached) instead."""
 
 from __future__ import annotations
 
@@ -16,6 +22,11 @@ import numpy as np
 from ..errors import TissuesimError
 from ..io import process_running
 from .reference_data import ContactReference, LevelRow
+
+#: The references shipped with the package, one ``<key>.npz`` each.
+SHIPPED_DIR = Path(__file__).with_name("data") / "references"
+SHIPPED_SCHEMA = "tissuesim-contact-reference/1"
+
 
 class CacheError(TissuesimError, OSError):
     """The reference cache folder cannot be used where asked."""
@@ -50,15 +61,40 @@ def _remove_abandoned_partials(folder: Path) -> None:
 def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
     """The reference cached under ``key`` in ``cache_dir``, or None where there is none or it is damaged."""
     entry = read_arrays(cache_dir, key)
-    if entry is None:
-        return None
-    meta, data = entry
+    return None if entry is None else _reference(*entry, settings)
+
+
+def _reference(meta: dict, data: dict, settings) -> ContactReference | None:
     try:
         return ContactReference(meta["node"], meta["radius"], data["response"], data["samples"],
                                 tuple(LevelRow(**row) for row in meta["levels"]), meta["converged"],
                                 meta["E"], meta["nu"], settings, data.get("nodal_response"))
     except (KeyError, TypeError):
         return None
+
+
+def load_shipped(key: str, settings, folder=None) -> ContactReference | None:
+    """The reference shipped under ``key`` (in ``folder``, default :data:`SHIPPED_DIR`) as float64, or None where
+    there is none or it is not of :data:`SHIPPED_SCHEMA`."""
+    entry = read_arrays(SHIPPED_DIR if folder is None else folder, key)
+    if entry is None or entry[0].get("schema") != SHIPPED_SCHEMA:
+        return None
+    meta, data = entry
+    arrays = {name: value.astype(np.float64) if value.dtype.kind == "f" else value for name, value in data.items()}
+    return _reference(meta, arrays, settings)
+
+
+def ship_entry(folder, key: str, reference: ContactReference, parameters: dict) -> Path:
+    """Write ``reference`` under ``key`` in ``folder`` as a shipped entry: compressed, its responses float32, its meta
+    the cache entry's plus :data:`SHIPPED_SCHEMA` and ``parameters`` (JSON-ready: what it was computed for)."""
+    meta = {"schema": SHIPPED_SCHEMA, "key": key, **_meta(reference), "parameters": parameters}
+    arrays = {"response": reference.response.astype(np.float32), "samples": reference.samples.astype(np.int32)}
+    if reference.nodal_response is not None:
+        arrays["nodal_response"] = reference.nodal_response.astype(np.float32)
+    path = Path(folder) / f"{key}.npz"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, meta=json.dumps(meta, sort_keys=True), **arrays)
+    return path
 
 
 def read_arrays(cache_dir, key: str) -> tuple[dict, dict] | None:
@@ -78,11 +114,15 @@ def read_arrays(cache_dir, key: str) -> tuple[dict, dict] | None:
 
 def save_entry(cache_dir, key: str, reference: ContactReference) -> None:
     """Cache ``reference`` under ``key`` in ``cache_dir``, whole or not at all (CacheError naming the folder)."""
-    meta = {"node": reference.node, "radius": reference.radius, "converged": reference.converged,
-            "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
-            "levels": [asdict(row) for row in reference.levels]}
+    meta = _meta(reference)
     nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
     write_arrays(cache_dir, key, meta, response=reference.response, samples=reference.samples, **nodal)
+
+
+def _meta(reference: ContactReference) -> dict:
+    return {"node": reference.node, "radius": reference.radius, "converged": reference.converged,
+            "E": reference.youngs_modulus, "nu": reference.poisson_ratio,
+            "levels": [asdict(row) for row in reference.levels]}
 
 
 def write_arrays(cache_dir, key: str, meta: dict, **arrays) -> None:
