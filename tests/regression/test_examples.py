@@ -1,6 +1,8 @@
 """The examples double as regression tests: each runs as a user would run it."""
 
 import importlib.util
+import runpy
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +16,23 @@ def _example(name):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+# each script as a user runs it, at its defaults but for what would write into the working tree or take long
+SCRIPTS = {"pinhead_drag": [], "scalpel_cut": [], "probe_press": [], "two_tools": [], "scene_file": [],
+           "haptic_loop": ["--seconds", "0.2"], "scripted_session": ["--output", "session.pvd"]}
+
+
+def test_every_example_script_is_run_here():
+    assert set(SCRIPTS) == {path.stem for path in EXAMPLES.glob("*.py")}
+
+
+@pytest.mark.parametrize("name", sorted(SCRIPTS))
+def test_the_script_runs_and_reports(name, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(sys, "argv", [f"{name}.py", *SCRIPTS[name]])
+    runpy.run_path(str(EXAMPLES / f"{name}.py"), run_name="__main__")
+    assert capsys.readouterr().out.strip()           # it says what happened
 
 
 def test_pinhead_drag_lifts_the_grabbed_node_and_release_returns_it():
