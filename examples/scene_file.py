@@ -8,29 +8,21 @@ import argparse
 from pathlib import Path
 
 import tissuesim
+from tissuesim.commands.view import scene_hybrid
 from tissuesim.recording import Recorder, solver_frame
 from tissuesim.scene import Simulation
 
 HERE = Path(__file__).resolve().parent
 
 
-def scene_hybrid(loaded):
-    """The hybrid mesh of a scene's model: a built-in model at its resolution, or a surface file (relative to the
-    scene file) at its scale. The fine volume is built only for the fem method, the one that needs it."""
-    model = loaded.scene.model
-    if model.name is not None:
-        surface = tissuesim.models.model(model.name, model.resolution)
-    else:
-        surface = tissuesim.read_surface(loaded.resolve(model.file), scale=model.scale, repair=model.repair)
-    return tissuesim.HybridMesh.build(surface, fine_volume=loaded.scene.method.name == "fem")
-
-
 def run_scene(path, *, record=None):
-    """Read the scene at ``path``, build its model and run it; with ``record`` (a ``.pvd`` path), write every frame
+    """Read the scene at ``path``, build its model (as ``tissuesim run`` does: a built-in model at the scene's
+    resolution and scale, or its surface file) and run it; with ``record`` (a ``.pvd`` path), write every frame
     that moved to a ParaView series. Returns the :class:`~tissuesim.scene.Simulation` (its solver and tools, in
     their final state) and its :class:`~tissuesim.scene.RunSummary`."""
     loaded = tissuesim.read_scene(path)            # validated: a bad key raises SceneError naming it and the fix
-    simulation = Simulation(loaded, scene_hybrid(loaded))
+    hybrid, _ = scene_hybrid(loaded, progress=False)
+    simulation = Simulation(loaded, hybrid)
     if record is None:
         return simulation, simulation.run()
     with Recorder(record) as recorder:
