@@ -1,0 +1,113 @@
+"""What the simulator draws and says: creases kept sharp, controls where they act, tools only while active, the
+first compilation announced, a bundle loaded (not built). The drawing tests need OpenGL and are skipped without."""
+
+import io
+
+import numpy as np
+import pytest
+
+from tissuesim import HybridMesh, make_solver
+from tissuesim.mesh import models
+from tissuesim.viewer.look import CREASE_DEGREES, crease_split
+from tissuesim.viewer.panel import iterations_act
+
+
+def _normals(vertices, triangles):
+    p = vertices[triangles]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def test_the_cube_is_split_along_its_edges_and_smooth_within_each_face():
+    surface = models.cube(600)
+    source, faces = crease_split(surface.vertices, surface.triangles)
+    assert np.array_equal(source[faces], surface.triangles)           # the same triangles, over copies
+    normal = _normals(surface.vertices, surface.triangles)
+    limit = np.cos(np.radians(CREASE_DEGREES))
+    for drawn in range(len(source)):                                  # each drawn vertex lies in one face only
+        around = normal[np.flatnonzero(np.any(faces == drawn, axis=1))]
+        assert np.all(around @ around[0] > limit)
+    # the 8 corners have 3 copies, the other edge vertices 2: more drawn vertices than the cube's
+    x = surface.vertices
+    on_box = np.isclose(x, x.min(axis=0), rtol=0.0, atol=1e-9) | np.isclose(x, x.max(axis=0), rtol=0.0, atol=1e-9)
+    corners = np.flatnonzero(np.all(on_box, axis=1))
+    assert len(corners) == 8 and all(np.count_nonzero(source == c) == 3 for c in corners)
+
+
+def test_a_smooth_surface_and_a_cut_lip_are_not_split():
+    surface = models.sphere(600)
+    source, faces = crease_split(surface.vertices, surface.triangles)
+    assert len(source) == surface.vertex_count and np.array_equal(source[faces], surface.triangles)
+    # an open strip (a border, as a cut's lip): the border edges have no neighbour and split nothing
+    vertices = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [1, 1, 0.1]], dtype=float)
+    triangles = np.array([[0, 1, 2], [1, 3, 2]])
+    source, _ = crease_split(vertices, triangles)
+    assert sorted(source) == [0, 1, 2, 3]
+
+
+def test_the_iterations_act_only_where_the_step_iterates():
+    hybrid = HybridMesh.build(models.cube(300), fine_volume=False)
+    assert not iterations_act(make_solver("hybrid", hybrid))        # implicit layer: a linear solve per step
+    assert not iterations_act(make_solver("embedded", hybrid))
+    assert iterations_act(make_solver("hybrid", hybrid, form="pbd"))
+    assert iterations_act(make_solver("pbd", hybrid, integrator="xpbd"))
+
+
+def test_the_first_compilation_is_announced_once_and_a_cached_run_says_nothing():
+    import numba
+
+    from tissuesim.cli import announce_compilation
+
+    @numba.njit
+    def twice(x):
+        return 2 * x
+
+    said = io.StringIO()
+    with announce_compilation("tissuesim test", said):
+        twice(1.0)
+        twice(np.ones(2))
+    lines = said.getvalue().splitlines()
+    assert len(lines) == 2 and "first run only" in lines[0] and "compiled 2 kernels" in lines[1]
+    said = io.StringIO()
+    with announce_compilation("tissuesim test", said):
+        twice(3.0)                                                   # compiled already: no event, no line
+    assert said.getvalue() == ""
+
+
+def test_view_says_loading_for_a_bundle_and_building_for_a_model(tmp_path, capsys):
+    from tissuesim.commands.view import announce_mesh
+
+    bundle = tmp_path / "organ.npz"
+    HybridMesh.build(models.cube(300), fine_volume=False).save(bundle)
+    announce_mesh(str(bundle))
+    announce_mesh("cube")
+    said = capsys.readouterr().err.splitlines()
+    assert said == [f"loading the hybrid bundle {bundle}", "building the hybrid mesh of cube"]
+
+
+def test_the_window_draws_tissue_and_the_pin_head_only_while_it_holds():
+    from tissuesim.viewer.gl import opengl_available
+
+    if not opengl_available():
+        pytest.skip("no OpenGL (install libegl1 libegl-mesa0 libgl1-mesa-dri)")
+    from tissuesim.viewer.app import ViewerApp
+    from tissuesim.viewer.controller import Controller
+
+    app = ViewerApp(Controller(HybridMesh.build(models.cube(300), fine_volume=False)), headless=True)
+    try:
+        app.tick()
+        assert not app.show_colours and not app.surface.colours      # tissue by default, colours a switch
+        c = app.controller
+        top = c.solver.positions[np.argmax(c.solver.positions[:, 2])].copy()
+        c.pointer_down(top, top + [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+        app.tick()
+        assert "pin-head" in app._shown
+        c.pointer_up()
+        c.pointer_move(top, top + [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])   # hovering after the release
+        app.tick()
+        assert "pin-head" not in app._shown and c.cursor is not None
+        app.show_colours = True
+        app.tick()
+        assert app.surface.colours
+    finally:
+        app.close()
