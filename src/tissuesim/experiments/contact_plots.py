@@ -15,6 +15,10 @@ COLOURS = {"hybrid": "tab:red", "hybrid-near": "darkred", "pbd": "tab:blue", "ma
            "embedded": "tab:orange", "fem": "grey"}
 #: The absolute target drawn across the plot (relative RMSE).
 TARGET = 0.10
+LEGEND_COLUMN_IN = 3.3
+#: What each bar is, in the legend: the short labels of the tables alone do not say.
+MEANINGS = {"hybrid": "hybrid", "hybrid-near": "hybrid + near field", "pbd": "surface PBD",
+            "mass-spring": "mass-spring", "embedded": "embedded surface", "fem": "default fine volume, linear tets"}
 
 
 def error_figure(data: dict):
@@ -24,19 +28,22 @@ def error_figure(data: dict):
     methods = [m for m in data["metadata"]["methods"]
                if any(r["method"] == m and r["relative_rmse"] is not None for r in data["records"])]
     groups = list(dict.fromkeys((r["model"], r["radius_mm"]) for r in data["records"]))
-    figure = Figure(figsize=(max(6.0, 1.1 * len(groups) + 2.0), 4.2), dpi=110)
+    width = max(6.0, 1.1 * len(groups) + 2.0)
+    columns = max(1, min(4, int(width / LEGEND_COLUMN_IN)))  # a legend entry takes about LEGEND_COLUMN_IN inches
+    rows = -(-(len(methods) + 2) // columns)
+    figure = Figure(figsize=(width, 3.6 + 0.2 * rows), dpi=110)
     axes = figure.add_subplot()
     width = 0.8 / max(len(methods), 1)
     for k, method in enumerate(methods):
         medians = [_median(data, group, method) for group in groups]
         axes.bar(np.arange(len(groups)) - 0.4 + (k + 0.5) * width, medians, width,
-                 color=COLOURS.get(method, None), label=LABELS.get(method, method))
+                 color=COLOURS.get(method, None), label=_label(method))
     floors = [data["metadata"]["models"][model]["references"].get(f"{radius:g}", {}).get("load_rule_floor")
               for model, radius in groups]
     shown = [(i, f) for i, f in enumerate(floors) if f]
     if shown:
         axes.hlines([f for _, f in shown], [i - 0.45 for i, _ in shown], [i + 0.45 for i, _ in shown],
-                    colors="black", linewidth=2.0, label="load rule floor")
+                    colors="black", linewidth=2.0, label="load rule floor (an exact solve of the nodal forces)")
     axes.axhline(TARGET, color="black", linestyle="--", linewidth=0.8, label=f"target {TARGET:g}")
     axes.set_yscale("log")
     axes.set_xticks(np.arange(len(groups)), [f"{model}\nR {radius:g} mm" for model, radius in groups], fontsize=7)
@@ -48,9 +55,14 @@ def error_figure(data: dict):
     detail = ", ".join(d for d in details if d)
     axes.set_title("Contact protocol: error against the refined reference" + (f"\n({detail})" if detail else ""),
                    fontsize=10)
-    axes.legend(fontsize=7, ncol=min(4, len(methods) + 2), loc="upper left", bbox_to_anchor=(0.0, -0.16))
+    axes.legend(fontsize=8, ncol=columns, loc="upper center", bbox_to_anchor=(0.5, -0.16), frameon=False)
     figure.tight_layout()
     return figure
+
+
+def _label(method: str) -> str:
+    short, meaning = LABELS.get(method, method), MEANINGS.get(method)
+    return short if meaning in (None, short) else f"{short}: {meaning}"
 
 
 def _median(data: dict, group, method) -> float:
