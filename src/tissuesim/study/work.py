@@ -73,7 +73,7 @@ def solver_of(model: ModelRef, method: str, options: str, material: tuple):
 
 def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
     """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid``: the protocol's load node
-    (§8.3), or for a random load a node drawn among the free ones, a direction uniform on the sphere and a
+    (§8.3), or for a random load a node drawn among those whose contact patch clears the fixed region, a direction uniform on the sphere and a
     magnitude uniform in the range, from the case's own seed (the same draw wherever it runs)."""
     vertices = hybrid.surface.vertices
     if case.random is None:
@@ -81,10 +81,18 @@ def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
         return node, float(case.force_N) * np.asarray(case.direction, dtype=np.float64)
     seed, index, lowest, highest = case.random
     rng = np.random.default_rng([seed, index])
-    free = np.setdiff1d(np.arange(len(vertices)), protocol.fixed_nodes(vertices))
-    node = int(free[rng.integers(len(free))])
+    node = int(rng.choice(_clear_nodes(vertices, case.radius)))
     direction = rng.normal(size=3)
     return node, rng.uniform(lowest, highest) * direction / np.linalg.norm(direction)
+
+
+def _clear_nodes(vertices: np.ndarray, radius: float | None) -> np.ndarray:
+    """``(k,) int64`` the M_S nodes farther than ``radius`` [m] (or than nothing) from every fixed node."""
+    from scipy.spatial import cKDTree
+
+    fixed = protocol.fixed_nodes(vertices)
+    distance, _ = cKDTree(vertices[fixed]).query(vertices)
+    return np.flatnonzero(distance > (radius or 0.0))
 
 
 def reference(case: Case) -> np.ndarray:
