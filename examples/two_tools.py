@@ -44,8 +44,9 @@ def two_pinheads(pull_a, pull_b, *, resolution: int = 800) -> dict:
 
 
 def hold_and_cut(*, pull: float = 0.01, length: float = 0.04, resolution: int | None = None) -> dict:
-    """Grab the liver's top and pull the cursor ``pull`` [m] sideways (x), hold it, and cut a stroke of ``length``
-    [m] along y starting 20 mm beside the grabbed point, a step after each move; then solve for equilibrium.
+    """Grab the liver's top and pull the cursor ``pull`` [m] sideways (+x), hold it, and cut a stroke of ``length``
+    [m] along y, 20 mm from the grabbed point on the other side (−x), a step after each move; then solve for
+    equilibrium under the pin-head's load.
 
     Returns a dict: the grabbed node, the pin-head's force [N], the loads acting after the cut, the force on the
     grabbed node after the cut [N], the vertices the cut added, and the grabbed node's displacement [m] at
