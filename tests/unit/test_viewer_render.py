@@ -41,7 +41,8 @@ def test_the_deformed_image_differs_from_the_rest_image_near_the_load_only(hybri
 
 def test_the_window_layer_runs_headless_and_records(hybrid, tmp_path):
     from tissuesim.recording import read_recording
-    from tissuesim.viewer.app import ReplayApp, ViewerApp
+    from tissuesim.viewer.app import ViewerApp
+    from tissuesim.viewer.replay import ReplayApp
     from tissuesim.viewer.controller import Controller
 
     controller = Controller(hybrid)

@@ -86,7 +86,8 @@ def scene_hybrid(loaded, *, progress: bool = True):
 def run(args: argparse.Namespace) -> int:
     from ..recording import check_target, read_recording
     from ..solvers.checks import positive_number
-    from ..viewer.app import ReplayApp, ViewerApp
+    from ..viewer.app import ViewerApp
+    from ..viewer.replay import ReplayApp
     from ..viewer.controller import Controller, scalpel_class
     from ..viewer.settings import DEFAULT_STIFFNESS, Settings, checked_settings, sized_defaults
     from ..viewer.gl import polyscope

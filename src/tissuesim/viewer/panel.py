@@ -27,12 +27,11 @@ PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leave
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 #: The keys, two lines that fit the panel.
 KEY_HINTS = ("keys: S pin-head / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
-#: What the mouse does on the model in each mode (beside it, a drag turns the view, the wheel zooms).
+#: What the mouse does on the model in each mode (beside it, as in every polyscope window, a drag turns the view).
 MOUSE_HINTS = {"pin": "drag on the tissue: pull; Shift + release: hold",
-               "probe": "press on the tissue; Shift + release: keep pressing",
+               "probe": "press on the tissue; Shift + release: hold",
                "scalpel": "drag across the tissue: cut",
-               "support": "drag on the tissue: paint the region"}
-VIEW_HINT = "beside the model: drag turns, wheel zooms"
+               "support": "drag on the tissue: paint (fixed blue, ligament green)"}
 
 
 def iterations_act(solver) -> bool:
@@ -63,10 +62,8 @@ class PanelWidgets:
         for line in KEY_HINTS:
             psim.TextDisabled(line)
         psim.TextUnformatted(MOUSE_HINTS[c.mode])
-        psim.TextDisabled(VIEW_HINT)
         psim.Separator()
         self._held(psim, c)
-        self._gravity(psim, c)
         self._timing(psim)
         if psim.Button("reset (R)"):
             c.reset()
@@ -74,6 +71,8 @@ class PanelWidgets:
         psim.SameLine()
         if psim.Button("stop recording" if self.recorder else "record"):
             self._toggle_recording()
+        psim.SameLine()
+        self._gravity(psim, c)
         _, self.show_wireframe = psim.Checkbox("M_V wireframe", self.show_wireframe)
         psim.SameLine()
         _, self.show_control = psim.Checkbox("control nodes", self.show_control)
@@ -112,7 +111,7 @@ class PanelWidgets:
 
     def _gravity(self, psim, c) -> None:
         gravity = c.solver_options.get("gravity") is not None
-        changed, gravity = psim.Checkbox("gravity (9.81 m/s², -z)", gravity)
+        changed, gravity = psim.Checkbox("gravity (-z)", gravity)
         if changed:
             c.set_solver_option("gravity", (0.0, 0.0, -STANDARD_GRAVITY) if gravity else None)
             self._topology = None
@@ -124,7 +123,6 @@ class PanelWidgets:
                 c.brush.paints = paints
             psim.SameLine()
         psim.NewLine()
-        psim.TextUnformatted("paint the fixed region (blue) or ligaments (green)")
         changed, brush_mm = psim.SliderFloat("brush [mm]", 1e3 * c.brush.radius, 1.0, 50.0, "%.1f")
         if changed:
             c.brush.radius = 1e-3 * brush_mm

@@ -1,0 +1,78 @@
+"""``tissuesim view --replay FILE.pvd``: a recording (:func:`tissuesim.recording.read_recording`) played back in the
+simulator's window, drawn as the simulator draws it (:mod:`.look`), with the cut's edges and the |u| colour map."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..errors import TissuesimError
+from .app import CUT_COLOR, HOME_DISTANCE, PANEL_WIDTH, let_go, quit_pressed, show_window, style_window
+from .gl import look_at_oblique, polyscope
+from .look import TissueSurface
+
+
+class ReplayApp:
+    """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button:
+    the tissue as the simulator draws it, the cut's edges in :data:`CUT_COLOR`, and the |u| colour map (with its
+    legend) as a switch."""
+
+    def __init__(self, frames, *, title: str = "", headless: bool = False):
+        if not frames:
+            raise TissuesimError("the recording holds no frame")
+        self.frames, self.title = frames, title
+        self.index, self.playing, self._topology = 0, True, None
+        self.show_colours, self.headless = False, headless
+        self.surface = self.cut = None
+        self.ps = polyscope(headless=headless)
+        style_window(self.ps)
+
+    def run(self) -> None:
+        """Open the window and play until it is closed."""
+        show_window(self.ps, self.frame, self.close)
+
+    def close(self) -> None:
+        """Let go of polyscope (:func:`let_go`)."""
+        self.mesh = self.surface = self.cut = None
+        self._topology = None
+        let_go(self.ps)
+
+    def frame(self) -> None:
+        import polyscope.imgui as psim
+
+        frame = self.frames[self.index]
+        if self._topology is not frame.triangles:
+            self._topology, self.mesh, self.surface, self.cut = frame.triangles, None, None, None
+            self.ps.remove_all_structures()
+            rest = frame.positions - frame.displacement
+            self.surface = TissueSurface(self.ps, frame.positions, frame.triangles, rest)
+            self.mesh = self.surface.mesh
+            cut = frame.cut_edges
+            if len(cut):
+                self._cut_nodes, local = np.unique(cut, return_inverse=True)
+                self.cut = self.ps.register_curve_network("cut edges", frame.positions[self._cut_nodes],
+                                                          local.reshape(-1, 2), color=CUT_COLOR)
+            if self.index == 0:
+                look_at_oblique(self.ps, frame.positions, distance=HOME_DISTANCE, pane=PANEL_WIDTH)
+        self.surface.update(frame.positions)
+        if self.cut is not None:
+            self.cut.update_node_positions(frame.positions[self._cut_nodes])
+        mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
+        top = max(float(mm.max()), 1.0)
+        self.surface.colour(mm if self.show_colours else None, top)
+        force = np.linalg.norm(frame.force, axis=1).max()
+        psim.TextUnformatted(self.title or " ")
+        psim.TextUnformatted(f"t = {frame.time:.3f} s   force {force:.3f} N")
+        psim.TextUnformatted(f"{len(self._cut_nodes) if self.cut is not None else 0} vertices on cut edges (yellow)")
+        _, self.show_colours = psim.Checkbox("|u| colours", self.show_colours)
+        psim.SameLine()
+        psim.TextDisabled(f"0 to {top:.1f} mm, viridis" if self.show_colours else "off: tissue shading")
+        _, self.playing = psim.Checkbox("play", self.playing)
+        psim.SameLine()
+        psim.TextDisabled("Q or Esc quits")
+        if not self.headless and quit_pressed(psim):
+            self.ps.unshow()
+        changed, index = psim.SliderInt("frame", self.index, 0, len(self.frames) - 1)
+        if changed:
+            self.index, self.playing = index, False
+        elif self.playing:
+            self.index = (self.index + 1) % len(self.frames)
