@@ -14,22 +14,23 @@ import tissuesim
 RADIUS = 0.016  # m: the probe's sphere, larger than the surface's triangles (the probe refuses one that is not)
 
 
-def make_block(*, resolution: int = 800):
-    """The hybrid solver of an 80 mm cube of tissue (the paper's E = 5.5 kPa, ν = 0.3) resting on its bottom
-    tenth, and the height [m] of its top face."""
-    solver = tissuesim.make_solver("hybrid", tissuesim.HybridMesh.build(tissuesim.models.cube(resolution),
-                                                                        fine_volume=False))
+def make_block(*, youngs_modulus: float = 5500.0, resolution: int = 800):
+    """The hybrid solver of an 80 mm cube of tissue (Young's modulus ``youngs_modulus`` [Pa], the paper's by
+    default; ν = 0.3) resting on its bottom tenth, and the height [m] of its top face."""
+    hybrid = tissuesim.HybridMesh.build(tissuesim.models.cube(resolution), fine_volume=False)
+    solver = tissuesim.make_solver("hybrid", hybrid, youngs_modulus=youngs_modulus)
     return solver, float(solver.rest_positions[:, 2].max())
 
 
-def press(depths, *, resolution: int = 800) -> dict:
-    """Press the probe straight down on the top face's centre to each of ``depths`` ``(k,)`` [m] below the face.
+def press(depths, *, youngs_modulus: float = 5500.0, resolution: int = 800) -> dict:
+    """Press the probe straight down on the top face's centre to each of ``depths`` ``(k,)`` [m] below the face,
+    on a block of Young's modulus ``youngs_modulus`` [Pa].
 
     Returns a dict of ``(k, 3)`` arrays: the force on the probe [N] and the displacement [m] of the top vertex
     under it, at each depth; and the smallest gap [m] between the probe and any vertex (negative: inside), with
     the probe's contact tolerance [m].
     """
-    solver, top = make_block(resolution=resolution)
+    solver, top = make_block(youngs_modulus=youngs_modulus, resolution=resolution)
     probe = tissuesim.Probe(solver, radius=RADIUS)
     under = int(np.argmin(np.linalg.norm(solver.rest_positions - [0.0, 0.0, top], axis=1)))
     forces, moved, gaps = [], [], []

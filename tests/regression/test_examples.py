@@ -75,7 +75,7 @@ def test_the_cut_adds_vertices_keeps_one_piece_and_opens_linearly_under_a_pull()
     assert gaps[1] == pytest.approx(2.0 * gaps[0], rel=1e-6)                 # linear model: twice the pull, twice
 
 
-def test_the_probe_is_pushed_up_harder_the_deeper_it_goes_and_slides_without_friction():
+def test_the_probe_is_pushed_up_harder_the_deeper_it_goes_and_the_stiffer_the_block():
     probe = _example("probe_press")
     depths = np.array([0.001, 0.002, 0.004])
     result = probe.press(depths)
@@ -88,6 +88,11 @@ def test_the_probe_is_pushed_up_harder_the_deeper_it_goes_and_slides_without_fri
     # displacement-driven: the top under the probe goes down as deep as the probe was put, to 5 %
     assert result["top_displacement_m"][:, 2] == pytest.approx(-depths, rel=0.05)
     assert result["smallest_gap_m"] >= -result["tolerance_m"]             # no vertex inside the probe
+    # displacement-driven in a linear model: twice as stiff a block pushes back twice as hard at the same depths
+    # (to the contact tolerance, 1e-3 of the probe's radius)
+    stiffer = probe.press(depths, youngs_modulus=2 * 5500.0)
+    assert stiffer["force_N"][:, 2] == pytest.approx(2.0 * force[:, 2], rel=1e-3)
+    assert stiffer["top_displacement_m"] == pytest.approx(result["top_displacement_m"], rel=1e-3, abs=1e-7)
     slid = probe.slide(depth=0.004, travel=0.02, frames=10)
     # frictionless and elastic: the slide ends where a press straight down there does, to 2 %
     assert slid["slid_force_N"][2] == pytest.approx(slid["pressed_force_N"][2], rel=0.02)
