@@ -98,7 +98,7 @@ def radar_figure(data: dict, model: str):
         for column, force in enumerate(forces):
             left = MARGIN + column * PANEL_W
             radar = figure.add_axes(_box(left, top, PANEL_W, RADAR_H, width, height))
-            bars = figure.add_axes(_box(left + 0.75, top + RADAR_H + 0.15, PANEL_W - 1.0, BARS_H - 0.45, width, height))
+            bars = figure.add_axes(_box(left + 0.75, top + RADAR_H, PANEL_W - 1.0, BARS_H - 0.2, width, height))
             panel = panels[(load, force)]
             handles.update(_draw_panel(radar, bars, panel, f"{load}, {force:g} N", rim=rim, bars_top=bars_top,
                                        names=column == 0))
@@ -191,20 +191,25 @@ def _draw_grid(ax, rim: float, angles: np.ndarray) -> None:
 
 
 def _draw_load_node(ax, values: dict, top: float, names: bool) -> None:
-    """Horizontal bars of each method's load-node d / RMS (``values``), on an axis from 0 to ``top``."""
+    """Horizontal bars of each method's load-node d / RMS (``values``) on a scale from 0 to ``top``, drawn on plain
+    axes with their own ticks (matplotlib's tick machinery took a third of a quick run's plotting)."""
     methods = list(values)
-    y = np.arange(len(methods))[::-1]
+    y = np.arange(len(methods))[::-1].astype(float)
+    ax.axis("off")
+    ax.set_xlim(-0.02 * top, top)
+    ax.set_ylim(-1.7, len(methods) + 0.3)
     ax.barh(y, [values[m] for m in methods], height=0.7, color=[STYLE.get(m, ("grey",))[0] for m in methods])
     for yi, m in zip(y, methods):
         ax.text(values[m] + 0.02 * top, yi, f"{values[m]:.2g}", fontsize=5.5, va="center")
-    ax.axvline(1.0, color="0.55", linewidth=0.6, zorder=0)
-    ax.set_xlim(0.0, top)
-    ax.set_yticks(y, [LABELS.get(m, m) for m in methods] if names else [], fontsize=6)
-    ax.tick_params(axis="x", labelsize=6, length=2, pad=1)
-    ax.tick_params(axis="y", length=0)
-    for side in ("top", "right"):
-        ax.spines[side].set_visible(False)
-    ax.set_title("load node (1), d / RMS", fontsize=6.5, pad=2)
+        if names:
+            ax.text(-0.03 * top, yi, LABELS.get(m, m), fontsize=6, ha="right", va="center")
+    step = 1.0 if top <= 7 else float(np.ceil(top / 6))
+    ticks = np.arange(0.0, top, step)
+    ax.plot([0.0, top], [-0.5, -0.5], color="0.3", linewidth=0.6)
+    ax.vlines(ticks, -0.65, -0.5, color="0.3", linewidth=0.6)
+    for t in ticks:
+        ax.text(t, -0.8, f"{t:g}", fontsize=6, ha="center", va="top")
+    ax.text(0.5 * top, len(methods) - 0.4, "load node (1), d / RMS", fontsize=6.5, ha="center", va="bottom")
 
 
 def write_radar_plots(data: dict, folder: Path) -> list[Path]:
