@@ -1,7 +1,10 @@
 """Cost of running a study through the engine: per-case overhead against a plain loop, and the speed-up of two Dask
 workers over the serial run, on the surrogate-dataset study (random pin-head loads → displacement fields).
 
-    PYTHONPATH=src python benchmarks/bench_study.py [--cases 64] [--resolution 400] [--figure docs/figures/study_throughput.png]
+    PYTHONPATH=src python benchmarks/bench_study.py --cases 300 --resolution 1000 \
+        --figure docs/figures/study_throughput.png
+    PYTHONPATH=src python benchmarks/bench_study.py --cases 40 --resolution 1000 --timing-steps 2000 \
+        --figure docs/figures/study_throughput_heavy.png
 
 Prints figures and ratios; asserts nothing. Wall times of this machine (two cores shared with other jobs: the
 speed-up of two workers is bounded by 2 and by what else runs). Each run starts from an empty output folder.
@@ -46,6 +49,8 @@ force = [0.5, 2.0]
 [record]
 metrics = {metrics}
 field = true
+step_times = {step_times}
+timing_steps = {timing_steps}
 """
 
 
@@ -62,6 +67,8 @@ def plain_loop(cases) -> float:
             reference = work.reference(case)
             nodes = protocol.sample_nodes(solver.rest_positions, node, case.record[3])
             protocol.rmse(positions, reference, nodes)
+        if case.record[2]:
+            work._median_step_ms(solver, node, force, case.radius, case.record[4])
     return time.perf_counter() - start
 
 
@@ -90,10 +97,14 @@ def main() -> None:
     parser.add_argument("--resolution", type=int, default=400)
     parser.add_argument("--metrics", action="store_true",
                         help="measure each case against its fem reference (a task of its own: heavier cases)")
+    parser.add_argument("--timing-steps", type=int, default=0,
+                        help="also time this many steps per case (CPU-heavy cases, where the engine's cost is small)")
     parser.add_argument("--figure", type=Path, default=None)
     args = parser.parse_args()
     cases = expand(parse_study(STUDY.format(cases=args.cases, resolution=args.resolution,
-                                                metrics=str(args.metrics).lower()), Path("study.toml")))
+                                                metrics=str(args.metrics).lower(),
+                                                step_times=str(args.timing_steps > 0).lower(),
+                                                timing_steps=max(args.timing_steps, 1)), Path("study.toml")))
     work.CACHE["meshes"].clear()
     work.CACHE["solvers"].clear()
     times = {"plain loop": plain_loop(cases)}
@@ -115,10 +126,11 @@ def main() -> None:
     print(f"speed-up of 2 workers over serial: {serial / times['Dask, 2 workers']:.2f}x, over 1 worker: "
           f"{times['Dask, 1 worker'] / times['Dask, 2 workers']:.2f}x")
     if args.figure is not None:
-        _figure(times, n, nodes, args.figure)
+        heavy = f", {args.timing_steps} steps timed each" if args.timing_steps else ""
+        _figure(times, f"{n} random pin-head loads on a {nodes}-node cube{heavy}, fields stored", args.figure)
 
 
-def _figure(times: dict, n: int, nodes: int, path: Path) -> None:
+def _figure(times: dict, title: str, path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -126,12 +138,13 @@ def _figure(times: dict, n: int, nodes: int, path: Path) -> None:
 
     fig, ax = plt.subplots(figsize=(6.4, 3.2))
     names = list(times)
+    n = int(title.split()[0])
     rates = [n / times[name] for name in names]
     bars = ax.barh(names[::-1], rates[::-1], color=["#4c72b0", "#4c72b0", "#dd8452", "#55a868"][::-1])
     for bar, rate in zip(bars, rates[::-1]):
         ax.text(bar.get_width(), bar.get_y() + bar.get_height() / 2, f" {rate:.1f}", va="center")
     ax.set_xlabel("cases per second (higher is better)")
-    ax.set_title(f"{n} random pin-head loads on a {nodes}-node cube, fields stored", fontsize=10)
+    ax.set_title(title, fontsize=10)
     ax.set_xlim(0, max(rates) * 1.2)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -110,7 +110,8 @@ class Loads(Strict):
     """``[loads]``: a pin-head on the protocol's load node (§8.3), each force in each direction; or random ones."""
 
     kind: Literal["pin-head"] = Field("pin-head", description="the tool: pin-head (a probe is not run yet)")
-    radius: Positive | None = Field(0.008, description="the tip's contact radius [m]; none: one node")
+    radius: Positive | None = Field(None, description="the tip's contact radius [m]; absent: one node, as the "
+                                                      "paper's protocol (§8.3) loads")
     forces: list[Positive] = Field(default_factory=lambda: [1.0], description="force magnitudes [N]")
     directions: list[Direction] = Field(default_factory=lambda: ["tension"],
                                         description="tension, pressure, or unit vectors [x, y, z]")
