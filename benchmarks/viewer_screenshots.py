@@ -3,6 +3,12 @@ for looking at what users see:
 
     python benchmarks/viewer_screenshots.py [--output docs/figures] [--model liver] [--only two-tools support]
 
+* ``window``: the whole window as ``tissuesim view liver`` opens it, the pin-head pulling the top up, the
+  displacement colours off (``viewer_window.png``);
+* ``colours``: the same with the displacement colours switched on, their legend at the top left
+  (``viewer_colours.png``);
+* ``replay``: a recording of the ``wound`` session played back (``tissuesim view --replay``), its cut's edges in
+  yellow and the colours on (``viewer_replay.png``);
 * ``two-tools``: a pin-head pulls a fold up and is let go with the hold modifier, so it keeps holding; then the
   scalpel cuts beside it (``viewer_two_tools.png``);
 * ``probe``: a rigid sphere pressed into the top and held there (``viewer_probe.png``);
@@ -23,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from tissuesim.scalpel import Scalpel
-from tissuesim.viewer.app import ViewerApp
+from tissuesim.viewer.app import PANEL_WIDTH, ViewerApp
 from tissuesim.viewer.controller import Controller
 from tissuesim.viewer.gl import look_at_oblique
 from tissuesim.viewer.settings import DRAG_FRACTION, Settings, sized_defaults
@@ -72,7 +78,7 @@ def pull(controller, point, offset, view=SIDE) -> None:
 def two_tools(app) -> None:
     c = app.controller
     size = c.solver.size
-    fold = vertex_towards(c, [-0.6, 0.0, 1.0])         # on the left: the panel covers the right
+    fold = vertex_towards(c, [-0.6, 0.0, 1.0])
     pull(c, fold, [0.0, 0.0, DRAG_FRACTION * size])
     c.pointer_up(hold=True)
     frames(app, SETTLE_FRAMES)
@@ -86,7 +92,7 @@ def two_tools(app) -> None:
     c.pointer_up()
     frames(app, SETTLE_FRAMES)
     near = np.linalg.norm(c.solver.positions - fold, axis=1) < 0.3 * size
-    look_at_oblique(app.ps, c.solver.positions[near], elevation=40.0, azimuth=-80.0, distance=2.4)
+    look_at_oblique(app.ps, c.solver.positions[near], elevation=40.0, azimuth=-80.0, distance=2.4, pane=PANEL_WIDTH)
     frames(app, 1)
 
 
@@ -136,12 +142,53 @@ def wound(app) -> None:
     c.pointer_up(hold=True)
     frames(app, SETTLE_FRAMES)
     near = np.linalg.norm(c.solver.positions - top, axis=1) < 0.15 * size
-    look_at_oblique(app.ps, c.solver.positions[near], elevation=50.0, azimuth=-70.0, distance=2.0)
+    look_at_oblique(app.ps, c.solver.positions[near], elevation=50.0, azimuth=-70.0, distance=2.0,
+                    pane=PANEL_WIDTH)
     frames(app, 1)
 
 
-SCENARIOS = {"probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
-             "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png")}
+def window(app) -> None:
+    """The pin-head pulls the top up by the sized drag (a tenth of the model's size) and keeps pulling."""
+    c = app.controller
+    pull(c, vertex_towards(c, [0.2, -0.3, 1.0]), [0.0, 0.0, DRAG_FRACTION * c.solver.size])
+    frames(app, SETTLE_FRAMES)
+
+
+def colours(app) -> None:
+    app.show_colours = True
+    window(app)
+
+
+def replay(app, output: Path) -> Path:
+    """Record the ``wound`` session, then play it back in a window of its own and return the image's path."""
+    from tissuesim.recording import Recorder, read_recording, solver_frame
+    from tissuesim.viewer.replay import ReplayApp
+
+    recording = output / "viewer_replay_session.pvd"
+    with Recorder(recording) as recorder:
+        recorder.add(solver_frame(app.controller.solver, 0.0))
+        wound(app)
+        recorder.add(solver_frame(app.controller.solver, app.sim_time))
+    app.close()
+    played = ReplayApp(read_recording(recording), title=recording.name, headless=True)
+    played.show_colours = True
+    played.index, played.playing = 1, False
+    for _ in range(2):
+        played.ps.set_user_callback(played.frame)
+        played.ps.frame_tick()
+    image = output / "viewer_replay.png"
+    played.ps.screenshot(str(image), transparent_bg=False, include_UI=True)
+    played.close()
+    for path in [recording, *sorted(recording.with_name(recording.stem + "_frames").glob("*"))]:
+        path.unlink()
+    recording.with_name(recording.stem + "_frames").rmdir()
+    return image
+
+
+SCENARIOS = {"window": (window, "viewer_window.png"), "colours": (colours, "viewer_colours.png"),
+             "probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
+             "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png"),
+             "replay": (None, "viewer_replay.png")}
 
 
 def main() -> None:
@@ -162,6 +209,9 @@ def main() -> None:
                                 scalpel_factory=partial(Scalpel, depth=sized.depth))
         app = ViewerApp(controller, title=f"{name}: {scenario}", headless=True)
         frames(app, 3)
+        if scenario == "replay":
+            print(f"replay: {replay(app, args.output)}")
+            continue
         script(app)
         app.ps.screenshot(str(args.output / filename), transparent_bg=False, include_UI=True)
         print(f"{scenario}: {args.output / filename}; notice: {controller.notice or '-'}")

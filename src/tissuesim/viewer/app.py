@@ -32,7 +32,7 @@ from .gl import look_at_oblique, polyscope
 from .look import SURFACE, TissueSurface  # noqa: F401  (SURFACE: the name scripts look the model up by)
 from .panel import PanelWidgets
 
-VIEW_SIZE = (940, 760)  # pixels: the model's part of the window
+VIEW_SIZE = (940, 780)  # pixels: the model's part of the window
 PANEL_WIDTH = 340  # pixels: the panel, beside the view
 WINDOW_SIZE = (VIEW_SIZE[0] + PANEL_WIDTH, VIEW_SIZE[1])  # pixels
 CUT_COLOR = (0.95, 0.85, 0.1)  # the cut's edges: yellow, apart from tissue, wound walls and the colour map
@@ -321,7 +321,6 @@ def style_window(ps) -> None:
     ps.set_up_dir("z_up")
     ps.set_front_dir("neg_y_front")
     ps.set_ground_plane_mode("none")
-    ps.set_transparency_mode("simple")  # one pass: the surface's slight translucency costs no depth peeling
     ps.set_window_size(*WINDOW_SIZE)
     ps.set_build_default_gui_panels(False)
     ps.set_user_gui_is_on_right_side(True)

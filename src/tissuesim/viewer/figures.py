@@ -187,4 +187,3 @@ def _style(ps) -> None:
     ps.set_SSAA_factor(2)
     ps.set_autocenter_structures(False)
     ps.set_autoscale_structures(False)
-    ps.set_transparency_mode("none")  # the window's translucent tissue (simple blending) is no figure's

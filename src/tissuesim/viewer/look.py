@@ -12,16 +12,17 @@ from __future__ import annotations
 
 import numpy as np
 
-#: The drawn surface's name; not "M_S": polyscope keeps a structure's options (transparency, culling) by name, and
-#: the figures draw an opaque "M_S".
+#: The drawn surface's name; not "M_S": polyscope keeps a structure's options (material, back faces) by name, and
+#: the figures draw their own "M_S".
 SURFACE = "tissue"
 #: Tissue: a deep red that polyscope's wax material lightens to the pink-red of serosa [RGB, 0..1].
 TISSUE_COLOR = (0.48, 0.11, 0.11)
 #: Polyscope's wax material: a soft specular highlight over a diffuse base, as moist tissue shows.
 TISSUE_MATERIAL = "wax"
-#: Opacity of the drawn surface: slightly translucent, as tissue is; low enough to read the inside of a cut, high
-#: enough that the far side does not show through.
-TISSUE_OPACITY = 0.92
+#: The surface is drawn opaque. Polyscope's one-pass ("simple") transparency stops hiding what lies behind the
+#: surface (the wound's walls showed through it even at opacity 1), and its depth peeling ("pretty") took 479 instead
+#: of 65 ms per frame on Mesa's software renderer (liver, the wound, benchmarks/viewer_screenshots.py): a translucent
+#: look is not worth either.
 #: Two triangles sharing an edge are shaded as one smooth surface when their normals differ by less than this [deg];
 #: the cube's edges (90°) stay sharp, a remeshed organ's neighbours (well under 30°) stay smooth.
 CREASE_DEGREES = 50.0
@@ -83,8 +84,7 @@ class TissueSurface:
     def __init__(self, ps, positions, triangles, rest):
         self.source, faces = crease_split(rest, triangles)
         self.mesh = ps.register_surface_mesh(SURFACE, np.asarray(positions)[self.source], faces, smooth_shade=True,
-                                             color=TISSUE_COLOR, material=TISSUE_MATERIAL,
-                                             transparency=TISSUE_OPACITY, back_face_policy="cull")
+                                             color=TISSUE_COLOR, material=TISSUE_MATERIAL, back_face_policy="different")
         self.colours = False
 
     def update(self, positions) -> None:
