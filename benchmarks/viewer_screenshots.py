@@ -9,6 +9,8 @@ for looking at what users see:
   (``viewer_colours.png``);
 * ``replay``: a recording of the ``wound`` session played back (``tissuesim view --replay``), its cut's edges in
   yellow and the colours on (``viewer_replay.png``);
+* ``creases``: the cube at rest, smooth-shaded as polyscope does it (left: its edges drawn as a ragged band) and
+  split along its creases as the simulator draws it (right) (``viewer_creases.png``);
 * ``two-tools``: a pin-head pulls a fold up and is let go with the hold modifier, so it keeps holding; then the
   scalpel cuts beside it (``viewer_two_tools.png``);
 * ``probe``: a rigid sphere pressed into the top and held there (``viewer_probe.png``);
@@ -185,10 +187,40 @@ def replay(app, output: Path) -> Path:
     return image
 
 
+def creases(output: Path) -> Path:
+    """The cube at rest, shaded smooth over every vertex and then split along its creases, side by side."""
+    from PIL import Image
+
+    from tissuesim.commands.view import load_hybrid
+    from tissuesim.viewer.app import style_window
+    from tissuesim.viewer.gl import polyscope
+    from tissuesim.viewer.look import TISSUE_COLOR, TISSUE_MATERIAL, TissueSurface
+
+    surface = load_hybrid("cube", progress=False)[0].surface
+    x, triangles = surface.vertices, surface.triangles
+    ps = polyscope(headless=True)
+    style_window(ps)
+    ps.set_window_size(640, 560)
+    images = []
+    for split in (False, True):
+        ps.remove_all_structures()
+        if split:
+            TissueSurface(ps, x, triangles, x)
+        else:
+            ps.register_surface_mesh("plain", x, triangles, smooth_shade=True, color=TISSUE_COLOR,
+                                     material=TISSUE_MATERIAL)
+        look_at_oblique(ps, x, elevation=25.0, azimuth=-50.0, distance=3.0)
+        images.append(ps.screenshot_to_buffer(transparent_bg=False)[:, :, :3])
+    ps.remove_all_structures()
+    image = output / "viewer_creases.png"
+    Image.fromarray(np.concatenate(images, axis=1)).save(image)
+    return image
+
+
 SCENARIOS = {"window": (window, "viewer_window.png"), "colours": (colours, "viewer_colours.png"),
              "probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
              "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png"),
-             "replay": (None, "viewer_replay.png")}
+             "replay": (None, "viewer_replay.png"), "creases": (None, "viewer_creases.png")}
 
 
 def main() -> None:
@@ -211,6 +243,10 @@ def main() -> None:
         frames(app, 3)
         if scenario == "replay":
             print(f"replay: {replay(app, args.output)}")
+            continue
+        if scenario == "creases":
+            app.close()
+            print(f"creases: {creases(args.output)}")
             continue
         script(app)
         app.ps.screenshot(str(args.output / filename), transparent_bg=False, include_UI=True)
