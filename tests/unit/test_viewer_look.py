@@ -111,3 +111,53 @@ def test_the_window_draws_tissue_and_the_pin_head_only_while_it_holds():
         assert app.surface.colours
     finally:
         app.close()
+
+
+class _RecordingImGui:
+    """Stands in for polyscope's ImGui module: records each call's name; widgets answer 'unchanged'."""
+
+    PAIRS = {"Checkbox", "SliderFloat", "SliderInt", "Combo", "InputFloat"}
+
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        if name.startswith("ImGui"):
+            return 0
+        def call(*args):
+            self.calls.append(name)
+            if name in self.PAIRS:
+                return False, args[1]
+            return False if name.startswith(("Button", "RadioButton", "Is")) else None
+        return call
+
+
+def _panel_calls(controller, *, stats=None):
+    """The names of the ImGui calls of one frame of the panel over ``controller``."""
+    from tissuesim.viewer.panel import PanelWidgets
+
+    panel = PanelWidgets()
+    panel.__dict__.update(controller=controller, title="cube", recorder=None, stats=stats, frame_seconds=0.02,
+                          render_seconds=0.01, sim_time=1.0, show_wireframe=False, show_control=False,
+                          show_colours=False, colour_top=1.0, _pending={}, _toggle_recording=lambda: None)
+    imgui = _RecordingImGui()
+    panel._panel(imgui)
+    return imgui.calls
+
+
+def test_the_panel_rows_stay_when_a_pin_head_holds_and_the_simulation_falls_behind():
+    """The same widgets in the same order whether or not a pin-head is left holding and the simulation is paused or
+    behind: only their texts change, so no row moves under the pointer."""
+    from types import SimpleNamespace
+
+    from tissuesim.viewer.controller import Controller
+
+    controller = Controller(HybridMesh.build(models.cube(300), fine_volume=False))
+    idle = _panel_calls(controller)
+    top = controller.solver.positions[np.argmax(controller.solver.positions[:, 2])].copy()
+    controller.pointer_down(top, top + [0.0, 0.0, 1.0], [0.0, 0.0, -1.0])
+    controller.pointer_up(hold=True)
+    controller.toggle_pause()
+    busy = _panel_calls(controller, stats=SimpleNamespace(step_seconds=0.02, behind=True, dropped=0.1))
+    assert len(controller.held) == 1 and controller.paused
+    assert busy == idle

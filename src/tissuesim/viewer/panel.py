@@ -24,6 +24,7 @@ from .controller import MODES
 MODE_LABELS = {"pin": "pin-head", "probe": "probe", "scalpel": "scalpel", "support": "support"}
 STANDARD_GRAVITY = 9.81  # m/s²: the panel's gravity, straight down the model's z
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
+PAIR_ITEM_WIDTH = 85  # pixels of a widget two to a row (E and nu; dt and prestrain), so the panel fits the window
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 #: The keys, two lines that fit the panel.
 KEY_HINTS = ("keys: S pin-head / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
@@ -131,15 +132,17 @@ class PanelWidgets:
                                           psim.ImGuiSliderFlags_Logarithmic)
             if changed:
                 c.brush.ligament_stiffness = k
-        if c.solver_options.get("attachments"):
-            if psim.Button("drop ligaments"):
-                c.set_solver_option("attachments", None)
-                self._topology = None
-            psim.SameLine()
-        if c.support is not None:
-            if psim.Button("default support"):
-                c.set_support(None)
-                self._topology = None
+        psim.BeginDisabled(not c.solver_options.get("attachments"))     # both always drawn: greyed when idle
+        if psim.Button("drop ligaments"):
+            c.set_solver_option("attachments", None)
+            self._topology = None
+        psim.EndDisabled()
+        psim.SameLine()
+        psim.BeginDisabled(c.support is None)
+        if psim.Button("default support"):
+            c.set_support(None)
+            self._topology = None
+        psim.EndDisabled()
 
     @staticmethod
     def _probe(psim, tool) -> None:
@@ -167,12 +170,15 @@ class PanelWidgets:
 
     def _material(self, psim, s) -> None:
         enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
+        psim.PushItemWidth(PAIR_ITEM_WIDTH)
         changed, e = psim.InputFloat("E [Pa]", s.youngs_modulus, 0.0, 0.0, "%.0f", enter)
         if changed:
             self._configure(youngs_modulus=e)
+        psim.SameLine()
         _, self._pending["poisson_ratio"] = psim.SliderFloat("nu", self._pending.get("poisson_ratio",
                                                                                      s.poisson_ratio), 0.0, 0.49)
         self._apply_on_release(psim, "poisson_ratio")
+        psim.PopItemWidth()
         changed, k = psim.SliderFloat("k [N/m]", s.stiffness, 1.0, 500.0, "%.1f", psim.ImGuiSliderFlags_Logarithmic)
         if changed:
             self._configure(stiffness=k)
@@ -195,13 +201,16 @@ class PanelWidgets:
             psim.EndDisabled()
             if changed and available:
                 self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
-        if "prestrain" in solver_options(s.method):
-            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
-                                                             0.0, 0.3, "%.3f")
-            self._apply_on_release(psim, "prestrain")
+        psim.PushItemWidth(PAIR_ITEM_WIDTH)
         changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
         if changed:
             self._configure(dt=dt_ms * 1e-3)
+        if "prestrain" in solver_options(s.method):
+            psim.SameLine()
+            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
+                                                             0.0, 0.3, "%.3f")
+            self._apply_on_release(psim, "prestrain")
+        psim.PopItemWidth()
 
     def _timing(self, psim) -> None:
         st, c = self.stats, self.controller
