@@ -63,14 +63,18 @@ def _plan(cases) -> str:
     meshes = {case.model.key for case in cases}
     references = {case.reference_key for case in cases if case.record[0]}
     fields = [case for case in cases if case.record[1]]
-    text = (f"{len(cases)} cases on {len(meshes)} meshes, {len(references)} fem references; each worker builds a "
-            "mesh and its solvers once")
+    text = (f"{_count(len(cases), 'case')} on {_count(len(meshes), 'mesh')}, "
+            f"{_count(len(references), 'fem reference')}; each worker builds a mesh and its solvers once")
     if fields:
         # a built-in model's resolution is its vertex count; a file's is unknown until it is read
         known = [case.model.resolution for case in fields if case.model.resolution]
         if known:
             text += f"; fields ≈ {len(fields) * np.mean(known) * 12 / 1e6:.3g} MB of float32 in Zarr"
     return text
+
+
+def _count(n: int, noun: str) -> str:
+    return f"{n} {noun}" + ("" if n == 1 else ("es" if noun.endswith("sh") else "s"))
 
 
 def _client(args):

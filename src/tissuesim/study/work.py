@@ -73,8 +73,9 @@ def solver_of(model: ModelRef, method: str, options: str, material: tuple):
 
 def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
     """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid``: the protocol's load node
-    (§8.3), or for a random load a node drawn among those whose contact patch clears the fixed region, a direction uniform on the sphere and a
-    magnitude uniform in the range, from the case's own seed (the same draw wherever it runs)."""
+    (§8.3), or for a random load a node drawn among those whose contact patch clears the fixed region, a direction
+    uniform on the sphere and a magnitude uniform in the range, from the case's own seed (the same draw wherever it
+    runs)."""
     vertices = hybrid.surface.vertices
     if case.random is None:
         node = protocol.load_node(vertices, hybrid.surface.triangles)
