@@ -142,3 +142,17 @@ def test_a_failing_case_is_recorded_and_the_study_goes_on(tmp_path):
     failed = [r for r in rows if r["status"] == "failed"]
     assert {r["method"] for r in failed} == {"mass-spring"} and all("SolverError" in r["error"] for r in failed)
     assert all(r["rmse_m"] is not None for r in rows if r["status"] == "done")
+
+
+def test_the_report_plots_the_error_against_what_the_study_varies(tmp_path):
+    from tissuesim.study.report import write_report
+
+    text = SMALL.replace('name = "embedded"', 'name = "mass-spring"').replace("field = true", "max_steps = 1")
+    store = Store(tmp_path / "out")
+    run_study(_cases(text, tmp_path), store, progress=False)
+    report = write_report(store.combine().to_pylist(), tmp_path / "out", title="small").read_text()
+    assert "| hybrid | 4 | 0 |" in report and "| mass-spring | 4 | 4 | - | - |" in report
+    # E and the force vary; ν, the radius and the model's resolution do not
+    assert sorted(p.name for p in (tmp_path / "out").glob("*.png")) == ["error_vs_force_N.png",
+                                                                        "error_vs_youngs_modulus_Pa.png"]
+    assert report.count("SolverError") == 4

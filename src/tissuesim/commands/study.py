@@ -1,10 +1,12 @@
 """``tissuesim study STUDY.toml --output DIR``: a declared study (models × methods × materials × loads) run as tasks
 on Dask.
 
-The study is validated and expanded before any worker starts; the command prints how many cases there are, how
-many are already done in DIR, and what the run will write. With no ``--scheduler`` it starts a ``LocalCluster``
-of ``--workers`` single-threaded processes (default: one per core); with ``--scheduler tcp://host:8786`` it uses
-that cluster; ``--workers 0`` runs the cases in this process, one after the other. A rerun skips finished cases.
+The study is validated and expanded before any worker starts; the command prints how many cases, meshes and fem
+references there are and the field storage. With no ``--scheduler`` it starts a ``LocalCluster`` of ``--workers``
+single-threaded processes (default: one per core); with ``--scheduler tcp://host:8786`` it uses that cluster;
+``--workers 0`` runs the cases in this process, one after the other. A rerun skips finished cases. At the end the
+table is combined and summarised in DIR/report.md, with plots of the relative RMSE against each input the study
+varies, per method.
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from ..study.cases import expand
     from ..study.load import StudyError, read_study
+    from ..study.report import write_report
     from ..study.runner import run_study
     from ..study.store import Store
 
@@ -39,7 +42,8 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler is not None and args.workers is not None:
         raise StudyError("--workers sizes the LocalCluster; an existing cluster (--scheduler) has its own workers: "
                          "give one of them")
-    cases = expand(read_study(args.study))
+    loaded = read_study(args.study)
+    cases = expand(loaded)
     store = Store(args.output)
     print(_plan(cases), file=sys.stderr)
     client = _client(args)
@@ -50,9 +54,9 @@ def run(args: argparse.Namespace) -> int:
             client.close()
             if args.scheduler is None:
                 client.cluster.close()
-    store.combine()
+    report = write_report(store.combine().to_pylist(), args.output, title=loaded.study.title)
     print(f"{summary.done} cases done, {summary.failed} failed, {summary.skipped} already done before; results in "
-          f"{args.output / 'results.parquet'}")
+          f"{args.output / 'results.parquet'}, summary in {report}")
     return 1 if summary.failed else 0
 
 
