@@ -4,7 +4,8 @@ The paper's protocol loads one node, whose reference displacement diverges under
 elasticity), so its RMSE is set by that one node and means little. Here the pin-head has a tip of radius R: the force
 is spread over the M_S nodes within R of the load node (:func:`tissuesim.loads.contact_patch`), the same nodal forces
 for every method (``solve_static(node, force, radius=R)``), and the reference is quadratic-tet FEM refined near the
-contact until the sample displacements stop changing (:mod:`.reference`).
+contact until the sample displacements stop changing (:mod:`.reference`). The default cases' linear references ship
+with the package (:mod:`.reference_cache`); any other is computed, with a bar and an estimate of its time, and cached.
 
 Cases: tension (+z) and pressure (−z) at :data:`FORCES_N`, R in :data:`RADII_MM`, on the built-in models and the
 two clean shared livers (cm, scaled to m). Load node and samples as the paper protocol (:mod:`.protocol`).
@@ -276,7 +277,7 @@ def _references(hybrid, node: int, radii_mm: list, cases: dict, config: ContactC
 
     return [finite_contact_reference(hybrid, node, 1e-3 * r, [case.vector for case in cases[r][0]] or [(0, 0, 1.0)],
                                      material=config.material, settings=config.settings, cache_dir=config.cache_dir,
-                                     progress=say) for r in radii_mm]
+                                     progress=say, bar=bar) for r in radii_mm]
 
 
 def _names(specs) -> list[str]:

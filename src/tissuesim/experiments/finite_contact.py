@@ -35,6 +35,7 @@ from . import protocol
 from .reference import (CACHE_FORMAT, LevelRow, RefinementSettings, _edge_length_at, _level_volume,
                         format_row, level_row, patch_traction)
 from .reference_cache import read_arrays, write_arrays
+from .reference_progress import LevelProgress
 
 __all__ = ["FiniteContactReference", "finite_contact_reference"]
 
@@ -84,7 +85,7 @@ class FiniteContactReference:
 def finite_contact_reference(mesh, node: int, radius: float, forces, *, material: str = "neo-hookean",
                              youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
                              settings: RefinementSettings | None = None, cache_dir=None,
-                             progress=None) -> FiniteContactReference:
+                             progress=None, bar: bool = False) -> FiniteContactReference:
     """The finite-strain equilibrium of the M_S nodes under each of ``forces`` ``(k, 3)`` [N], spread over the
     contact patch of ``node`` with radius ``radius`` [m], refined until it converges (module docstring).
 
@@ -94,6 +95,8 @@ def finite_contact_reference(mesh, node: int, radius: float, forces, *, material
         settings: refinement settings (default :class:`~.reference.RefinementSettings`).
         cache_dir: folder of the on-disk cache; None: no cache.
         progress: optional callable receiving one line of text per load and level.
+        bar: while computing, a bar over the levels with an estimate of their time
+            (:class:`.reference_progress.LevelProgress`).
     """
     from ..fem.hyperelastic import check_material
 
@@ -112,8 +115,12 @@ def finite_contact_reference(mesh, node: int, radius: float, forces, *, material
     cached = _load(cache_dir, key)
     if cached is not None:
         return cached
-    reference = _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ratio, settings,
-                         progress or (lambda line: None))
+    tracker = LevelProgress(progress, settings.max_levels, bar=bar)
+    try:
+        reference = _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ratio, settings,
+                             tracker)
+    finally:
+        tracker.close()
     write_arrays(cache_dir, key, {"node": node, "radius": radius, "material": material,
                                   "converged": reference.converged, "E": youngs_modulus, "nu": poisson_ratio,
                                   "levels": [asdict(row) for row in reference.levels]},
@@ -122,7 +129,7 @@ def finite_contact_reference(mesh, node: int, radius: float, forces, *, material
     return reference
 
 
-def _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ratio, settings, say):
+def _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ratio, settings, progress):
     rest = np.asarray(surface.vertices, dtype=np.float64)
     samples = protocol.sample_nodes(rest, node, min(settings.samples, len(rest)))
     h0 = _edge_length_at(surface, node)
@@ -130,15 +137,17 @@ def _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ra
     for level in range(settings.max_levels + 1):
         level_mesh = _level_volume(surface, rest[node], radius, h0, level, settings)
         if level_mesh is None:
-            say(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
+            progress.say(f"level {level} would exceed {settings.max_surface_vertices} surface vertices; stopped")
             break
         refined, volume, _ = level_mesh
+        progress.level_meshed(level, len(volume.tets))
         fields = _solve_level(volume, refined, surface.vertex_count, rest, node, radius, forces, material,
-                              youngs_modulus, poisson_ratio, say)
+                              youngs_modulus, poisson_ratio, progress.say)
+        progress.level_solved()
         change = None if previous is None else _largest_change(fields, previous, samples)
         previous = fields
         rows.append(_row(level, volume, h0, settings, samples, fields, forces, node, change))
-        say(f"R = {1e3 * radius:g} mm, {material}: " + format_row(rows[-1]))
+        progress.say(f"R = {1e3 * radius:g} mm, {material}: " + format_row(rows[-1]))
         if change is not None and level >= settings.min_levels and change < settings.tolerance:
             break
     if previous is None:
