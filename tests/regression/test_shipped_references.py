@@ -18,7 +18,7 @@ from tissuesim.experiments.reference_cache import SHIPPED_DIR, SHIPPED_SCHEMA, l
 from tissuesim.mesh import models
 
 SETTINGS = contact.ContactConfig().settings
-#: What the shipped references may weigh in the repository (measured: about 2 MB).
+#: What the shipped references may weigh in the repository (measured: 1.2 MB).
 SIZE_BUDGET_MB = 5.0
 
 
