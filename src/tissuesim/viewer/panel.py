@@ -99,16 +99,20 @@ class PanelWidgets:
 
     @staticmethod
     def _held(psim, c) -> None:
-        """One row: the pin-heads left holding, their pull and the button that lets them go (greyed when none)."""
-        count = len(c.held)
+        """One row: the pin-heads left holding and their pull, or the probe left pressing, and the button that lets
+        them go (greyed when nothing holds)."""
+        count, probe = len(c.held), c.probe.held and c.probe.pressing
         pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
-        psim.BeginDisabled(count == 0)
+        psim.BeginDisabled(count == 0 and not probe)
         if psim.Button("let go (X)"):
             c.release_held()
         psim.EndDisabled()
         psim.SameLine()
-        psim.TextUnformatted(f"holding {count} pin-head{'s' * (count != 1)}, {pulling:.2f} N" if count else
-                             "no pin-head holding")
+        if count:
+            psim.TextUnformatted(f"holding {count} pin-head{'s' * (count != 1)}, {pulling:.2f} N" +
+                                 (" + probe" if probe else ""))
+        else:
+            psim.TextUnformatted("the probe holds" if probe else "nothing holding")
 
     def _gravity(self, psim, c) -> None:
         gravity = c.solver_options.get("gravity") is not None
