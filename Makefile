@@ -8,7 +8,7 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: run test test-slow setup clean clean-numba
+.PHONY: run test test-slow docs setup clean clean-numba
 
 # Headless OpenGL (EGL on Mesa's software renderer) for the figures; installed where apt-get can, else skipped.
 GL_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri
@@ -31,11 +31,14 @@ run: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
+docs: $(STAMP)
+	$(BIN)/mkdocs build --strict
+
 test-slow: $(STAMP)
 	$(BIN)/python -m pytest -q --run-slow
 
 clean:
-	rm -rf $(VENV) results .pytest_cache
+	rm -rf $(VENV) results .pytest_cache site
 
 # Numba caches a compiled kernel by its own source file: after editing a module whose functions others inline
 # (layer/hinge_kernels.py), the callers' caches are stale.

@@ -56,8 +56,6 @@ def test_table1_size_is_defined_as_build_prints_it(capsys):
     assert f"size (kB): {tables.SIZE_DEFINITION}" in capsys.readouterr().err.splitlines()
 
 
-@pytest.mark.xfail(strict=True, reason="the experiments' records still hold the in-memory size "
-                                       "(experiments/sweep_records.py, mesh_info), not the file size of the legend")
 def test_the_experiments_record_the_size_build_prints():
     from tissuesim.experiments.inputs import builtin_surface
     from tissuesim.experiments.sweep_records import ModelSamples, mesh_info

@@ -11,6 +11,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from ..mesh.table1 import ascii_size
 from . import protocol
 from .sweep_config import ExperimentConfig
 from .sweep_measure import inverted_elements
@@ -71,9 +72,9 @@ def mesh_info(hybrid, spec: str, model: ModelSamples, build_s: float) -> dict:
             return None
         points, elements = getattr(mesh, "vertices", None), getattr(mesh, cells)
         points = mesh.points if points is None else points
-        # Size as stored in memory (float64 coordinates + int32 indices) [kB]; the paper's are file sizes.
+        # the one definition of Table 1's size (tables.SIZE_DEFINITION, as tissuesim build prints it)
         return {"nodes": int(len(points)), "elements": int(len(elements)),
-                "size_kB": round((points.nbytes + elements.nbytes) / 1024.0, 1)}
+                "size_kB": round(ascii_size(mesh) / 1000.0, 1)}
 
     rest, node, rmse_nodes = hybrid.surface.vertices, model.node, model.rmse_nodes
     return {
