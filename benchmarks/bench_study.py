@@ -68,7 +68,7 @@ def plain_loop(cases) -> float:
             nodes = protocol.sample_nodes(solver.rest_positions, node, case.record[3])
             protocol.rmse(positions, reference, nodes)
         if case.record[2]:
-            work._median_step_ms(solver, node, force, case.radius, case.record[4])
+            work._median_step_ms(solver, case.record[4])
     return time.perf_counter() - start
 
 

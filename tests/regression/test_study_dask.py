@@ -70,7 +70,7 @@ def test_two_workers_give_the_serial_answers(tmp_path, client):
 
 def test_a_killed_worker_loses_no_finished_case(tmp_path, client):
     # step timing makes each case last long enough to be killed in the middle of the study
-    cases = expand(parse_study(STUDY.replace("field = true", "step_times = true\ntiming_steps = 400"),
+    cases = expand(parse_study(STUDY.replace("field = true", "step_times = true\ntiming_steps = 20000"),
                                tmp_path / "study.toml"))
     store = Store(tmp_path / "out")
     outcome = {}

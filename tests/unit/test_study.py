@@ -82,6 +82,10 @@ def test_presets_ranges_and_random_loads_expand(tmp_path):
     ('[[models]]\nfile = "absent.obj"\n[[methods]]\nname = "hybrid"\n', "models[0].file: no file"),
     ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[materials]\npoisson_ratio = [0.5]\n',
      "materials: "),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "probe"\nradius = 0.01\n',
+     "loads.depths: a probe is pressed to depths"),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\ndepths = [0.001]\n',
+     "loads.depths: a pin-head is loaded by forces"),
 ])
 def test_a_bad_study_is_refused_naming_the_key(tmp_path, text, expected):
     assert expected in _refusal(text, tmp_path)
@@ -156,3 +160,18 @@ def test_the_report_plots_the_error_against_what_the_study_varies(tmp_path):
     assert sorted(p.name for p in (tmp_path / "out").glob("*.png")) == ["error_vs_force_N.png",
                                                                         "error_vs_youngs_modulus_Pa.png"]
     assert report.count("SolverError") == 4
+
+
+def test_a_probe_is_pressed_to_its_depths_and_measured_against_the_pressed_reference(tmp_path):
+    text = ('[[models]]\nname = "cube"\nresolution = 400\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "probe"\n'
+            'radius = 0.025\ndepths = [0.001, 0.002]\ndirections = ["pressure"]\n')
+    cases = _cases(text, tmp_path)
+    store = Store(tmp_path / "out")
+    assert run_study(cases, store, progress=False).done == 2
+    rows = sorted(store.combine().to_pylist(), key=lambda r: r["depth_m"])
+    # straight down on a symmetric cube: a lateral force only from the mesh's asymmetry (a percent at most)
+    assert all(r["tool"] == "probe" and abs(r["force_x"]) < 1e-2 * abs(r["force_z"]) for r in rows)
+    assert rows[0]["force_z"] < 0.0                                   # the probe pushes the tissue down
+    # linear elasticity: twice the depth, twice the force, to the contact tolerance (1e-3 of R over a 1 mm press)
+    assert rows[1]["force_z"] == pytest.approx(2 * rows[0]["force_z"], rel=0.05)
+    assert rows[1]["relative_rmse"] == pytest.approx(rows[0]["relative_rmse"], rel=0.05)

@@ -55,7 +55,8 @@ class ModelRef:
 @dataclass(frozen=True)
 class Case:
     """One case. Forces [N], lengths [m]; ``direction`` a unit ``(3,)`` tuple, or None for a random load (then
-    ``random`` = (seed, index, lowest N, highest N) and the worker draws node, direction and force)."""
+    ``random`` = (seed, index, lowest N, highest N) and the worker draws node, direction and force). A probe
+    (``tool = "probe"``, sphere of ``radius``) is pressed ``depth`` into the load node along ``direction``."""
 
     model: ModelRef
     method: str
@@ -66,12 +67,14 @@ class Case:
     direction: tuple | None
     random: tuple | None
     record: tuple                   # (metrics, field, step_times, samples, timing_steps, max_steps)
+    tool: str = "pin-head"
+    depth: float | None = None
 
     @property
     def reference_key(self) -> str:
         """The hash of the fem reference this case is measured against (shared by every method)."""
         return content_hash("reference", self.model.key, self.material, self.radius, self.force_N, self.direction,
-                            self.random, self.record[5])
+                            self.random, self.record[5], self.tool, self.depth)
 
     @property
     def case_id(self) -> str:
@@ -85,7 +88,7 @@ def expand(loaded: StudyFile) -> list[Case]:
     models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
     methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
     record = tuple(study.record.model_dump().values())
-    cases = [Case(model, name, options, material, load[0], load[1], load[2], load[3], record)
+    cases = [Case(model, name, options, material, *load[:4], record, *load[4:])
              for model, (name, options), material, load in product(models, methods, _materials(study), _loads(study))]
     ids = [case.case_id for case in cases]
     if len(set(ids)) < len(ids):
@@ -163,10 +166,12 @@ def _values(spec, default: float) -> list[float]:
 
 
 def _loads(study) -> list[tuple]:
-    """(radius, force, direction, random) of every load."""
+    """(radius, force, direction, random, tool, depth) of every load."""
     loads = study.loads
     if loads.random is not None:
         r = loads.random
-        return [(loads.radius, None, None, (r.seed, i, *r.force)) for i in range(r.count)]
+        return [(loads.radius, None, None, (r.seed, i, *r.force), "pin-head", None) for i in range(r.count)]
     directions = [tuple(LOAD_DIRECTIONS[d]) if isinstance(d, str) else tuple(d) for d in loads.directions]
-    return [(loads.radius, float(f), d, None) for d in directions for f in loads.forces]
+    if loads.kind == "probe":
+        return [(loads.radius, None, d, None, "probe", float(depth)) for d in directions for depth in loads.depths]
+    return [(loads.radius, float(f), d, None, "pin-head", None) for d in directions for f in loads.forces]

@@ -107,15 +107,31 @@ Direction = Union[Literal[tuple(LOAD_DIRECTIONS)], Vector]
 
 
 class Loads(Strict):
-    """``[loads]``: a pin-head on the protocol's load node (§8.3), each force in each direction; or random ones."""
+    """``[loads]``: a pin-head on the protocol's load node (§8.3), each force in each direction, or random ones;
+    or a rigid spherical probe pressed into the load node, each depth in each direction."""
 
-    kind: Literal["pin-head"] = Field("pin-head", description="the tool: pin-head (a probe is not run yet)")
+    kind: Literal["pin-head", "probe"] = Field("pin-head", description="the tool: pin-head or probe")
+    depths: list[Positive] | None = Field(None, description="a probe's indentation depths [m] along the direction")
     radius: Positive | None = Field(None, description="the tip's contact radius [m]; absent: one node, as the "
                                                       "paper's protocol (§8.3) loads")
     forces: list[Positive] = Field(default_factory=lambda: [1.0], description="force magnitudes [N]")
     directions: list[Direction] = Field(default_factory=lambda: ["tension"],
                                         description="tension, pressure, or unit vectors [x, y, z]")
     random: RandomLoads | None = Field(None, description="random loads instead of forces × directions")
+
+    @model_validator(mode="after")
+    def _tool_keys(self):
+        if self.kind == "probe":
+            if self.radius is None:
+                raise located("radius", "a probe needs its sphere's radius [m], e.g. radius = 0.005")
+            if self.depths is None:
+                raise located("depths", "a probe is pressed to depths [m], e.g. depths = [0.001, 0.002]")
+            if self.random is not None:
+                raise located("random", "random loads are pin-head loads; remove [loads.random] or use "
+                                        "kind = \"pin-head\"")
+        elif self.depths is not None:
+            raise located("depths", "a pin-head is loaded by forces; remove depths or set kind = \"probe\"")
+        return self
 
     @field_validator("directions")
     @classmethod

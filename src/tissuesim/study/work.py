@@ -79,7 +79,8 @@ def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
     vertices = hybrid.surface.vertices
     if case.random is None:
         node = protocol.load_node(vertices, hybrid.surface.triangles)
-        return node, float(case.force_N) * np.asarray(case.direction, dtype=np.float64)
+        size = 1.0 if case.tool == "probe" else float(case.force_N)   # a probe's: its unit direction
+        return node, size * np.asarray(case.direction, dtype=np.float64)
     seed, index, lowest, highest = case.random
     rng = np.random.default_rng([seed, index])
     node = int(rng.choice(_clear_nodes(vertices, case.radius)))
@@ -96,11 +97,27 @@ def _clear_nodes(vertices: np.ndarray, radius: float | None) -> np.ndarray:
     return np.flatnonzero(distance > (radius or 0.0))
 
 
+def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(n, 3) float64`` M_S positions [m] at equilibrium under ``case``'s tool, and the ``(3,)`` force [N] on the
+    tissue; the loads stay applied. A pin-head's ``load`` is its force; a probe's is its unit direction d: the
+    sphere, touching the node's rest position from outside (centre x − R d), is held ``depth`` further along d."""
+    from ..probe import Probe
+
+    if case.tool == "pin-head":
+        positions = solver.solve_static(node, load, radius=case.radius, max_steps=case.record[5])
+        return np.array(positions), np.asarray(load, dtype=np.float64)
+    solver.reset()
+    probe = Probe(solver, radius=case.radius)
+    centre = np.asarray(solver.rest_positions)[node] + (case.depth - case.radius) * load
+    positions = np.array(probe.press_static(centre, max_steps=case.record[5]))
+    return positions, -np.asarray(probe.force, dtype=np.float64)
+
+
 def reference(case: Case) -> np.ndarray:
     """``(n, 3) float64`` M_S positions [m] of the fem reference under ``case``'s load (a task of its own)."""
     solver = solver_of(case.model, protocol.REFERENCE, "{}", case.material)
-    node, force = load_of(case, solver.hybrid)
-    return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record[5]))
+    node, load = load_of(case, solver.hybrid)
+    return equilibrium(solver, case, node, load)[0]
 
 
 def run_case(case: Case, reference_positions: np.ndarray | None) -> dict:
@@ -117,11 +134,11 @@ def run_case(case: Case, reference_positions: np.ndarray | None) -> dict:
 def _measured(case: Case, reference_positions, start: float) -> dict:
     metrics, want_field, step_times, samples, timing_steps, max_steps = case.record
     solver = solver_of(case.model, case.method, case.options, case.material)
-    node, force = load_of(case, solver.hybrid)
+    node, load = load_of(case, solver.hybrid)
     solved = time.perf_counter()
-    positions = np.array(solver.solve_static(node, force, radius=case.radius, max_steps=max_steps))
+    positions, force = equilibrium(solver, case, node, load)
     rest = np.asarray(solver.rest_positions)
-    row = {"status": "done", "error": "", "node": node, "force_x": force[0], "force_y": force[1],
+    row = {"status": "done", "error": "", "tool": case.tool, "depth_m": case.depth, "node": node, "force_x": force[0], "force_y": force[1],
            "force_z": force[2], "surface_nodes": len(rest), "solve_ms": 1e3 * (time.perf_counter() - solved),
            "max_displacement_m": float(np.linalg.norm(positions - rest, axis=1).max())}
     if metrics:
@@ -129,15 +146,14 @@ def _measured(case: Case, reference_positions, start: float) -> dict:
         row["rmse_m"] = protocol.rmse(positions, reference_positions, nodes)
         row["relative_rmse"] = protocol.relative_rmse(positions, reference_positions, rest, nodes)
     if step_times:
-        row["step_ms"] = _median_step_ms(solver, node, force, case.radius, timing_steps)
+        row["step_ms"] = _median_step_ms(solver, timing_steps)
     solver.clear_load()
     row["case_ms"] = 1e3 * (time.perf_counter() - start)
     return {"row": row, "field": (positions - rest).astype(np.float32) if want_field else None}
 
 
-def _median_step_ms(solver, node: int, force: np.ndarray, radius, count: int) -> float:
-    solver.reset()
-    solver.set_load(node, force, radius=radius)
+def _median_step_ms(solver, count: int) -> float:
+    """The median wall time [ms] of ``count`` steps from the equilibrium, under the loads acting there."""
     times = []
     for _ in range(count):
         begin = time.perf_counter()
