@@ -34,3 +34,25 @@ def test_the_quick_paper_protocol_reproduces_the_experiment(tmp_path):
             assert 1e3 * studied[key]["rmse_m"] == pytest.approx(record["rmse_mm"], rel=1e-12)
             assert studied[key]["relative_rmse"] == pytest.approx(record["relative_rmse"], rel=1e-12)
     assert compared == len(cases) == 16
+
+
+CONTACT = EXAMPLE.with_name("contact_protocol_quick.toml")
+
+
+def test_the_quick_contact_protocol_reproduces_the_experiment(tmp_path):
+    from tissuesim.experiments.contact import METRICS, QUICK, ContactConfig, run_contact
+
+    store = Store(tmp_path / "out")
+    assert run_study(expand(read_study(CONTACT)), store, progress=False).failed == 0
+    studied = {}
+    for row in store.combine().to_pylist():
+        method = "hybrid-near" if "near_field" in row["options"] else row["method"]
+        studied[(method, "tension" if row["direction_z"] > 0 else "pressure", row["force_N"])] = row
+    records = run_contact(ContactConfig(**QUICK), progress=False)["records"]
+    assert len(records) == len(studied) == 24
+    for record in records:
+        row = studied[(record["method"], record["load"], record["force_N"])]
+        assert (row["converged"], row["reference_converged"]) == (record["converged"], record["reference_converged"])
+        for metric in METRICS:
+            assert 1e3 * row[f"{metric}_m"] == pytest.approx(record[f"{metric}_mm"], rel=1e-12)
+            assert row[f"relative_{metric}"] == pytest.approx(record[f"relative_{metric}"], rel=1e-12)

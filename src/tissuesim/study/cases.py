@@ -69,10 +69,15 @@ class Case:
     record: tuple                   # (metrics, field, step_times, samples, timing_steps, max_steps)
     tool: str = "pin-head"
     depth: float | None = None
+    reference: tuple = ("fem",)      # ("fem",) or ("contact", max_levels, shipped)
 
     @property
     def reference_key(self) -> str:
-        """The hash of the fem reference this case is measured against (shared by every method)."""
+        """The hash of the reference this case is measured against (shared by every method; a contact reference,
+        a response per unit force, also by every force and direction on the same node)."""
+        if self.reference[0] == "contact":
+            return content_hash("contact", self.model.key, self.material[1:3], self.radius, self.random,
+                                self.reference, self.record[3])
         return content_hash("reference", self.model.key, self.material, self.radius, self.force_N, self.direction,
                             self.random, self.record[5], self.tool, self.depth)
 
@@ -88,7 +93,9 @@ def expand(loaded: StudyFile) -> list[Case]:
     models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
     methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
     record = tuple(study.record.model_dump().values())
-    cases = [Case(model, name, options, material, *load[:4], record, *load[4:])
+    reference = (("fem",) if study.reference.kind == "fem" else
+                 ("contact", study.reference.max_levels, study.reference.shipped))
+    cases = [Case(model, name, options, material, *load[:4], record, *load[4:], reference)
              for model, (name, options), material, load in product(models, methods, _materials(study), _loads(study))]
     ids = [case.case_id for case in cases]
     if len(set(ids)) < len(ids):

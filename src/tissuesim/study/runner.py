@@ -10,6 +10,7 @@ per study (its task key is its content hash, so Dask shares it between the cases
 from __future__ import annotations
 
 import os
+import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -117,23 +118,25 @@ def _failure(error) -> dict:
 
 
 def _path(store: Store, key: str) -> Path:
-    return store.root / REFERENCES / f"{key}.npy"
+    return store.root / REFERENCES / f"{key}.npz"
 
 
 def _cached(store: Store, key: str):
-    """The reference positions kept under ``key``, or None (also for an unreadable file, which is recomputed)."""
+    """The reference arrays kept under ``key`` (:func:`.work.reference`), or None (also for an unreadable file,
+    which is recomputed)."""
     try:
-        positions = np.load(_path(store, key))
-    except (OSError, ValueError):
+        with np.load(_path(store, key), allow_pickle=False) as data:
+            arrays = {name: data[name] for name in data.files}
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile):
         return None
-    return positions if positions.ndim == 2 and positions.shape[1] == 3 else None
+    return arrays if "positions" in arrays or {"response", "samples", "converged"} <= set(arrays) else None
 
 
-def _keep(store: Store, key: str, positions: np.ndarray) -> None:
+def _keep(store: Store, key: str, arrays: dict) -> None:
     path = _path(store, key)
     path.parent.mkdir(exist_ok=True)
-    temporary = path.with_name(f".{key}.{os.getpid()}.tmp.npy")
-    np.save(temporary, positions)
+    temporary = path.with_name(f".{key}.{os.getpid()}.tmp.npz")
+    np.savez(temporary, **arrays)
     os.replace(temporary, path)
 
 

@@ -143,6 +143,17 @@ class Loads(Strict):
         return directions
 
 
+class Reference(Strict):
+    """``[reference]``: what the metrics compare against."""
+
+    kind: Literal["fem", "contact"] = Field(
+        "fem", description="fem: the fem method on the hybrid's fine volume (the paper's protocol); contact: the "
+                           "quadratic-tet reference refined near the patch until it converges (the contact protocol)")
+    max_levels: Annotated[int, Field(strict=True, ge=0)] = Field(
+        4, description="contact: the last refinement level tried (the contact protocol's default 4, --quick 2)")
+    shipped: Flag = Field(True, description="contact: read a reference shipped with the package where one matches")
+
+
 class Record(Strict):
     """``[record]``: what each case keeps beside its inputs."""
 
@@ -162,4 +173,12 @@ class Study(Strict):
     methods: Annotated[list[MethodSpec], Field(min_length=1)] = Field(description="the [[methods]] tables")
     materials: Materials = Field(default_factory=Materials, description="the [materials] table")
     loads: Loads = Field(default_factory=Loads, description="the [loads] table")
+    reference: Reference = Field(default_factory=Reference, description="the [reference] table")
     record: Record = Field(default_factory=Record, description="the [record] table")
+
+    @model_validator(mode="after")
+    def _contact_needs_a_patch(self):
+        if self.reference.kind == "contact" and (self.loads.kind != "pin-head" or self.loads.radius is None):
+            raise located("reference.kind", "the contact reference is that of a pin-head's patch: give [loads] "
+                                            "kind = \"pin-head\" and a radius, or use kind = \"fem\"")
+        return self

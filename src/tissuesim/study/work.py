@@ -104,8 +104,7 @@ def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.nda
     from ..probe import Probe
 
     if case.tool == "pin-head":
-        positions = solver.solve_static(node, load, radius=case.radius, max_steps=case.record[5])
-        return np.array(positions), np.asarray(load, dtype=np.float64)
+        return _settled(solver, node, load, case), np.asarray(load, dtype=np.float64)
     solver.reset()
     probe = Probe(solver, radius=case.radius)
     centre = np.asarray(solver.rest_positions)[node] + (case.depth - case.radius) * load
@@ -113,26 +112,72 @@ def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.nda
     return positions, -np.asarray(probe.force, dtype=np.float64)
 
 
-def reference(case: Case) -> np.ndarray:
-    """``(n, 3) float64`` M_S positions [m] of the fem reference under ``case``'s load (a task of its own)."""
+def _settled(solver, node: int, force: np.ndarray, case: Case) -> np.ndarray:
+    """A pin-head's equilibrium; a solve that has not settled within ``max_steps`` keeps its last (finite)
+    positions, as the experiments record it (``converged`` false in the row), anything else is raised."""
+    from ..errors import SolverError
+
+    solver.last_solve = None
+    try:
+        return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record[5]))
+    except SolverError:
+        report = solver.last_solve
+        if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
+            raise
+        return np.array(solver.positions)
+
+
+def reference(case: Case) -> dict:
+    """The reference of ``case`` (a task of its own), as arrays: ``positions`` ``(n, 3) float64`` [m] of the fem
+    method under the case's load; or for a contact reference its ``response`` ``(n, 3, 3)`` [m/N] per unit force,
+    ``samples`` ``(k,) int64`` and ``converged`` (:class:`tissuesim.experiments.reference.ContactReference`)."""
+    if case.reference[0] == "contact":
+        from ..experiments.reference import RefinementSettings, contact_reference
+
+        _, youngs_modulus, poisson_ratio, _ = case.material
+        hybrid = hybrid_of(case.model)
+        node, _ = load_of(case, hybrid)
+        settings = RefinementSettings(max_levels=case.reference[1], samples=case.record[3])
+        found = contact_reference(hybrid, node, case.radius, youngs_modulus=youngs_modulus,
+                                  poisson_ratio=poisson_ratio, settings=settings, shipped=case.reference[2])
+        return {"response": found.response, "samples": np.asarray(found.samples, dtype=np.int64),
+                "converged": np.array(found.converged)}
     solver = solver_of(case.model, protocol.REFERENCE, "{}", case.material)
     node, load = load_of(case, solver.hybrid)
-    return equilibrium(solver, case, node, load)[0]
+    return {"positions": equilibrium(solver, case, node, load)[0]}
 
 
-def run_case(case: Case, reference_positions: np.ndarray | None) -> dict:
+def _metrics(case: Case, solver, node: int, force, positions, reference: dict) -> dict:
+    """The errors of ``positions`` against ``reference`` [m], and relative to the reference's RMS displacement."""
+    rest = np.asarray(solver.rest_positions)
+    if "positions" in reference:
+        nodes = protocol.sample_nodes(rest, node, min(case.record[3], len(rest)))
+        return {"rmse_m": protocol.rmse(positions, reference["positions"], nodes),
+                "relative_rmse": protocol.relative_rmse(positions, reference["positions"], rest, nodes)}
+    from ..experiments.contact import METRICS, contact_metrics
+
+    target = rest + reference["response"] @ np.asarray(force, dtype=np.float64)
+    found = contact_metrics(positions, target, rest, reference["samples"], *solver.contact_patch(node, case.radius))
+    row = {"reference_converged": bool(reference["converged"])}
+    for name in METRICS:
+        row[f"{name}_m"] = None if found[f"{name}_mm"] is None else found[f"{name}_mm"] / 1e3
+        row[f"relative_{name}"] = found[f"relative_{name}"]
+    return row
+
+
+def run_case(case: Case, reference_arrays: dict | None) -> dict:
     """One case measured: ``{"row": metrics, "field": (n, 3) float32 displacement [m] or None}``; an error of the
     case's own (a refused option, a solve that does not settle) is returned as the row's ``error``, not raised."""
     start = time.perf_counter()
     try:
-        return _measured(case, reference_positions, start)
+        return _measured(case, reference_arrays, start)
     except Exception as error:  # noqa: BLE001 - a case's failure is its result; the study goes on
         return {"row": {"status": "failed", "error": f"{type(error).__name__}: {error}",
                         "case_ms": 1e3 * (time.perf_counter() - start)}, "field": None}
 
 
-def _measured(case: Case, reference_positions, start: float) -> dict:
-    metrics, want_field, step_times, samples, timing_steps, max_steps = case.record
+def _measured(case: Case, reference_arrays, start: float) -> dict:
+    metrics, want_field, step_times, _, timing_steps, _ = case.record
     solver = solver_of(case.model, case.method, case.options, case.material)
     node, load = load_of(case, solver.hybrid)
     solved = time.perf_counter()
@@ -141,10 +186,9 @@ def _measured(case: Case, reference_positions, start: float) -> dict:
     row = {"status": "done", "error": "", "tool": case.tool, "depth_m": case.depth, "node": node, "force_x": force[0], "force_y": force[1],
            "force_z": force[2], "surface_nodes": len(rest), "solve_ms": 1e3 * (time.perf_counter() - solved),
            "max_displacement_m": float(np.linalg.norm(positions - rest, axis=1).max())}
+    row["converged"] = True if solver.last_solve is None else bool(solver.last_solve.converged)
     if metrics:
-        nodes = protocol.sample_nodes(rest, node, min(samples, len(rest)))
-        row["rmse_m"] = protocol.rmse(positions, reference_positions, nodes)
-        row["relative_rmse"] = protocol.relative_rmse(positions, reference_positions, rest, nodes)
+        row.update(_metrics(case, solver, node, force, positions, reference_arrays))
     if step_times:
         row["step_ms"] = _median_step_ms(solver, timing_steps)
     solver.clear_load()
