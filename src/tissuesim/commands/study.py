@@ -68,7 +68,8 @@ def _plan(cases) -> str:
     references = {case.reference_key for case in cases if case.record[0]}
     fields = [case for case in cases if case.record[1]]
     text = (f"{_count(len(cases), 'case')} on {_count(len(meshes), 'mesh')}, "
-            f"{_count(len(references), 'fem reference')}; each worker builds a mesh and its solvers once")
+            f"{_count(len(references), cases[0].reference[0] + ' reference')}; each worker builds a mesh and its "
+            "solvers once")
     if fields:
         # a built-in model's resolution is its vertex count; a file's is unknown until it is read
         known = [case.model.resolution for case in fields if case.model.resolution]
