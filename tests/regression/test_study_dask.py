@@ -91,3 +91,17 @@ def test_a_killed_worker_loses_no_finished_case(tmp_path, client):
         assert (store.root / "parts" / name).read_bytes() == content
     again = run_study(cases, store, client=client, progress=False)
     assert (again.done, again.failed, again.skipped) == (0, 0, len(cases))
+
+
+def test_the_command_runs_on_an_existing_scheduler(tmp_path, client, capsys):
+    from tissuesim.cli import main
+
+    path = tmp_path / "study.toml"
+    path.write_text(STUDY.replace("count = 3", "count = 1"))
+    address = client.scheduler.address
+    assert main(["study", str(path), "--scheduler", address, "--output", str(tmp_path / "out"), "--quiet"]) == 0
+    out = capsys.readouterr()
+    assert "8 cases done, 0 failed" in out.out and "Dask dashboard" in out.err
+    assert len(list((tmp_path / "out" / "parts").glob("*.parquet"))) == 8
+    assert (tmp_path / "out" / "report.md").is_file()
+    assert client.status == "running"              # the command left the cluster it was given running
