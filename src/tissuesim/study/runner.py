@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import zipfile
+from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -88,15 +89,20 @@ def _distributed(pending: list[Case], store: Store, client):
                 references[case.reference_key] = reference
         future = client.submit(work.run_case, case, reference, key=f"case-{case.case_id}", pure=False)
         futures[future.key] = (future, case)
+    # a result or reference the client no longer holds is released by the cluster: memory stays bounded by the
+    # cases in flight and the references still needed, not by the study's size
+    users = Counter(case.reference_key for case in pending if case.record[0])
     try:
         for future in as_completed([f for f, _ in futures.values()]):
-            case = futures[future.key][1]
-            if future.status == "finished":
-                yield case, future.result()
-            else:
-                yield case, _failure(future.exception())
+            case = futures.pop(future.key)[1]
+            result = future.result() if future.status == "finished" else _failure(future.exception())
+            yield case, result
             if case.record[0]:
-                _keep_future(store, case.reference_key, references[case.reference_key])
+                key = case.reference_key
+                _keep_future(store, key, references[key])
+                users[key] -= 1
+                if not users[key]:
+                    del references[key]
     finally:
         client.cancel([f for f, _ in futures.values()] + [f for f in references.values() if hasattr(f, "key")])
 
