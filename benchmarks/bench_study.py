@@ -63,12 +63,12 @@ def plain_loop(cases) -> float:
         node, force = work.load_of(case, solver.hybrid)
         positions = solver.solve_static(node, force, radius=case.radius)
         np.asarray(positions - solver.rest_positions, dtype=np.float32)
-        if case.record[0]:
+        if case.record.metrics:
             reference = work.reference(case)
-            nodes = protocol.sample_nodes(solver.rest_positions, node, case.record[3])
+            nodes = protocol.sample_nodes(solver.rest_positions, node, case.record.samples)
             protocol.rmse(positions, reference, nodes)
-        if case.record[2]:
-            work._median_step_ms(solver, case.record[4])
+        if case.record.step_times:
+            work._median_step_ms(solver, case.record.timing_steps)
     return time.perf_counter() - start
 
 

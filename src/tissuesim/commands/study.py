@@ -65,8 +65,8 @@ def _plan(cases) -> str:
     import numpy as np
 
     meshes = {case.model.key for case in cases}
-    references = {case.reference_key for case in cases if case.record[0]}
-    fields = [case for case in cases if case.record[1]]
+    references = {case.reference_key for case in cases if case.record.metrics}
+    fields = [case for case in cases if case.record.field]
     text = (f"{_count(len(cases), 'case')} on {_count(len(meshes), 'mesh')}, "
             f"{_count(len(references), cases[0].reference[0] + ' reference')}; each worker builds a mesh and its "
             "solvers once")

@@ -12,6 +12,7 @@ import json
 from dataclasses import asdict, dataclass
 from itertools import product
 from pathlib import Path
+from typing import NamedTuple
 
 from ..experiments.protocol import LOAD_DIRECTIONS
 from ..errors import MaterialError
@@ -33,6 +34,17 @@ def content_hash(*parts) -> str:
     """16 hex digits of SHA-256 over the canonical JSON of ``parts``."""
     text = json.dumps([FORMAT, *parts], sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class Recording(NamedTuple):
+    """What a case records: the ``[record]`` table's keys (docs/studies.md)."""
+
+    metrics: bool
+    field: bool
+    step_times: bool
+    samples: int
+    timing_steps: int
+    max_steps: int
 
 
 @dataclass(frozen=True)
@@ -66,7 +78,7 @@ class Case:
     force_N: float | None
     direction: tuple | None
     random: tuple | None
-    record: tuple                   # (metrics, field, step_times, samples, timing_steps, max_steps)
+    record: Recording
     tool: str = "pin-head"
     depth: float | None = None
     reference: tuple = ("fem",)      # ("fem",) or ("contact", max_levels, shipped)
@@ -77,9 +89,9 @@ class Case:
         a response per unit force, also by every force and direction on the same node)."""
         if self.reference[0] == "contact":
             return content_hash("contact", self.model.key, self.material[1:3], self.radius, self.random,
-                                self.reference, self.record[3])
+                                self.reference, self.record.samples)
         return content_hash("reference", self.model.key, self.material, self.radius, self.force_N, self.direction,
-                            self.random, self.record[5], self.tool, self.depth)
+                            self.random, self.record.max_steps, self.tool, self.depth)
 
     @property
     def case_id(self) -> str:
@@ -92,7 +104,7 @@ def expand(loaded: StudyFile) -> list[Case]:
     _check_methods(loaded)
     models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
     methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
-    record = tuple(study.record.model_dump().values())
+    record = Recording(**study.record.model_dump())
     reference = (("fem",) if study.reference.kind == "fem" else
                  ("contact", study.reference.max_levels, study.reference.shipped))
     cases = [Case(model, name, options, material, *load[:4], record, *load[4:], reference)

@@ -65,7 +65,7 @@ def _serial(pending: list[Case], store: Store):
 
 
 def _reference_here(case: Case, store: Store, references: dict):
-    if not case.record[0]:
+    if not case.record.metrics:
         return None
     key = case.reference_key
     if key not in references:
@@ -82,7 +82,7 @@ def _distributed(pending: list[Case], store: Store, client):
     references, futures = {}, {}
     for case in pending:
         reference = None
-        if case.record[0]:
+        if case.record.metrics:
             reference = references.get(case.reference_key)
             if reference is None:
                 reference = _reference_task(case, store, client)
@@ -91,13 +91,13 @@ def _distributed(pending: list[Case], store: Store, client):
         futures[future.key] = (future, case)
     # a result or reference the client no longer holds is released by the cluster: memory stays bounded by the
     # cases in flight and the references still needed, not by the study's size
-    users = Counter(case.reference_key for case in pending if case.record[0])
+    users = Counter(case.reference_key for case in pending if case.record.metrics)
     try:
         for future in as_completed([f for f, _ in futures.values()]):
             case = futures.pop(future.key)[1]
             result = future.result() if future.status == "finished" else _failure(future.exception())
             yield case, result
-            if case.record[0]:
+            if case.record.metrics:
                 key = case.reference_key
                 _keep_future(store, key, references[key])
                 users[key] -= 1

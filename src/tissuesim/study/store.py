@@ -60,7 +60,7 @@ class Store:
         if row is None or row.get("case_id") != case.case_id or row.get("status") not in ("done", "failed"):
             path.unlink(missing_ok=True)
             return False
-        return row["status"] == "failed" or not case.record[1] or self._field_sound(case.case_id, row)
+        return row["status"] == "failed" or not case.record.field or self._field_sound(case.case_id, row)
 
     def write(self, case: Case, row: dict, field: np.ndarray | None) -> None:
         """Write ``case``'s result: its field first, then its part (renamed into place: the commit)."""

@@ -108,7 +108,7 @@ def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.nda
     solver.reset()
     probe = Probe(solver, radius=case.radius)
     centre = np.asarray(solver.rest_positions)[node] + (case.depth - case.radius) * load
-    positions = np.array(probe.press_static(centre, max_steps=case.record[5]))
+    positions = np.array(probe.press_static(centre, max_steps=case.record.max_steps))
     return positions, -np.asarray(probe.force, dtype=np.float64)
 
 
@@ -119,7 +119,7 @@ def _settled(solver, node: int, force: np.ndarray, case: Case) -> np.ndarray:
 
     solver.last_solve = None
     try:
-        return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record[5]))
+        return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record.max_steps))
     except SolverError:
         report = solver.last_solve
         if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
@@ -137,7 +137,7 @@ def reference(case: Case) -> dict:
         _, youngs_modulus, poisson_ratio, _ = case.material
         hybrid = hybrid_of(case.model)
         node, _ = load_of(case, hybrid)
-        settings = RefinementSettings(max_levels=case.reference[1], samples=case.record[3])
+        settings = RefinementSettings(max_levels=case.reference[1], samples=case.record.samples)
         found = contact_reference(hybrid, node, case.radius, youngs_modulus=youngs_modulus,
                                   poisson_ratio=poisson_ratio, settings=settings, shipped=case.reference[2])
         return {"response": found.response, "samples": np.asarray(found.samples, dtype=np.int64),
@@ -151,7 +151,7 @@ def _metrics(case: Case, solver, node: int, force, positions, reference: dict) -
     """The errors of ``positions`` against ``reference`` [m], and relative to the reference's RMS displacement."""
     rest = np.asarray(solver.rest_positions)
     if "positions" in reference:
-        nodes = protocol.sample_nodes(rest, node, min(case.record[3], len(rest)))
+        nodes = protocol.sample_nodes(rest, node, min(case.record.samples, len(rest)))
         return {"rmse_m": protocol.rmse(positions, reference["positions"], nodes),
                 "relative_rmse": protocol.relative_rmse(positions, reference["positions"], rest, nodes)}
     from ..experiments.contact import METRICS, contact_metrics
@@ -177,23 +177,24 @@ def run_case(case: Case, reference_arrays: dict | None) -> dict:
 
 
 def _measured(case: Case, reference_arrays, start: float) -> dict:
-    metrics, want_field, step_times, _, timing_steps, _ = case.record
+    record = case.record
     solver = solver_of(case.model, case.method, case.options, case.material)
     node, load = load_of(case, solver.hybrid)
     solved = time.perf_counter()
     positions, force = equilibrium(solver, case, node, load)
     rest = np.asarray(solver.rest_positions)
-    row = {"status": "done", "error": "", "tool": case.tool, "depth_m": case.depth, "node": node, "force_x": force[0], "force_y": force[1],
-           "force_z": force[2], "surface_nodes": len(rest), "solve_ms": 1e3 * (time.perf_counter() - solved),
-           "max_displacement_m": float(np.linalg.norm(positions - rest, axis=1).max())}
-    row["converged"] = True if solver.last_solve is None else bool(solver.last_solve.converged)
-    if metrics:
+    row = {"status": "done", "error": "", "tool": case.tool, "depth_m": case.depth, "node": node,
+           "force_x": force[0], "force_y": force[1], "force_z": force[2], "surface_nodes": len(rest),
+           "solve_ms": 1e3 * (time.perf_counter() - solved),
+           "max_displacement_m": float(np.linalg.norm(positions - rest, axis=1).max()),
+           "converged": True if solver.last_solve is None else bool(solver.last_solve.converged)}
+    if record.metrics:
         row.update(_metrics(case, solver, node, force, positions, reference_arrays))
-    if step_times:
-        row["step_ms"] = _median_step_ms(solver, timing_steps)
+    if record.step_times:
+        row["step_ms"] = _median_step_ms(solver, record.timing_steps)
     solver.clear_load()
     row["case_ms"] = 1e3 * (time.perf_counter() - start)
-    return {"row": row, "field": (positions - rest).astype(np.float32) if want_field else None}
+    return {"row": row, "field": (positions - rest).astype(np.float32) if record.field else None}
 
 
 def _median_step_ms(solver, count: int) -> float:
