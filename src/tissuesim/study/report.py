@@ -24,7 +24,8 @@ def write_report(rows: list[dict], folder, *, title: str = "") -> Path:
     """Write ``folder/report.md`` and its plots ``folder/error_vs_<parameter>.png`` from the table's ``rows``; return
     the report's path."""
     folder = Path(folder)
-    lines = [f"# {title or 'Study'}", "", "| method | cases | failed | relative RMSE: mean | max |", "|---|---|---|---|---|"]
+    lines = [f"# {title or 'Study'}", "", "| method | cases | failed | relative RMSE: mean | max |",
+             "|---|---|---|---|---|"]
     for method, group in _by(rows, "method").items():
         errors = _errors(group)
         failed = sum(r["status"] == "failed" for r in group)
