@@ -26,7 +26,8 @@ def write_report(rows: list[dict], folder, *, title: str = "") -> Path:
     folder = Path(folder)
     lines = [f"# {title or 'Study'}", "", "| method | cases | failed | relative RMSE: mean | max |",
              "|---|---|---|---|---|"]
-    for method, group in _by(rows, "method").items():
+    rows = [{**row, "label": _label(row)} for row in rows]
+    for method, group in _by(rows, "label").items():
         errors = _errors(group)
         failed = sum(r["status"] == "failed" for r in group)
         mean, top = (f"{errors.mean():.3g}", f"{errors.max():.3g}") if errors.size else ("-", "-")
@@ -47,6 +48,11 @@ def write_report(rows: list[dict], folder, *, title: str = "") -> Path:
     return path
 
 
+def _label(row: dict) -> str:
+    """The method's name, with its options where it has any (two variants of a method are two lines)."""
+    return row["method"] if row.get("options", "{}") == "{}" else f"{row['method']} {row['options']}"
+
+
 def _by(rows: list[dict], column: str) -> dict:
     groups = defaultdict(list)
     for row in rows:
@@ -65,21 +71,21 @@ def _plot(rows: list[dict], column: str, label: str, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(5.6, 3.4))
-    for method, group in _by(rows, "method").items():
+    fig, ax = plt.subplots(figsize=(7.6, 3.4))
+    for method, group in _by(rows, "label").items():
         points = sorted((value, _errors(g)) for value, g in _by(group, column).items() if value is not None)
         points = [(value, errors) for value, errors in points if errors.size]
         if not points:
             continue
         x = np.array([value for value, _ in points], dtype=np.float64)
-        colour, style, width = STYLE.get(method, ("tab:gray", "-", 1.3))
+        colour, style, width = STYLE.get(method, ("tab:gray", "-", 1.3))     # a method with options: grey
         ax.plot(x, [e.mean() for _, e in points], style, color=colour, lw=width, marker="o", ms=3, label=method)
         ax.fill_between(x, [e.min() for _, e in points], [e.max() for _, e in points], color=colour, alpha=0.15)
     ax.set_xlabel(label)
     ax.set_ylabel("relative RMSE (eq 26 / reference RMS)")
     ax.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=8, loc="center left", bbox_to_anchor=(1.02, 0.5))     # beside the plot, clear of the lines
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
