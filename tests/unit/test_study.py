@@ -188,3 +188,29 @@ def test_a_probe_is_pressed_to_its_depths_and_measured_against_the_pressed_refer
     # linear elasticity: twice the depth, twice the force, to the contact tolerance (1e-3 of R over a 1 mm press)
     assert rows[1]["force_z"] == pytest.approx(2 * rows[0]["force_z"], rel=0.05)
     assert rows[1]["relative_rmse"] == pytest.approx(rows[0]["relative_rmse"], rel=0.05)
+
+
+def test_the_command_says_what_is_left_and_estimates_its_time_from_the_cases_done(tmp_path, capsys):
+    path = tmp_path / "study.toml"
+    path.write_text(SMALL)
+    output = str(tmp_path / "out")
+    assert main(["study", str(path), "--output", output, "--workers", "0", "--quiet"]) == 0
+    first = capsys.readouterr()
+    assert "8 cases on 1 mesh, 4 fem references" in first.err and "8 to run, 0 already done" in first.err
+    assert "8 cases done, 0 failed, 0 already done before" in first.out
+    path.write_text(SMALL.replace("forces = [0.5, 1.0]", "forces = [0.5, 1.0, 2.0]"))
+    assert main(["study", str(path), "--output", output, "--workers", "0", "--quiet"]) == 0
+    second = capsys.readouterr()
+    assert "4 to run, 8 already done; about" in second.err and "at the median case time so far" in second.err
+    assert "4 cases done, 0 failed, 8 already done before" in second.out
+
+
+@pytest.mark.parametrize("arguments, expected", [
+    (["--workers", "-1"], "--workers must be 0 (serial) or more"),
+    (["--workers", "2", "--scheduler", "tcp://127.0.0.1:1"], "give one of them"),
+])
+def test_the_command_refuses_contradictory_options(tmp_path, capsys, arguments, expected):
+    path = tmp_path / "study.toml"
+    path.write_text(SMALL)
+    assert main(["study", str(path), "--output", str(tmp_path / "out"), *arguments]) == 1
+    assert expected in capsys.readouterr().err

@@ -48,7 +48,9 @@ def run(args: argparse.Namespace) -> int:
     print(_plan(cases), file=sys.stderr)
     client = _client(args)
     try:
-        summary = run_study(cases, store, client=client, progress=not args.quiet)
+        workers = 1 if client is None else len(client.scheduler_info()["workers"])
+        summary = run_study(cases, store, client=client, progress=not args.quiet,
+                            on_start=lambda pending: print(_estimate(pending, cases, store, workers), file=sys.stderr))
     finally:
         if client is not None:
             client.close()
@@ -76,6 +78,25 @@ def _plan(cases) -> str:
         if known:
             text += f"; fields ≈ {len(fields) * np.mean(known) * 12 / 1e6:.3g} MB of float32 in Zarr"
     return text
+
+
+def _estimate(pending, cases, store, workers: int) -> str:
+    """How many cases are left, and their time at the median time of the cases already done here, if any."""
+    import numpy as np
+
+    text = f"{len(pending)} to run, {len(cases) - len(pending)} already done"
+    if pending and store.case_ms:
+        seconds = 1e-3 * float(np.median(store.case_ms)) * len(pending) / max(workers, 1)
+        text += (f"; about {_duration(seconds)} on {_count(workers, 'worker')} at the median case time so far "
+                 f"({float(np.median(store.case_ms)):.0f} ms, mesh builds not counted)")
+    elif pending:
+        text += f" on {_count(workers, 'worker')}; the bar gives the time left once the first cases finish"
+    return text
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else (f"{seconds / 60:.0f} min" if seconds < 7200
+                                                     else f"{seconds / 3600:.1f} h")
 
 
 def _count(n: int, noun: str) -> str:

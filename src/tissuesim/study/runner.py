@@ -34,10 +34,13 @@ class Summary:
     failed: int = 0
 
 
-def run_study(cases: list[Case], store: Store, *, client=None, progress: bool = True) -> Summary:
-    """Run every case of ``cases`` that ``store`` does not hold yet; a failed case is written with its error."""
+def run_study(cases: list[Case], store: Store, *, client=None, progress: bool = True, on_start=None) -> Summary:
+    """Run every case of ``cases`` that ``store`` does not hold yet; a failed case is written with its error.
+    ``on_start``, if given, is called with the cases to run before the first starts."""
     pending = [case for case in cases if not store.done(case)]
     summary = Summary(cases=len(cases), skipped=len(cases) - len(pending))
+    if on_start is not None:
+        on_start(pending)
     bar = _bar(len(pending), progress)
     try:
         results = _serial(pending, store) if client is None else _distributed(pending, store, client)
