@@ -57,24 +57,30 @@ def run_study(cases: list[Case], store: Store, *, client=None, progress: bool = 
 
 
 def _serial(pending: list[Case], store: Store):
-    references: dict = {}
+    references: dict = {}       # key -> arrays, or the error that computing them raised (not tried again)
+    users = Counter(case.reference_key for case in pending if case.record.metrics)
     for case in pending:
-        try:
-            reference = _reference_here(case, store, references)
-        except Exception as error:  # noqa: BLE001 - the reference's failure is the case's
-            yield case, _failure(error)
-            continue
-        yield case, work.run_case(case, reference)
+        reference = _reference_here(case, store, references) if case.record.metrics else None
+        if isinstance(reference, Exception):
+            yield case, _failure(reference)
+        else:
+            yield case, work.run_case(case, reference)
+        if case.record.metrics:
+            users[case.reference_key] -= 1
+            if not users[case.reference_key]:
+                del references[case.reference_key]
 
 
 def _reference_here(case: Case, store: Store, references: dict):
-    if not case.record.metrics:
-        return None
     key = case.reference_key
     if key not in references:
         references[key] = _cached(store, key)
         if references[key] is None:
-            references[key] = work.reference(case)
+            try:
+                references[key] = work.reference(case)
+            except Exception as error:  # noqa: BLE001 - the reference's failure is its cases'
+                references[key] = error
+                return error
             _keep(store, key, references[key])
     return references[key]
 
