@@ -95,7 +95,8 @@ class Case:
 
     @property
     def case_id(self) -> str:
-        return content_hash("case", asdict(self))
+        """The hash of every input; the model by its key (its content), not by its file's name or place."""
+        return content_hash("case", {**asdict(self), "model": self.model.key})
 
 
 def expand(loaded: StudyFile) -> list[Case]:
