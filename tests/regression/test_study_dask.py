@@ -5,6 +5,7 @@ import os
 import threading
 import time
 
+import distributed                    # the study extra, part of the test extra: a missing one fails, not skips
 import numpy as np
 import pytest
 
@@ -12,8 +13,6 @@ from tissuesim.study.cases import expand
 from tissuesim.study.load import parse_study
 from tissuesim.study.runner import run_study
 from tissuesim.study.store import Store
-
-distributed = pytest.importorskip("distributed")
 
 STUDY = """
 [[models]]
