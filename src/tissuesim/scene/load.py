@@ -79,9 +79,11 @@ def parse_scene(text: str, path) -> SceneFile:
     return loaded
 
 
-def describe(error: ValidationError, name: str) -> str:
-    """One message for every defect pydantic found in the scene file ``name``."""
-    lines = [_line(item) for item in error.errors(include_url=False)]
+def describe(error: ValidationError, name: str, *, line=None) -> str:
+    """One message for every defect pydantic found in the file ``name``, each told by ``line`` (a pydantic error's
+    dict → ``key: what is wrong; the fix``; default: a scene file's keys)."""
+    line = _line if line is None else line
+    lines = [line(item) for item in error.errors(include_url=False)]
     lines = list(dict.fromkeys(lines))   # a union's members may report the same defect twice
     more = len(lines) - MAX_LISTED
     listed = " | ".join(lines[:MAX_LISTED]) + (f" | and {more} more" if more > 0 else "")

@@ -10,6 +10,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from ..errors import TissuesimError
+from ..scene.load import describe
 from ..scene.schema import LOCATED
 from .schema import Study
 
@@ -17,10 +18,6 @@ if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - the dependency is declared for these versions
     import tomli as tomllib
-
-#: At most this many defects are listed in one message; the rest are counted.
-MAX_LISTED = 8
-
 
 class StudyError(TissuesimError, ValueError):
     """A study file is unreadable, a key in it is missing, unknown or out of range, or a study's output folder
@@ -60,16 +57,8 @@ def parse_study(text: str, path) -> StudyFile:
     try:
         study = Study.model_validate(data)
     except ValidationError as error:
-        raise StudyError(describe(error, path.name)) from None
+        raise StudyError(describe(error, path.name, line=_line)) from None
     return StudyFile(study, path)
-
-
-def describe(error: ValidationError, name: str) -> str:
-    """One message for every defect pydantic found in the study file ``name``."""
-    lines = list(dict.fromkeys(_line(item) for item in error.errors(include_url=False)))
-    more = len(lines) - MAX_LISTED
-    listed = " | ".join(lines[:MAX_LISTED]) + (f" | and {more} more" if more > 0 else "")
-    return f"{name}: {len(lines)} problem{'s' if len(lines) > 1 else ''}: {listed}"
 
 
 def _line(item: dict) -> str:
