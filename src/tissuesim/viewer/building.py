@@ -26,33 +26,33 @@ class SolverBuilding:
         """Fix ``vertices`` ``(k,)`` of the current mesh (None: back to the scene's or the model's bottom): a new
         solver over the same mesh, holding what was held. A region that cannot hold the body is refused, with
         nothing changed, and :attr:`notice` says why."""
-        old = self.support
-        self.support = None if vertices is None else np.unique(np.asarray(vertices)).astype(np.int32)
-        try:
-            self._build(self.solver.hybrid, carry=True)
-        except TissuesimError as error:
-            self.support = old
-            self.notice = f"that support was refused: {error}"
-            return
-        self.notice = ("support: the model's default" if vertices is None else
-                       f"support: {self.support.size} painted vertices fixed")
+        support = None if vertices is None else np.unique(np.asarray(vertices)).astype(np.int32)
+        if self._rebuilt_with("support", support, refusal="that support was refused"):
+            self.notice = ("support: the model's default" if vertices is None else
+                           f"support: {self.support.size} painted vertices fixed")
 
     def set_solver_option(self, name: str, value) -> None:
         """Give every solver from now on the option ``name`` = ``value`` (None: drop it), e.g. ``gravity`` or
         ``attachments``: a new solver over the same mesh, holding what was held. A refused option (a bad value, or
         the method has none such) changes nothing, and :attr:`notice` says why."""
-        old = dict(self.solver_options)
-        options = extra_options({**old, name: value})
+        options = extra_options({**self.solver_options, name: value})
         if value is None:
             options.pop(name)
-        self.solver_options = options
+        if self._rebuilt_with("solver_options", options, refusal=f"{name} was refused"):
+            self.notice = ""
+
+    def _rebuilt_with(self, attribute: str, value, *, refusal: str) -> bool:
+        """``attribute`` set to ``value`` and a new solver over the same mesh, holding what was held; where the
+        solver refuses, the attribute goes back, :attr:`notice` says why after ``refusal``, and False comes back."""
+        old = getattr(self, attribute)
+        setattr(self, attribute, value)
         try:
             self._build(self.solver.hybrid, carry=True)
         except TissuesimError as error:
-            self.solver_options = old
-            self.notice = f"{name} was refused: {error}"
-            return
-        self.notice = ""
+            setattr(self, attribute, old)
+            self.notice = f"{refusal}: {error}"
+            return False
+        return True
 
     def add_ligament(self, vertices, *, stiffness: float) -> None:
         """Hold ``vertices`` ``(k,)`` of the current mesh by a ligament of total ``stiffness`` [N/m] to their rest
