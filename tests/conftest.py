@@ -95,6 +95,31 @@ def flipped_triangles():
     return _flipped_triangles
 
 
+def _step_allocation(solver, steps: int = 10) -> tuple[int, int]:
+    """Bytes ``(still held, peak)`` that ``steps`` steps of ``solver`` allocate (tracemalloc), after two steps that
+    build whatever a first step builds."""
+    import tracemalloc
+
+    solver.step()
+    solver.step()
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        before = tracemalloc.get_traced_memory()[0]
+        for _ in range(steps):
+            solver.step()
+        current, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    return current - before, peak - before
+
+
+@pytest.fixture(scope="session")
+def step_allocation():
+    """The measure of :func:`_step_allocation`: ``(solver, steps=10) -> (bytes held, peak bytes)``."""
+    return _step_allocation
+
+
 @pytest.fixture(scope="session")
 def meshes_dir() -> Path:
     if not MESHES.is_dir():

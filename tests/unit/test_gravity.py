@@ -218,28 +218,16 @@ def test_the_finite_strain_hybrid_steps_to_its_static_sag(cube, top):
 
 
 @pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring"])
-def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, method):
+def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, method, step_allocation):
     """DESIGN: nothing allocated per step, the weight and the ligaments included (an (n, 3) array: 9,264 bytes)."""
-    import tracemalloc
-
     from tissuesim.solvers import Attachment
 
     v = cube.surface.vertices
     attached = np.flatnonzero(v[:, 2] > v[:, 2].max() - 1e-9)[:6]
     solver = make_solver(method, cube, gravity=G, attachments=(Attachment(attached, 5.0),))
     solver.set_load(top, [0.0, 0.0, -0.1])
-    solver.step()
-    solver.step()
-    tracemalloc.start()
-    try:
-        tracemalloc.reset_peak()
-        before = tracemalloc.get_traced_memory()[0]
-        for _ in range(10):
-            solver.step()
-        current, peak = tracemalloc.get_traced_memory()
-    finally:
-        tracemalloc.stop()
-    assert peak - before < 2048 and current - before < 2048
+    held, peak = step_allocation(solver)
+    assert peak < 2048 and held < 2048
 
 
 @pytest.mark.parametrize("method", ["pbd", "mass-spring"])
