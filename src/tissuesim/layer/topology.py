@@ -21,8 +21,21 @@ from ..mesh.surface import SurfaceMesh
 from .rest_measures import dihedral_angles, edge_lengths, signed_bend_angles
 
 
+class ConstraintCounts:
+    """How many stretch and bending rows a constraint set has (its ``edges`` and ``bending`` arrays), for the frozen
+    set and for the mutable one a cut solver steps with."""
+
+    @property
+    def stretch_count(self) -> int:
+        return len(self.edges)
+
+    @property
+    def bending_count(self) -> int:
+        return len(self.bending)
+
+
 @dataclass(frozen=True, eq=False)
-class SurfaceConstraints:
+class SurfaceConstraints(ConstraintCounts):
     """The stretch and bending constraints of one triangle surface, with everything constant precomputed.
 
     Attributes:
@@ -80,14 +93,6 @@ class SurfaceConstraints:
                 raise MeshError(f"rest_signed_angle has shape {value.shape}; expected ({b},), one per hinge")
             value.flags.writeable = False
             object.__setattr__(self, "rest_signed_angle", value)
-
-    @property
-    def stretch_count(self) -> int:
-        return len(self.edges)
-
-    @property
-    def bending_count(self) -> int:
-        return len(self.bending)
 
     @classmethod
     def from_surface(cls, surface: SurfaceMesh) -> "SurfaceConstraints":

@@ -22,21 +22,14 @@ import numpy as np
 from ..cutting.lengths import barycentric_distance
 from ..cutting.rows import EdgeRows, Rows
 from ..layer.rest_measures import dihedral_angles, signed_bend_angles
+from ..layer.topology import ConstraintCounts
 from ..loads import triangle_areas
 from .cut_carry import SolverCut, members
 
 
-class CutConstraints(SimpleNamespace):
+class CutConstraints(ConstraintCounts, SimpleNamespace):
     """The mutable stand-in of :class:`~tissuesim.layer.topology.SurfaceConstraints` a cut solver steps with:
     the same array names, with retired rows as no-ops (:mod:`.rows`)."""
-
-    @property
-    def stretch_count(self) -> int:
-        return len(self.edges)
-
-    @property
-    def bending_count(self) -> int:
-        return len(self.bending)
 
 
 def new_edge_constraints(result, keys, owners):
