@@ -53,25 +53,35 @@ def read_scene(path) -> SceneFile:
     """The scene in the TOML file ``path``, validated; SceneError for an unreadable file or any invalid key (all of
     them, one per line of the message), and for a model file that does not exist."""
     path = Path(path)
+    return parse_scene(read_text(path, error=SceneError, kind="scene"), path)
+
+
+def read_text(path: Path, *, error: type, kind: str) -> str:
+    """The text of the ``kind`` file ``path`` (a scene, a study), or ``error`` naming it when it cannot be read."""
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise SceneError(f"cannot read the scene file {str(path)!r}: {error}") from None
-    return parse_scene(text, path)
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as reason:
+        raise error(f"cannot read the {kind} file {str(path)!r}: {reason}") from None
+
+
+def validated(text: str, path: Path, model: type[BaseModel], *, error: type, doc: str, line=None):
+    """``model`` validated from the TOML ``text`` of the file ``path``; ``error`` for text that is no TOML (pointing
+    to ``doc``, the format's page) or for every invalid key (:func:`describe`, each told by ``line``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as reason:
+        raise error(f"{path.name} is not valid TOML: {reason}; see {doc} for the format") from None
+    try:
+        return model.model_validate(data)
+    except ValidationError as reason:
+        raise error(describe(reason, path.name, line=line)) from None
 
 
 def parse_scene(text: str, path) -> SceneFile:
     """The scene in the TOML ``text`` of the file ``path`` (which names its folder), validated as
     :func:`read_scene` does."""
     path = Path(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise SceneError(f"{path.name} is not valid TOML: {error}; see docs/scenes.md for the format") from None
-    try:
-        scene = Scene.model_validate(data)
-    except ValidationError as error:
-        raise SceneError(describe(error, path.name)) from None
+    scene = validated(text, path, Scene, error=SceneError, doc="docs/scenes.md")
     loaded = SceneFile(scene, path)
     if scene.model.file is not None and not loaded.resolve(scene.model.file).is_file():
         raise SceneError(f"{path.name}: model.file: no file {str(loaded.resolve(scene.model.file))!r} (a file name "

@@ -3,21 +3,14 @@ defect by its key (``materials.youngs_modulus.count``), what is wrong and the fi
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from pydantic import ValidationError
-
 from ..errors import TissuesimError
-from ..scene.load import describe
+from ..scene.load import read_text, validated
 from ..scene.schema import LOCATED
 from .schema import Study
 
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - the dependency is declared for these versions
-    import tomli as tomllib
 
 class StudyError(TissuesimError, ValueError):
     """A study file is unreadable, a key in it is missing, unknown or out of range, or a study's output folder
@@ -40,25 +33,13 @@ class StudyFile:
 def read_study(path) -> StudyFile:
     """The study in the TOML file ``path``, validated; StudyError for an unreadable file or any invalid key."""
     path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as error:
-        raise StudyError(f"cannot read the study file {str(path)!r}: {error}") from None
-    return parse_study(text, path)
+    return parse_study(read_text(path, error=StudyError, kind="study"), path)
 
 
 def parse_study(text: str, path) -> StudyFile:
     """The study in the TOML ``text`` of the file ``path`` (which names its folder), validated."""
     path = Path(path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise StudyError(f"{path.name} is not valid TOML: {error}; see docs/studies.md for the format") from None
-    try:
-        study = Study.model_validate(data)
-    except ValidationError as error:
-        raise StudyError(describe(error, path.name, line=_line)) from None
-    return StudyFile(study, path)
+    return StudyFile(validated(text, path, Study, error=StudyError, doc="docs/studies.md", line=_line), path)
 
 
 def _line(item: dict) -> str:
