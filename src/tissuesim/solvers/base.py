@@ -338,6 +338,13 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     def _check_dt(self, dt) -> float:
         return self.dt if dt is None else time_step(dt)
 
+    def surface_to_volume(self) -> np.ndarray:
+        """``(n,) int64`` the volume node at each M_S vertex (−1: none): the control nodes' M_V nodes, of the mesh
+        as it is now (a cut adds vertices that are none and releases control nodes)."""
+        mapping = np.full(self.node_count, -1, dtype=np.int64)
+        mapping[self.hybrid.control] = self.hybrid.control_volume
+        return mapping
+
     def fixed_volume_nodes(self, volume_points: np.ndarray, surface_to_volume: np.ndarray | None) -> np.ndarray:
         """``(k,) int32`` fixed nodes of a volume mesh with nodes ``volume_points`` ``(N, 3)`` [m].
 

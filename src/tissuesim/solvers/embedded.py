@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .base import Solver
-from .finite_strain import finite_volume, support_displacement
+from .finite_strain import carried_rest, finite_volume, move_supports
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
@@ -58,9 +58,7 @@ class EmbeddedSolver(Solver):
         from ..fem.linear import LinearFEM
 
         volume = hybrid_mesh.volume
-        surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
-        surface_to_volume[hybrid_mesh.control] = hybrid_mesh.control_volume
-        self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        self.fixed_volume = self.fixed_volume_nodes(volume.points, self.surface_to_volume())
         self.tet_of = np.ascontiguousarray(hybrid_mesh.embedding_tet, dtype=np.int64)
         self.weights = np.ascontiguousarray(hybrid_mesh.embedding_barycentric, dtype=np.float64)
         tets = volume.tets
@@ -74,7 +72,6 @@ class EmbeddedSolver(Solver):
         self._u = np.zeros((self.carrier_nodes.size, 3))
         self._tets = tets.astype(np.int64)
         self._dirty = False
-        self._surface_to_volume = surface_to_volume
         self.finite = finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
@@ -127,9 +124,11 @@ class EmbeddedSolver(Solver):
         self._u[:] = self.volume_displacement[self.carrier_nodes]
 
     def _move_fixed(self, positions: np.ndarray) -> None:
-        self.finite.set_fixed_displacement(support_displacement(
-            self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
-            positions))
+        move_supports(self, positions)
+
+    def _on_reset(self) -> None:
+        if self.finite is not None:     # a solve from rest starts from the body carried with its base
+            self.volume_displacement[:] = carried_rest(self)
 
     def _step(self, dt: float) -> None:
         state = self.state

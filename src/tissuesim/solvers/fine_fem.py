@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .base import Solver
-from .finite_strain import finite_volume, support_displacement
+from .finite_strain import carried_rest, finite_volume, move_supports
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
@@ -47,9 +47,8 @@ class FineFEMSolver(Solver):
             )
         volume = hybrid_mesh.fine_volume
         self.surface_nodes = np.asarray(hybrid_mesh.fine_surface_nodes, dtype=np.int64)
-        surface_to_volume = self.surface_nodes
-        self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
-        springs = volume_springs(self, surface_to_volume[:, None], np.ones((self.node_count, 1)))
+        self.fixed_volume = self.fixed_volume_nodes(volume.points, self.surface_nodes)
+        springs = volume_springs(self, self.surface_nodes[:, None], np.ones((self.node_count, 1)))
         self.fem = LinearFEM(volume, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
                              fixed=self.fixed_volume, springs=springs)
         self._volume_forces = np.zeros((volume.node_count, 3))
@@ -86,6 +85,13 @@ class FineFEMSolver(Solver):
         self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)
         return self.volume_displacement
 
+    def surface_to_volume(self) -> np.ndarray:
+        """Every M_S vertex is a fine-volume node (the fem reference is never cut)."""
+        return self.surface_nodes
+
     def _move_fixed(self, positions: np.ndarray) -> None:
-        self.finite.set_fixed_displacement(support_displacement(
-            self.fem.mesh.points, self.fixed_volume, self.surface_nodes, self.fixed, self.rest_positions, positions))
+        move_supports(self, positions)
+
+    def _on_reset(self) -> None:
+        if self.finite is not None:     # a solve from rest starts from the body carried with its base
+            self.volume_displacement[:] = carried_rest(self)

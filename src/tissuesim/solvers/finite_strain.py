@@ -72,19 +72,50 @@ def affine_fit(rest: np.ndarray, moved: np.ndarray):
     return solution[:3].T, solution[3]
 
 
-def support_displacement(volume_points: np.ndarray, fixed_volume: np.ndarray, surface_to_volume: np.ndarray,
-                         fixed_surface: np.ndarray, rest_surface: np.ndarray, positions: np.ndarray) -> np.ndarray:
-    """``(N, 3)`` displacement [m] of a volume's nodes ``volume_points`` ``(N, 3)`` at its ``fixed_volume`` nodes
-    (zero elsewhere) when the fixed M_S vertices ``fixed_surface`` move to ``positions`` ``(k, 3)``;
-    ``surface_to_volume`` ``(n,)`` maps M_S vertices to volume nodes (−1: none)."""
+def support_displacement(solver, positions: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` displacement [m] of ``solver``'s volume at its ``fixed_volume`` nodes (zero elsewhere) when its
+    fixed M_S vertices move to ``positions`` ``(k, 3)``: exactly where a volume node is one of those vertices (the
+    mesh as it is now: a cut adds fixed vertices that are none), by the affine map that best fits the motion
+    elsewhere."""
+    rest_surface, fixed_surface = solver.rest_positions, solver.fixed
     matrix, shift = affine_fit(rest_surface[fixed_surface], positions)
+    volume_points = solver.fem.mesh.points
     displacement = np.zeros_like(volume_points)
-    points = volume_points[fixed_volume]
-    displacement[fixed_volume] = points @ matrix.T + shift - points
-    mapped = surface_to_volume[fixed_surface]
+    points = volume_points[solver.fixed_volume]
+    displacement[solver.fixed_volume] = points @ matrix.T + shift - points
+    mapped = solver.surface_to_volume()[fixed_surface]
     on_surface = mapped >= 0
     displacement[mapped[on_surface]] = positions[on_surface] - rest_surface[fixed_surface[on_surface]]
     return displacement
+
+
+def move_supports(solver, positions: np.ndarray) -> None:
+    """Carry a finite-strain ``solver``'s fixed volume nodes to where its fixed vertices go, ``positions``
+    ``(k, 3)`` [m], and its volume's displacement with them by the affine map that fits the base's motion from
+    where it is now: the solves start from the body carried with its base, not from a body left behind, whose
+    way to the carried one can pass through a crushed state (a half turn interpolated linearly crushes the base to
+    a line halfway)."""
+    matrix, shift = affine_fit(solver.fixed_positions, positions)
+    points = solver.finite.rest
+    solver.volume_displacement[:] = (points + solver.volume_displacement) @ matrix.T + shift - points
+    finite = solver.finite
+    finite.set_fixed_displacement(support_displacement(solver, positions))
+    fixed = solver.fem.fixed_dofs
+    solver.volume_displacement[fixed] = finite.fixed_displacement[fixed]
+
+
+def carried_rest(solver) -> np.ndarray:
+    """``(N, 3)`` the displacement [m] of a finite-strain ``solver``'s unloaded volume carried with its base as it
+    is now (:func:`move_supports`'s map from rest): where a solve from rest starts; zero with the base at rest."""
+    rest = solver.rest_positions[solver.fixed]
+    if np.array_equal(solver.fixed_positions, rest):
+        return np.zeros_like(solver.finite.rest)
+    matrix, shift = affine_fit(rest, solver.fixed_positions)
+    points = solver.finite.rest
+    carried = points @ matrix.T + shift - points
+    fixed = solver.fem.fixed_dofs
+    carried[fixed] = solver.finite.fixed_displacement[fixed]
+    return carried
 
 
 def unstable_load_error(solver, error) -> SolverError:

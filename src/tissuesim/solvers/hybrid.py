@@ -49,6 +49,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
+from .finite_strain import carried_rest, move_supports
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .surface_layer import SurfaceLayerSolver
@@ -93,9 +94,7 @@ class HybridSolver(SurfaceLayerSolver):
         volume = h.volume
         control = np.asarray(h.control, dtype=np.int64)
         control_volume = np.asarray(h.control_volume, dtype=np.int64)
-        surface_to_volume = np.full(self.node_count, -1, dtype=np.int64)
-        surface_to_volume[control] = control_volume
-        self.fixed_volume = self.fixed_volume_nodes(volume.points, surface_to_volume)
+        self.fixed_volume = self.fixed_volume_nodes(volume.points, self.surface_to_volume())
         # §6.1: M_S vertex → the 3 M_V nodes of its coarse triangle (loads and attachments reach M_V through it).
         coarse_nodes = np.asarray(h.coarse_surface.triangles, dtype=np.int64)
         coarse_volume = np.asarray(h.coarse_volume_nodes, dtype=np.int64)     # control_volume until a cut
@@ -112,7 +111,6 @@ class HybridSolver(SurfaceLayerSolver):
         pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
         self._held = np.concatenate([control, pinned])
         self._set_prescribed(self._held)
-        self._surface_to_volume = surface_to_volume
         self.finite = finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
@@ -197,20 +195,16 @@ class HybridSolver(SurfaceLayerSolver):
 
     def _on_reset(self) -> None:
         self._embedded[:] = self.rest_positions
-        self.volume_displacement[:] = 0.0
+        self.volume_displacement[:] = 0.0 if self.finite is None else carried_rest(self)
         if self._near is not None:
             self._near.reset()
         self._update_fem()
 
     def _move_fixed(self, positions: np.ndarray) -> None:
-        from .finite_strain import support_displacement
-
         if self._near is not None:
             raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
                                          "to move the fixed set")
-        self.finite.set_fixed_displacement(support_displacement(
-            self.fem.mesh.points, self.fixed_volume, self._surface_to_volume, self.fixed, self.rest_positions,
-            positions))
+        move_supports(self, positions)
         self._dirty = True
 
     def _finite_response(self, exact: bool) -> None:
