@@ -21,6 +21,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="record the run as a ParaView series (FILE.pvd + FILE_frames/; a frame at the start "
                              "and after every step that moved something)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_confine_argument(parser, "scene")
+
+
+def add_confine_argument(parser: argparse.ArgumentParser, kind: str) -> None:
+    parser.add_argument("--confine", action="store_true",
+                        help=f"refuse a file named in the {kind} file that lies outside its folder (links followed), "
+                             f"as a service running others' {kind} files needs; default: any path is read")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -29,7 +36,7 @@ def run(args: argparse.Namespace) -> int:
     from ..scene.build import check_method, material_options
     from .view import scene_hybrid
 
-    loaded = read_scene(args.scene)
+    loaded = read_scene(args.scene, confine=args.confine)
     check_method(loaded)           # every key of the scene is checked before minutes of mesh building
     material_options(loaded)
     record = None if args.record is None else check_target(args.record)

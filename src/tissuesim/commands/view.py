@@ -16,6 +16,7 @@ from functools import partial
 from pathlib import Path
 
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
+from .run import add_confine_argument
 
 HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
 
@@ -43,6 +44,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="record the session as a ParaView series (FILE.pvd + FILE_frames/; a frame whenever "
                              "something moved; an old recording of that name is replaced at the end)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
+    add_confine_argument(parser, "scene")
 
 
 def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
@@ -78,7 +80,7 @@ def scene_hybrid(loaded, *, progress: bool = True):
     """The hybrid mesh of a scene's model (built as :func:`load_hybrid` builds a model named on the command line)
     and its name."""
     model = loaded.scene.model
-    spec = model.name if model.name is not None else str(loaded.resolve(model.file))
+    spec = model.name if model.name is not None else str(loaded.resolve(model.file, key="model.file"))
     announce_mesh(spec)
     return load_hybrid(spec, resolution=model.resolution, scale=model.scale, repair=model.repair, progress=progress)
 
@@ -148,7 +150,7 @@ def _run_scene(args: argparse.Namespace) -> int:
     if given:
         raise SceneError(f"--{given[0].replace('_', '-')} is set by the scene file {args.model}; remove it from the "
                          "command line (or change the scene)")
-    loaded = read_scene(args.model)
+    loaded = read_scene(args.model, confine=args.confine)
     check_method(loaded)
     material_options(loaded)
     record = None if args.record is None else check_target(args.record)

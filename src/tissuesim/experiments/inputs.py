@@ -9,10 +9,7 @@ import numpy as np
 
 from ..errors import MeshError, SolverError
 from ..mesh import models as builtin_models
-
-#: Largest vertex count of a built-in model: 70 times the Table-1 sizes (about 1400), so a typo such as 1e12 is refused
-#: at once instead of exhausting the memory while the model is built.
-MAX_RESOLUTION = 100_000
+from ..mesh.models import MAX_RESOLUTION
 
 
 def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):

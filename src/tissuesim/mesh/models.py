@@ -27,6 +27,9 @@ STEAK_SEMI_AXES = (0.08, 0.055, 0.0125)
 
 DEFAULT_RESOLUTION = {"cube": 1352, "sphere": 1402, "liver": 1379, "steak": 1543}
 MIN_RESOLUTION = 50
+#: Largest vertex count of a built-in model: 70 times the Table-1 sizes (about 1400), so a typo such as 1e12 is refused
+#: at once instead of exhausting the memory while the model is built.
+MAX_RESOLUTION = 100_000
 
 
 def cube(resolution: int = DEFAULT_RESOLUTION["cube"], *, edge: float = CUBE_EDGE) -> SurfaceMesh:

@@ -131,8 +131,8 @@ def node_mask(mask, *, node_count: int, source: str = "the mask") -> np.ndarray:
     bad = np.flatnonzero(~np.isin(mask, (0, 1)))
     if bad.size:
         raise BoundaryConditionError(
-            f"{source} holds {bad.size} entries that are neither 0 nor 1 (first at vertices {first_indices(bad)}: "
-            f"{mask[bad[0]]!r}); write 1 for a held vertex and 0 for a free one"
+            f"{source} holds {bad.size} entries that are neither 0 nor 1 (first at vertices {first_indices(bad)}); "
+            "write 1 for a held vertex and 0 for a free one"
         )
     selected = np.flatnonzero(mask.astype(bool)).astype(np.int32)
     if selected.size == 0:
@@ -153,9 +153,13 @@ def read_node_file(path, *, kind: str) -> np.ndarray:
         else:
             text = "\n".join(line.split("#", 1)[0] for line in path.read_text().splitlines())
             values = np.array([float(word) for word in text.replace(",", " ").split()])
-    except (OSError, ValueError, UnicodeDecodeError) as error:
-        raise BoundaryConditionError(f"cannot read the {kind} file {path}: {error}; give a .npy array or text with "
-                                     "one number per line") from None
+    except OSError as error:
+        raise BoundaryConditionError(f"cannot read the {kind} file {path}: {error.strerror or 'unreadable'}; give a "
+                                     "readable .npy array or text file") from None
+    except (ValueError, UnicodeDecodeError):
+        # the file's content is never quoted: it may be someone else's (a scene naming /etc/...)
+        raise BoundaryConditionError(f"cannot read the {kind} file {path}: it is not a .npy array of numbers nor "
+                                     "text of numbers; give a .npy array or text with one number per line") from None
     values = np.asarray(values)
     if values.ndim == 2 and 1 in values.shape:
         values = values.ravel()         # a column or a row written by np.save / np.savetxt

@@ -34,26 +34,28 @@ class SceneFile:
     Attributes:
         scene: the validated :class:`~.schema.Scene`.
         path: the scene file. folder: its folder, against which the file names in it are resolved.
+        confine: whether the files it names must lie in that folder (see :func:`named_path`).
     """
 
     scene: Scene
     path: Path
+    confine: bool = False
 
     @property
     def folder(self) -> Path:
         return self.path.parent
 
-    def resolve(self, name: str) -> Path:
-        """``name`` (a file named in the scene) as a path: relative names are relative to the scene file."""
-        path = Path(name).expanduser()
-        return path if path.is_absolute() else self.folder / path
+    def resolve(self, name: str, *, key: str) -> Path:
+        """``name`` (a file named in the scene under ``key``) as a path, as :func:`named_path` resolves it."""
+        return named_path(name, self.path, key=key, confine=self.confine, error=SceneError, kind="scene")
 
 
-def read_scene(path) -> SceneFile:
+def read_scene(path, *, confine: bool = False) -> SceneFile:
     """The scene in the TOML file ``path``, validated; SceneError for an unreadable file or any invalid key (all of
-    them, one per line of the message), and for a model file that does not exist."""
+    them, one per line of the message), for a model file that does not exist, and, with ``confine``, for a file
+    named in it that lies outside its folder."""
     path = Path(path)
-    return parse_scene(read_text(path, error=SceneError, kind="scene"), path)
+    return parse_scene(read_text(path, error=SceneError, kind="scene"), path, confine=confine)
 
 
 def read_text(path: Path, *, error: type, kind: str) -> str:
@@ -66,27 +68,62 @@ def read_text(path: Path, *, error: type, kind: str) -> str:
 
 def validated(text: str, path: Path, model: type[BaseModel], *, error: type, doc: str, line=None):
     """``model`` validated from the TOML ``text`` of the file ``path``; ``error`` for text that is no TOML (pointing
-    to ``doc``, the format's page) or for every invalid key (:func:`describe`, each told by ``line``)."""
+    to ``doc``, the format's page), nests too deep for the reader, or for every invalid key (:func:`describe`,
+    each told by ``line``)."""
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as reason:
         raise error(f"{path.name} is not valid TOML: {reason}; see {doc} for the format") from None
+    except RecursionError:
+        # the reader recurses once per level of nesting: thousands of levels exhaust Python's stack
+        raise error(f"{path.name}: arrays or tables nested too deep to read (about {sys.getrecursionlimit()} levels "
+                    f"or more); flatten them: no key of the format nests more than a few levels (see {doc})") from None
     try:
         return model.model_validate(data)
     except ValidationError as reason:
         raise error(describe(reason, path.name, line=line)) from None
 
 
-def parse_scene(text: str, path) -> SceneFile:
+def named_path(name: str, file: Path, *, key: str, confine: bool, error: type, kind: str) -> Path:
+    """``name``, a path written under ``key`` in the ``kind`` file ``file``: relative to that file's folder when
+    relative. Paths outside the folder are allowed unless ``confine`` (what a service reading others' files needs):
+    then ``error`` unless the path, its links followed, lies inside the folder."""
+    path = Path(name).expanduser()
+    path = path if path.is_absolute() else file.parent / path
+    if confine and not path.resolve().is_relative_to(file.parent.resolve()):
+        raise error(f"{file.name}: {key}: {name!r} lies outside the {kind} file's folder, to which its files are "
+                    f"confined (confine, --confine); put the file in {str(file.parent.resolve())!r} and name it "
+                    "from there")
+    return path
+
+
+def parse_scene(text: str, path, *, confine: bool = False) -> SceneFile:
     """The scene in the TOML ``text`` of the file ``path`` (which names its folder), validated as
     :func:`read_scene` does."""
     path = Path(path)
     scene = validated(text, path, Scene, error=SceneError, doc="docs/scenes.md")
-    loaded = SceneFile(scene, path)
-    if scene.model.file is not None and not loaded.resolve(scene.model.file).is_file():
-        raise SceneError(f"{path.name}: model.file: no file {str(loaded.resolve(scene.model.file))!r} (a file name "
-                         "is relative to the scene file's folder); fix the name or the path")
+    loaded = SceneFile(scene, path, confine)
+    for key, name in _region_files(scene):
+        loaded.resolve(name, key=key)
+    if scene.model.file is not None:
+        model = loaded.resolve(scene.model.file, key="model.file")
+        if model.is_dir():
+            raise SceneError(f"{path.name}: model.file: {str(model)!r} is a folder, not a file; name a surface file "
+                             "(.obj, .stl, .ply, .off) in it")
+        if not model.is_file():
+            raise SceneError(f"{path.name}: model.file: no file {str(model)!r} (a file name is relative to the scene "
+                             "file's folder); fix the name or the path")
     return loaded
+
+
+def _region_files(scene: Scene):
+    """``(key, name)`` of every file of vertices the scene names (read once the mesh is built)."""
+    regions = [("support.fixed", scene.support.fixed)] + [
+        (f"support.attachments[{i}].nodes", attachment.nodes) for i, attachment in enumerate(scene.support.attachments)]
+    for key, region in regions:
+        for kind in ("mask", "indices_file"):
+            if getattr(region, kind) is not None:
+                yield f"{key}.{kind}", getattr(region, kind)
 
 
 def describe(error: ValidationError, name: str, *, line=None) -> str:

@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator, model_valida
 
 from ..fem.hyperelastic import MATERIALS
 from ..fem.presets import PRESETS
-from ..mesh.models import MODELS
+from ..mesh.models import MAX_RESOLUTION, MIN_RESOLUTION, MODELS
 from ..mesh.regions import REGION_KINDS
 
 #: Marks a location inside a validator's message: ``LOCATED + "path[3].time" + LOCATED + message`` makes the error
@@ -25,11 +25,37 @@ Number = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 Positive = Annotated[float, Field(strict=True, gt=0.0, allow_inf_nan=False)]
 Flag = Annotated[bool, Field(strict=True)]
 Vector = Annotated[list[Number], Field(min_length=3, max_length=3)]
+Resolution = Annotated[int, Field(strict=True, ge=MIN_RESOLUTION, le=MAX_RESOLUTION)]
+
+#: The most steps a run takes: at 0.1 ms a step (a small model's fastest method) over 15 minutes, so a duration or
+#: dt off by orders of magnitude is refused before the mesh is built rather than run for ever.
+MAX_STEPS = 10_000_000
+
+#: The deepest nesting of tables and arrays in a method's options; the methods take flat numbers and strings.
+MAX_OPTION_DEPTH = 8
 
 
 def located(where: str, message: str) -> ValueError:
     """A ValueError whose message :mod:`.load` places at ``where`` below the model raising it."""
     return ValueError(f"{LOCATED}{where}{LOCATED}{message}")
+
+
+def finite_options(options: dict) -> dict:
+    """``options`` (a method's keyword options, as read from TOML) unless a number in them is NaN or infinite, or
+    they nest deeper than :data:`MAX_OPTION_DEPTH`: TOML reads ``nan`` and ``inf``, which no option means."""
+    def check(value, where: str, depth: int) -> None:
+        if depth > MAX_OPTION_DEPTH:
+            raise located(where, f"nested more than {MAX_OPTION_DEPTH} deep; give the option a number or a string")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise located(where, f"{value} is not a finite number; give a number")
+        items = value.items() if isinstance(value, dict) else (
+            ((f"[{i}]", item) for i, item in enumerate(value)) if isinstance(value, list) else ())
+        for key, item in items:
+            check(item, f"{where}{key}" if key.startswith("[") else f"{where}.{key}", depth + 1)
+
+    for key, value in options.items():
+        check(value, key, 1)
+    return options
 
 
 class Strict(BaseModel):
@@ -44,8 +70,8 @@ class Model(Strict):
     name: str | None = Field(None, description="a built-in model: " + ", ".join(MODELS))
     file: str | None = Field(None, description="a surface file (.obj, .stl, .ply, .off), relative to the scene file")
     scale: Positive = Field(1.0, description="the factor from the file's unit to metres (0.01 for cm)")
-    resolution: Annotated[int, Field(strict=True, ge=50)] | None = Field(
-        None, description="the vertex count of a built-in model (at least 50)")
+    resolution: Resolution | None = Field(
+        None, description=f"the vertex count of a built-in model ({MIN_RESOLUTION} to {MAX_RESOLUTION})")
     repair: Flag = Field(False, description="true to repair a surface file's safe defects")
 
     @model_validator(mode="after")
@@ -84,6 +110,11 @@ class Method(Strict):
 
     name: str = Field("hybrid", description="the method: hybrid, pbd, mass-spring, embedded or fem")
     options: dict[str, Any] = Field(default_factory=dict, description="the method's own keyword options")
+
+    @field_validator("options")
+    @classmethod
+    def _finite(cls, options):
+        return finite_options(options)
 
 
 class Box(Strict):
@@ -203,6 +234,10 @@ class Run(Strict):
     def _step_fits(self):
         if self.dt > self.duration:
             raise located("dt", f"{self.dt:g} s is longer than the duration {self.duration:g} s; give a smaller dt")
+        if self.duration / self.dt > MAX_STEPS:
+            raise located("dt", f"duration {self.duration:g} s / dt {self.dt:g} s is {self.duration / self.dt:.3g} "
+                                f"steps; a run takes at most {MAX_STEPS} (over 15 minutes at 0.1 ms a step): give a "
+                                "shorter duration or a larger dt")
         return self
 
     @property
