@@ -70,17 +70,45 @@ def contact_patch(rest_positions: np.ndarray, triangles: np.ndarray, node: int,
 
 
 def contact_radius(radius) -> float:
-    """``radius`` as a float [m], or a :class:`SolverError` unless positive and finite (a bool is refused: True
-    would mean a 1 m tip)."""
-    try:
-        if isinstance(radius, (bool, np.bool_)):
-            raise TypeError
-        value = float(radius)
-    except (TypeError, ValueError):
-        raise SolverError(f"contact radius must be a number of metres or None, got {radius!r}") from None
+    """``radius`` as a float [m], or a :class:`SolverError` unless a positive finite number (:func:`real_number`)."""
+    value = real_number(radius)
+    if value is None:
+        raise SolverError(f"contact radius must be a number [m] or None, got {radius!r}; {number_fix(radius)}")
     if not np.isfinite(value) or value <= 0.0:
         raise SolverError(
             f"contact radius must be a positive finite number of metres (or None for a single-node load), got "
             f"{radius!r}"
         )
     return value
+
+
+def real_number(value) -> float | None:
+    """``value`` as a float, or None unless a real number: text is none (the API takes numbers, as scene files do: a
+    string "5" would silently be 5 m), nor is a bool (True would mean 1), a complex, or an array of more than one
+    element. Any object with ``__float__`` is taken (``Fraction``, ``Decimal``), and NumPy's 0-d integers and floats.
+
+    It lives here, the lowest layer that checks numbers (the contact radius), for every check above to share."""
+    if isinstance(value, (bool, np.bool_, str, bytes, bytearray)):   # NumPy's str_ and bytes_ are str and bytes
+        return None
+    if isinstance(value, (np.ndarray, np.generic)):
+        if value.ndim != 0 or value.dtype.kind not in "iuf":
+            return None
+    elif not hasattr(type(value), "__float__"):   # None, lists, complex, arbitrary objects
+        return None
+    try:
+        return float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+
+
+def number_fix(value, example: str = "0.01") -> str:
+    """What to do about ``value``, which :func:`real_number` refused: pass the number itself (the one a string
+    spells, if it spells one), e.g. ``example``."""
+    if isinstance(value, (str, bytes, bytearray)):
+        try:
+            spelled = float(value)
+        except ValueError:
+            spelled = None
+        if spelled is not None and np.isfinite(spelled):
+            return f"pass a number, e.g. {spelled:g} rather than the text {value!r}"
+    return f"pass a number, e.g. {example}"

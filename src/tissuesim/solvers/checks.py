@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
+from ..loads import number_fix, real_number
 
 #: Shortest time step [s] a solver takes. Below it a step's motion is lost in the round-off of the positions
 #: (~1e-17 m on a 10 cm body), and that round-off over dt is a spurious velocity that grows without bound
@@ -13,19 +14,36 @@ from ..errors import BoundaryConditionError, SolverError, first_indices
 MIN_DT = 1e-9
 
 
-def _number(name: str, value, unit: str) -> float:
-    """``value`` as a float, or a :class:`SolverError` naming ``name`` (a bool is no number: True would mean 1)."""
-    if isinstance(value, (bool, np.bool_)):
-        raise SolverError(f"{name} must be a number [{unit}], got {value!r}")
+def _number(name: str, value, unit: str, example: str = "0.01") -> float:
+    """``value`` as a float, or a :class:`SolverError` naming ``name``, its ``unit`` and the fix (e.g. ``example``)
+    unless a real number (:func:`~tissuesim.loads.real_number`: no text, bool or array)."""
+    number = real_number(value)
+    if number is None:
+        raise SolverError(f"{name} must be a number [{unit}], got {value!r}; {number_fix(value, example)}")
+    return number
+
+
+def numeric_array(value) -> np.ndarray | None:
+    """``value`` as a new ``float64`` array, or None unless every element is a real number (no text, bool or None:
+    ``np.asarray`` would read ``"1"`` as 1.0 and ``True`` as 1.0)."""
     try:
-        return float(value)
-    except (TypeError, ValueError):
-        raise SolverError(f"{name} must be a number [{unit}], got {value!r}") from None
+        array = np.array(value)
+    except (TypeError, ValueError):      # ragged nesting
+        return None
+    if array.dtype.kind == "O":
+        numbers = [real_number(item) for item in array.ravel()]
+        if any(number is None for number in numbers):
+            return None
+        return np.array(numbers, dtype=np.float64).reshape(array.shape)
+    if array.dtype.kind not in "iuf":
+        return None
+    return array.astype(np.float64)
 
 
-def positive_number(name: str, value, unit: str) -> float:
-    """``value`` as a float, or a :class:`SolverError` naming ``name`` and its ``unit`` unless positive and finite."""
-    value = _number(name, value, unit)
+def positive_number(name: str, value, unit: str, example: str = "1") -> float:
+    """``value`` as a float, or a :class:`SolverError` naming ``name`` and its ``unit`` unless positive and finite
+    (``example``: a valid value, for the message's fix)."""
+    value = _number(name, value, unit, example)
     if not np.isfinite(value) or value <= 0.0:
         raise SolverError(f"{name} must be a positive finite number [{unit}], got {value!r}")
     return value
@@ -62,10 +80,9 @@ def fraction(name: str, value) -> float:
 def check_force(force) -> np.ndarray:
     """``force`` as a ``(3,) float64`` array [N], or a :class:`SolverError` unless 3 finite numbers whose squared
     magnitude is finite too (the solvers take |f|: 1e200 N would overflow it)."""
-    try:
-        force = np.asarray(force, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SolverError(f"force must be 3 numbers [N], got {force!r}") from None
+    given, force = force, numeric_array(force)
+    if force is None:
+        raise SolverError(f"force must be 3 numbers [N], got {given!r}; pass numbers, e.g. [0, 0, -1]")
     if force.shape != (3,):
         raise SolverError(f"force must have shape (3,) [N], got shape {force.shape}")
     with np.errstate(over="ignore"):     # the overflow is what is checked here
@@ -113,12 +130,11 @@ def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.n
 
 
 def checked_point(point, *, name: str = "a point") -> np.ndarray:
-    """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError
+    """``point`` as a new ``(3,) float64`` array [m], or a SolverError
     naming it (``name``, e.g. "the probe centre")."""
-    try:
-        point = np.asarray(point, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise SolverError(f"{name} must be 3 coordinates [m], got {point!r}") from None
+    given, point = point, numeric_array(point)
+    if point is None:
+        raise SolverError(f"{name} must be 3 numbers [m], got {given!r}; pass coordinates, e.g. [0, 0, 0.05]")
     if point.shape != (3,) or not np.all(np.isfinite(point)):
         raise SolverError(f"{name} must be 3 finite coordinates [m], got {point!r}")
     return point
@@ -127,11 +143,8 @@ def checked_point(point, *, name: str = "a point") -> np.ndarray:
 def finite_triple(value) -> np.ndarray | None:
     """``value`` as a new read-only ``(3,) float64`` array, or None where it is not 3 finite numbers (the caller
     says what it should have been)."""
-    try:
-        vector = np.array(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        return None
-    if vector.shape != (3,) or not np.all(np.isfinite(vector)):
+    vector = numeric_array(value)
+    if vector is None or vector.shape != (3,) or not np.all(np.isfinite(vector)):
         return None
     vector.flags.writeable = False
     return vector
