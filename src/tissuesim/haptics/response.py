@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..solvers.snapshot import Snapshot
+
 #: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else
 #: the mean M_S edge length): a force that strains the patch by about 1e-3, small against the nonlinearity and
 #: large against the Newton solves' tolerance (0.09 mN on the cube's 4 mm tip; steps of 0.1 to 10 mN there give the
@@ -50,7 +52,7 @@ def local_response(solver, node: int, *, radius: float | None, around=(0.0, 0.0,
     """
     around = np.array(around, dtype=np.float64)
     step = 1.0 if solver.material == "linear" else tangent_step(solver, radius)
-    snapshot = _Snapshot(solver)
+    snapshot = Snapshot(solver)
     try:
         base = solver.solve_static(node, around, radius=radius)[node]
         columns = [(solver.solve_static(node, around + step * axis, radius=radius)[node] - base) / step
@@ -68,39 +70,3 @@ def tangent_step(solver, radius: float | None) -> float:
         ends = surface.vertices[surface.edges]
         radius = float(np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1).mean())
     return TANGENT_STEP * solver.youngs_modulus * radius ** 2
-
-
-#: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
-#: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
-#: would have without it (a pending warm-start move included).
-_WARM_ARRAYS = ("_u", "targets", "_embedded", "_embedded_new")
-_WARM_FLAGS = ("_dirty", "_volume_settled")
-#: What a hybrid's near field rebinds when its contact moves (its window of prescribed nodes): put back as it was.
-_WINDOW = ("prescribed", "inv_mass", "_statics", "_window", "_window_slots", "_window_node")
-
-
-class _Snapshot:
-    """A solver's visual state (positions, velocities, load, the hybrid's warm start and finite-strain volume), put
-    back after static solves."""
-
-    def __init__(self, solver):
-        self.positions = solver.positions.copy()
-        self.velocities = solver.velocities.copy()
-        self.loads = solver.kept_loads()
-        volume = getattr(solver, "volume_displacement", None)
-        self.volume = None if volume is None else volume.copy()
-        self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy())
-                       for name in _WARM_ARRAYS if hasattr(solver, name)}
-        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW if hasattr(solver, name)}
-
-    def restore(self, solver) -> None:
-        solver.put_back_loads(self.loads)
-        if self.volume is not None:
-            solver.volume_displacement = self.volume
-        for name, (array, values) in self.arrays.items():
-            setattr(solver, name, array)    # the very array (others are views of it), which a window may have replaced
-            array[...] = values
-        for name, value in self.flags.items():
-            setattr(solver, name, value)
-        solver.positions[:] = self.positions
-        solver.velocities[:] = self.velocities

@@ -1,0 +1,43 @@
+"""A solver's state put back exactly after work that must leave no trace: the haptic loop's static solves of a
+grabbed region, a probe's press that is refused. Everything a step reads is kept, so the next step after
+:meth:`Snapshot.restore` equals a twin's that never did the work."""
+
+from __future__ import annotations
+
+#: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
+#: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
+#: would have without it (a pending warm-start move included).
+_WARM_ARRAYS = ("_u", "targets", "_embedded", "_embedded_new")
+_WARM_FLAGS = ("_dirty", "_volume_settled")
+#: What a hybrid's near field rebinds when its contact moves (its window of prescribed nodes): put back as it was.
+_WINDOW = ("prescribed", "inv_mass", "_statics", "_window", "_window_slots", "_window_node")
+#: What the solver reports of the state it reached (:attr:`~.base.Solver.warning` reads the first).
+_REPORTS = ("largest_displacement", "last_solve")
+
+
+class Snapshot:
+    """A solver's state (positions, velocities, loads, the hybrid's warm start and finite-strain volume, what it
+    reports of them), taken when made and put back by :meth:`restore`."""
+
+    def __init__(self, solver):
+        self.positions = solver.positions.copy()
+        self.velocities = solver.velocities.copy()
+        self.loads = solver.kept_loads()
+        volume = getattr(solver, "volume_displacement", None)
+        self.volume = None if volume is None else volume.copy()
+        self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy())
+                       for name in _WARM_ARRAYS if hasattr(solver, name)}
+        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW + _REPORTS
+                      if hasattr(solver, name)}
+
+    def restore(self, solver) -> None:
+        solver.put_back_loads(self.loads)
+        if self.volume is not None:
+            solver.volume_displacement = self.volume
+        for name, (array, values) in self.arrays.items():
+            setattr(solver, name, array)    # the very array (others are views of it), which a window may have replaced
+            array[...] = values
+        for name, value in self.flags.items():
+            setattr(solver, name, value)
+        solver.positions[:] = self.positions
+        solver.velocities[:] = self.velocities
