@@ -28,16 +28,25 @@ Contact on vertices only lets the surface between vertices cut into the probe: a
 sphere of radius R sink R − √(R² − ρ²) ≈ ρ²/2R before any vertex touches it. A probe no larger than the triangles
 under it (ρ ≥ R) could pass between vertices, so :meth:`Probe.move_to` refuses it there; where the sink exceeds
 :data:`SINK_WARNING` × R it warns once.
+
+A frictionless probe pushes each vertex away from its core, so it presses the body only from outside: a probe whose
+core lies inside the body (placed there, or pressed deeper than its radius from the surface) would push the surface
+above its core outward, and a probe enclosing the body every vertex; both are refused where placed, and a press in
+which the surface passes over the core is refused too. A refused call changes nothing: the solver's state and loads
+and the probe's own are put back as they were.
 """
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
-from .probe_contact import (complementary_forces, gaps_and_normals, half_space_compliance, undetected_depth,
-                            vertex_spans)
+from .probe_contact import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
+                            undetected_depth, vertex_spans, winding_numbers)
 from .solvers.checks import checked_point, is_integer, positive_number
+from .solvers.snapshot import Snapshot
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -118,16 +127,18 @@ class Probe:
         """Move the probe: a sphere at ``center`` ``(3,)`` [m], or with ``end`` ``(3,)`` [m] a capsule from
         ``center`` to ``end``; one contact update at the current positions (call ``solver.step()`` next). Returns
         :attr:`force`. Refused (SolverError, nothing changed) where the probe is no larger than the triangles
-        under it or would reach the fixed region."""
-        self._place(center, end)
-        self.update()
+        under it, would reach the fixed region, encloses the body or has its core inside it."""
+        with self._refused_changes_nothing(solving=False):
+            self._place(center, end)
+            self._relaxed_update()
         return self.force
 
     def update(self) -> None:
         """One contact update at the probe's place and the current positions: the vertices near it found again,
         their forces from one Newton step (see the module docstring). A held probe calls it each frame."""
         self._require_placed()
-        self._newton_step(1.0 if getattr(self.solver, "static", False) else RELAXATION)
+        with self._refused_changes_nothing(solving=False):
+            self._relaxed_update()
 
     def press_static(self, center, end=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
                      max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
@@ -136,43 +147,31 @@ class Probe:
 
         Iterates contact updates and solves until the complementarity residual is within :attr:`tolerance`;
         between two updates a method whose step is not a static solve steps until the remaining motion is below a
-        tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first (the loads
-        of the last iteration stay), or the solver's own error when it cannot carry an iteration's forces (the probe
-        is then withdrawn)."""
-        for name, value in (("max_iterations", max_iterations), ("max_steps", max_steps)):
-            if not is_integer(value) or value < 1:
-                raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
-        self._place(center, end)
-        self.steps = 0
-        for iteration in range(1, int(max_iterations) + 1):
-            nodes, gaps, predicted = self._newton_step()
-            try:
-                self.steps += self._solve(int(max_steps))
-            except SolverError:         # the solver cannot carry these forces (a blow-up, an unstable dead load)
-                self.release()
-                raise
-            self._learn_scale(nodes, gaps, predicted)
-            self.iterations, self.residual = iteration, self._residual()
-            if self.residual <= self.tolerance:
-                return self.solver.positions.copy()
-        raise SolverError(
-            f"the probe's contact did not converge in {max_iterations} iterations (residual "
-            f"{self.residual:.3g} m, tolerance {self.tolerance:.3g} m); raise max_iterations or the tolerance")
+        tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first, or where
+        :meth:`move_to` refuses the place, or the solver's own error when it cannot carry an iteration's forces; a
+        refused press changes nothing (the solver's state and loads, and the probe, are as before the call)."""
+        max_iterations, max_steps = _counts(max_iterations=max_iterations, max_steps=max_steps)
+        with self._refused_changes_nothing(solving=True):
+            self._place(center, end)
+            if not self._iterate(max_iterations, max_steps):
+                raise SolverError(
+                    f"the probe's contact did not converge in {max_iterations} iterations (residual "
+                    f"{self.residual:.3g} m, tolerance {self.tolerance:.3g} m); nothing was changed; raise "
+                    "max_iterations or the tolerance")
+        return self.solver.positions.copy()
 
     def settle(self, center, end=None, *, max_iterations: int = FRAME_ITERATIONS) -> bool:
         """A frame's worth of :meth:`press_static`: the probe at ``center`` (a capsule to ``end``) [m] and at most
         ``max_iterations`` contact iterations, each a solve of the solver, leaving the solver at its equilibrium
         under the last iteration's forces; returns whether the contact converged (if not, the next call goes on
         from there). What a viewer or a script calls each frame where the probe moved: one relaxed :meth:`update`
-        before a dynamic step lags and rings instead, the step not being the tissue's equilibrium. Raises only what
-        :meth:`press_static` raises when the solver cannot carry the forces (the probe is then withdrawn)."""
-        try:
-            self.press_static(center, end, max_iterations=max_iterations)
-        except SolverError:
-            if self.center is None:            # withdrawn: the solver refused the forces
-                raise
-            return False
-        return True
+        before a dynamic step lags and rings instead, the step not being the tissue's equilibrium. Raises what
+        :meth:`press_static` raises for a place it refuses or forces the solver cannot carry, and then changes
+        nothing."""
+        max_iterations, max_steps = _counts(max_iterations=max_iterations, max_steps=DEFAULT_MAX_STEPS)
+        with self._refused_changes_nothing(solving=True):
+            self._place(center, end)
+            return self._iterate(max_iterations, max_steps)
 
     def release(self) -> None:
         """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
@@ -180,6 +179,43 @@ class Probe:
         self.center = self.end = None
 
     # ------------------------------------------------------------------------------------------ contact update
+    def _iterate(self, max_iterations: int, max_steps: int) -> bool:
+        """Contact updates and solves at the probe's place until the residual is within the tolerance (True) or
+        ``max_iterations`` pass (False: the loads of the last iteration act)."""
+        self.steps = 0
+        for iteration in range(1, max_iterations + 1):
+            nodes, gaps, predicted = self._newton_step()
+            self.steps += self._solve(max_steps)
+            self._check_core_outside()
+            self._learn_scale(nodes, gaps, predicted)
+            self.iterations, self.residual = iteration, self._residual()
+            if self.residual <= self.tolerance:
+                return True
+        return False
+
+    def _relaxed_update(self) -> None:
+        """The interactive update: a full Newton step for a method whose step is a static solve, else
+        :data:`RELAXATION` of one."""
+        self._newton_step(1.0 if getattr(self.solver, "static", False) else RELAXATION)
+
+    @contextmanager
+    def _refused_changes_nothing(self, *, solving: bool):
+        """Put everything back as it was when the body raises: the probe's own state and the solver's loads, and
+        with ``solving`` (the body steps or solves) the solver's whole state (:class:`~.solvers.snapshot.Snapshot`),
+        so a refused call leaves no load acting and no vertex moved."""
+        probe = dict(vars(self), _loads=dict(self._loads))
+        solver = Snapshot(self.solver) if solving else None
+        loads = None if solving else self.solver.kept_loads()
+        try:
+            yield
+        except BaseException:
+            if solving:
+                solver.restore(self.solver)
+            else:
+                self.solver.put_back_loads(loads)
+            vars(self).update(probe)
+            raise
+
     def _newton_step(self, relaxation: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One contact update, moving the forces ``relaxation`` of the way to the Newton step's; returns
         ``(candidates (k,), their gaps before (k,) [m], predicted gaps (k,) [m])``."""
@@ -198,7 +234,7 @@ class Probe:
     def _compliance(self, nodes: np.ndarray) -> np.ndarray:
         """``(k, k)`` the scaled half-space model of ``nodes`` [m/N]."""
         solver = self.solver
-        return self.scale * half_space_compliance(solver.rest_positions[nodes], self._areas[nodes],
+        return self.scale * half_space_compliance(solver.rest_positions[nodes], self._surface_arrays()[1][nodes],
                                                   solver.youngs_modulus, solver.poisson_ratio)
 
     def _set_forces(self, nodes: np.ndarray, forces: np.ndarray) -> None:
@@ -256,8 +292,8 @@ class Probe:
         """Check and take the probe's place (nothing changes when refused)."""
         center = checked_point(center, name="the probe centre").copy()
         end = None if end is None else checked_point(end, name="the capsule end").copy()
-        self._refresh_surface()
         gaps = gaps_and_normals(self.solver.positions, center, end, self.radius)[0]
+        self._check_outside(center, end, gaps)
         near = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
         held = np.intersect1d(near[gaps[near] < 0.0], self.solver.fixed)
         if held.size:
@@ -270,7 +306,7 @@ class Probe:
 
     def _check_resolution(self, nodes: np.ndarray) -> None:
         """Refuse a probe no larger than the triangles under it; warn once where they can sink into it."""
-        span = float(self._spans[nodes].max())
+        span = float(self._surface_arrays()[0][nodes].max())
         if span >= self.radius:
             raise SolverError(
                 f"the probe (radius {self.radius:.3g} m) is no larger than the surface's triangles under it "
@@ -283,14 +319,70 @@ class Probe:
                  f"{sink:.3g} m ({100 * sink / self.radius:.0f} % of its radius) into it between vertices; use a "
                  f"radius of at least {span / np.sqrt(1 - (1 - SINK_WARNING) ** 2):.3g} m or a finer surface")
 
-    def _refresh_surface(self) -> None:
-        """Per-vertex triangle spans and areas of the solver's surface (again after a cut swapped it)."""
+    def _check_outside(self, center: np.ndarray, end: np.ndarray | None, gaps: np.ndarray) -> None:
+        """Refuse a probe that encloses the body or whose core lies inside it (``gaps`` ``(n,)`` [m] of every
+        vertex to it): a frictionless probe pushes each vertex away from its core, so there it would push the
+        surface outward, or feel nothing at all from inside; only a probe outside the surface presses it."""
+        if np.all(gaps < 0.0):
+            raise SolverError(
+                f"the probe (radius {self.radius:.3g} m) encloses the whole body: all {gaps.size} surface vertices "
+                "lie inside it, and it would push each of them outward, away from its core; put the probe outside "
+                "the surface, touching it")
+        point = self._core_inside(center, end)
+        if point is not None:
+            raise SolverError(
+                f"the probe's {_core_name(end)} lies inside the body, at {np.round(point, 6).tolist()} m, "
+                f"{self._distance_to_surface(point):.3g} m from the nearest surface vertex: a frictionless probe "
+                "pushes each vertex away from its core, so it would push the surface outward (a probe cannot pull), "
+                f"or feel nothing; put it outside the surface, less than its radius {self.radius:.3g} m into it")
+
+    def _check_core_outside(self) -> None:
+        """Refuse a press in which the surface passed over the probe's core: the vertices that crossed it are
+        pushed away from it, the wrong way, and the contact can converge there, mirrored (a press deeper than the
+        vertex contact can follow)."""
+        point = self._core_inside(self.center, self.end)
+        if point is not None:
+            raise SolverError(
+                f"the surface passed over the probe's {_core_name(self.end)} while pressing (at "
+                f"{np.round(point, 6).tolist()} m, {self._distance_to_surface(point):.3g} m from the nearest surface "
+                "vertex, it lies inside the body): "
+                "its vertices would be pushed outward, the wrong way, so the press is refused and nothing was "
+                f"changed; press less deep (the probe's radius is {self.radius:.3g} m) or with a larger probe")
+
+    def _core_inside(self, center: np.ndarray, end: np.ndarray | None) -> np.ndarray | None:
+        """``(3,)`` the first point of the probe's core [m] inside the body at the current positions, or None."""
+        core = core_samples(center, end, self.radius)
+        inside = winding_numbers(core, self.solver.positions, self.solver.hybrid.surface.triangles) > 0.5
+        return core[np.argmax(inside)] if inside.any() else None
+
+    def _distance_to_surface(self, point: np.ndarray) -> float:
+        """The distance [m] from ``point`` ``(3,)`` to the nearest surface vertex now."""
+        return float(np.linalg.norm(self.solver.positions - point, axis=1).min())
+
+    def _surface_arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(spans (n,) [m], areas (n,) [m²])``: the largest triangle circumradius at each vertex of the solver's
+        surface now, and its lumped area. Every use reads them here, so after a cut (which swaps the surface and
+        adds vertices) each entry point sees the cut surface, never the one the probe was placed on."""
         surface = self.solver.hybrid.surface
         if surface is not self._surface:
             self._surface = surface
             self._spans = vertex_spans(surface.vertices, surface.triangles)
             self._areas = self.solver.lumped_areas()
+        return self._spans, self._areas
 
     def _require_placed(self) -> None:
         if self.center is None:
             raise SolverError("the probe is not placed; call move_to(center) or press_static(center) first")
+
+
+def _core_name(end) -> str:
+    return "centre" if end is None else "core (the segment from its centre to its end)"
+
+
+def _counts(**counts) -> tuple[int, ...]:
+    """The ``counts`` (keyword: value) as ints, or a SolverError naming the first that is not a whole number of at
+    least 1."""
+    for name, value in counts.items():
+        if not is_integer(value) or value < 1:
+            raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
+    return tuple(int(value) for value in counts.values())

@@ -47,6 +47,32 @@ def gaps_and_normals(points: np.ndarray, center: np.ndarray, end: np.ndarray | N
     return distance - radius, normals
 
 
+def core_samples(center: np.ndarray, end: np.ndarray | None, radius: float) -> np.ndarray:
+    """``(k, 3) float64`` points of the probe's core [m]: ``center`` ``(3,)`` for a sphere, the segment
+    ``center``–``end`` at most ``radius`` [m] apart for a capsule (a part of the body between two samples is thinner
+    than the probe, whose vertices then lie inside it)."""
+    if end is None:
+        return center[None]
+    count = int(np.ceil(float(np.linalg.norm(end - center)) / radius)) + 1
+    return center + np.linspace(0.0, 1.0, count)[:, None] * (end - center)
+
+
+def winding_numbers(points: np.ndarray, vertices: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(k,) float64`` the winding number of the closed surface ``vertices`` ``(n, 3)`` [m], ``triangles``
+    ``(m, 3) int`` (outward), about each of ``points`` ``(k, 3)`` [m]: 1 inside the body, 0 outside (the sum of the
+    triangles' signed solid angles over 4π, Van Oosterom and Strackee 1983)."""
+    corners = vertices[np.asarray(triangles, dtype=np.int64)]
+    numbers = np.empty(len(points))
+    for i, point in enumerate(points):
+        a, b, c = (corners[:, k] - point for k in range(3))
+        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
+        volume = np.einsum("ij,ij->i", a, np.cross(b, c))
+        below = la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la \
+            + np.einsum("ij,ij->i", c, a) * lb
+        numbers[i] = 2.0 * np.arctan2(volume, below).sum() / (4.0 * np.pi)
+    return numbers
+
+
 def half_space_compliance(rest: np.ndarray, areas: np.ndarray, youngs_modulus: float,
                           poisson_ratio: float) -> np.ndarray:
     """``(k, k) float64`` normal compliance [m/N] of ``k`` surface vertices of an elastic half-space (Boussinesq):
