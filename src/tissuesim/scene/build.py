@@ -66,6 +66,13 @@ def check_method(loaded: SceneFile) -> None:
         if used and key not in accepted:
             raise SceneError(f"{name}: {key}: the {method} method takes no {key} option; remove {key} or choose "
                              "another method")
+    if scene.gravity is not None:
+        from ..solvers.checks import gravity_vector
+
+        try:
+            gravity_vector(scene.gravity)
+        except SolverError as error:
+            raise SceneError(f"{name}: gravity: {error}") from None
 
 
 def solver_options(loaded: SceneFile, hybrid) -> dict:

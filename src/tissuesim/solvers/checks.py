@@ -13,6 +13,14 @@ from ..loads import number_fix, real_number
 #: inertia m/dt² overflows. A nanosecond is a million times shorter than a 1 kHz haptic loop's step.
 MIN_DT = 1e-9
 
+#: Standard gravity g₀ [m/s²].
+STANDARD_GRAVITY = 9.80665
+#: Largest gravity [m/s²] a solver takes: about 1,000 g₀, ten times the peak of a car crash or a fall (~100 g₀) and
+#: far beyond the ~1 g₀ of a patient on a table, tilted or not. Soft tissue under it is crushed, not deformed: the
+#: weight of a 10 cm liver (E = 5500 Pa) strains it by ρ g L / E ≈ 180 at the bound. Beyond it an input is a unit
+#: mistake (mm/s², or a typo) that would otherwise surface steps later, blamed on dt or the load.
+MAX_GRAVITY = 1e4
+
 
 def _number(name: str, value, unit: str, example: str = "0.01") -> float:
     """``value`` as a float, or a :class:`SolverError` naming ``name``, its ``unit`` and the fix (e.g. ``example``)
@@ -94,13 +102,21 @@ def check_force(force) -> np.ndarray:
 
 
 def gravity_vector(value) -> np.ndarray | None:
-    """``value`` as a read-only ``(3,) float64`` acceleration [m/s²], None for None, or a :class:`SolverError`."""
+    """``value`` as a read-only ``(3,) float64`` acceleration [m/s²], None for None, or a :class:`SolverError` unless
+    3 finite numbers of magnitude at most :data:`MAX_GRAVITY`."""
     if value is None:
         return None
     vector = finite_triple(value)
     if vector is None:
         raise SolverError(f"gravity is an acceleration (gx, gy, gz) [m/s²] of 3 finite numbers, e.g. (0, 0, -9.81), "
                           f"or None for none; got {value!r}")
+    with np.errstate(over="ignore"):     # 1e200 m/s² overflows the magnitude: that too is beyond the bound
+        magnitude = float(np.linalg.norm(vector))
+    if not magnitude <= MAX_GRAVITY:
+        raise SolverError(f"gravity of {magnitude:.4g} m/s² ({magnitude / STANDARD_GRAVITY:.4g} g) is beyond "
+                          f"{MAX_GRAVITY:g} m/s² (about {MAX_GRAVITY / STANDARD_GRAVITY:.0f} g), more than any "
+                          "acceleration a body meets in surgery, and would crush the tissue many times over; give "
+                          "the acceleration in m/s², e.g. (0, 0, -9.81), or None for none")
     return vector
 
 

@@ -266,14 +266,22 @@ class MassSpringSolver(Solver):
         if count and self.hybrid.info.get("cuts"):
             count, first = self._inside_out_beyond_flaps()
         if count:
-            load = float(sum(np.linalg.norm(held.force) for held in self.loads))
-            raise InversionError(
-                f"the mass-spring surface turned {count} triangles inside out (first: {first}) under "
-                f"{load:g} N: springs have no force that turns an "
-                "inverted triangle back, so it may stay inverted after release (a cut's lip, held only by springs in "
-                "its own plane, folds under smaller loads); lower the force, or use the hybrid method (reset() "
-                "returns to rest)"
-            )
+            raise InversionError(f"the mass-spring surface turned {count} triangles inside out (first: {first}) "
+                                 f"{self._inverting_cause()}")
+
+    def _inverting_cause(self) -> str:
+        """What turned the surface inside out (the loads, its weight, or both) and what to do about it."""
+        load = float(sum(np.linalg.norm(held.force) for held in self.loads))
+        why = ("springs have no force that turns an inverted triangle back, so it may stay inverted after release (a "
+               "cut's lip, held only by springs in its own plane, folds under smaller loads)")
+        if self.gravity is None:
+            return f"under {load:g} N: {why}; lower the force, or use the hybrid method (reset() returns to rest)"
+        weight = f"gravity {np.linalg.norm(self.gravity):g} m/s²"
+        if not self.loads:
+            return (f"under its own weight ({weight}, no load): {why}; the surface has no volume to carry its weight, "
+                    "so lower gravity, or use hybrid, embedded or fem for self-weight (reset() returns to rest)")
+        return (f"under {load:g} N and its own weight ({weight}): {why}; lower the force or gravity, or use the "
+                "hybrid method (reset() returns to rest)")
 
     def _inside_out_beyond_flaps(self) -> tuple[int, int]:
         """``(count, first)`` of the triangles turned against their rest normal, less those of flaps that swung
