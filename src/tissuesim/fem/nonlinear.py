@@ -42,6 +42,10 @@ MAX_NEWTON = 25
 #: Load stepping halves a failed increment down to this fraction of the load before giving up (so the largest
 #: stable fraction it reports is known to about 3 %; a converging Newton needs far fewer than MAX_NEWTON).
 MIN_LOAD_STEP = 1.0 / 32.0
+#: An equilibrium with an element crushed below this fraction of its volume (J = det F) is a collapse, not the
+#: tissue's answer: a dead load that crushes the surface ahead of a small tip has no stable equilibrium, and a
+#: converged one this crushed is an artefact of the mesh (the stable neo-Hookean energy stays finite through J = 0).
+COLLAPSE_J = 0.1
 #: Curvature pairs :meth:`NonlinearFEM.relax` keeps.
 LBFGS_MEMORY = 8
 _ARMIJO = 1e-4
@@ -169,20 +173,22 @@ class _HyperelasticStatics:
         if initial is not None and not motion.any() and self._converged(forces, u, rtol):
             self.last_iterations = 0  # already there (an interactive step under an unchanged load)
             return u
-        state = {"u": u, "iterations": 0}
+        state = {"u": u, "iterations": 0, "collapsed": False}
 
         def attempt(fraction: float) -> bool:
             trial = state["u"].copy()
             trial[fixed] = (start + fraction * motion)[fixed]
             converged, trial, taken = self._newton(fraction * forces, trial, rtol, max_iterations)
             state["iterations"] += taken
+            if converged and self.volume_ratios(trial).min() < COLLAPSE_J:   # converged, but crushed
+                converged, state["collapsed"] = False, True
             if converged:
                 state["u"] = trial
             return converged
 
         done = in_fractions(attempt, first=1.0, smallest=MIN_LOAD_STEP)
         if done < 1.0:
-            raise UnstableLoadError(self._unstable_message(forces, done), reached=done)
+            raise UnstableLoadError(self._unstable_message(forces, done, collapsed=state["collapsed"]), reached=done)
         u, iterations = state["u"], state["iterations"]
         if not self._stable(u):
             raise UnstableLoadError(self._unstable_message(forces, done, saddle=True), reached=0.0)
@@ -320,13 +326,20 @@ class _HyperelasticStatics:
             return False
         return True
 
-    def _unstable_message(self, forces, reached: float, *, saddle: bool = False) -> str:
+    def _unstable_message(self, forces, reached: float, *, saddle: bool = False, collapsed: bool = False) -> str:
         total = float(np.linalg.norm(forces.sum(axis=0)))
         what = ("the equilibrium it reaches is unstable (its tangent stiffness is not positive definite)" if saddle
-                else f"no stable equilibrium beyond {100 * reached:.3g} % of it")
+                else f"no stable equilibrium beyond {100 * reached:.3g} % of it" + (
+                    f" (beyond, an element is crushed below {COLLAPSE_J:g} of its volume)" if collapsed else ""))
         return (f"a dead load of {total:.3g} N on this {self.material_name} body has {what}: the body would buckle "
                 "or collapse under it; lower it (a press that deep needs a contact driven by displacement, a rigid "
                 "tip, not a fixed force)")
+
+    def volume_ratios(self, u: np.ndarray) -> np.ndarray:
+        """``(m, q) float64`` J = det F [-] at each element's points at displacement ``u`` ``(n, 3)`` [m]: 1 at
+        rest, ≤ 0 where an element is turned inside out."""
+        f = np.einsum("ewi,eqwk->eqik", (self.rest + u)[self.elements], self.gradients, optimize=True)
+        return np.linalg.det(f)
 
     def _check_forces(self, forces) -> np.ndarray:
         forces = np.asarray(forces, dtype=np.float64)

@@ -54,10 +54,10 @@ from ..fem.rigid_modes import connected_pieces
 from .contact import ContactPatches
 from .attachments import attachment_springs, check_supports_hold
 from .checks import fraction, gravity_vector, is_integer, node_set, positive_number, time_step
-from .finite_strain import check_method_material, unstable_load_error
+from .finite_strain import check_method_material, unstable_load_error, volume_range
 from .load_set import Load, LoadSet
 from .quasi_static import QuasiStaticSolve
-from .report import SolveReport, linear_validity_warning
+from .report import SolveReport, validity_warning
 from .state import State, farthest_node
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
@@ -177,10 +177,12 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     # ----------------------------------------------------------------------------------------------- state access
     @property
     def warning(self) -> str | None:
-        """A sentence when the state the last step or solve reached lies beyond linear elasticity (a node moved
-        more than :data:`~.report.LINEAR_VALIDITY_FRACTION` of the model's size), else None: what
-        ``last_solve.warning`` says of a static answer, for the interactive path too."""
-        return linear_validity_warning(self.largest_displacement, self.size)
+        """A sentence when the state the last step or solve reached lies beyond what the material models, else
+        None: what ``last_solve.warning`` says of a static answer, for the interactive path too. Linear elasticity:
+        a node moved more than :data:`~.report.LINEAR_VALIDITY_FRACTION` of the model's size; a finite-strain
+        material: an element crushed below :data:`~.report.FINITE_RANGE_J` of its volume."""
+        range_ = volume_range(self)
+        return validity_warning(range_.pop("material"), self.largest_displacement, self.size, **range_)
 
     @property
     def node_count(self) -> int:

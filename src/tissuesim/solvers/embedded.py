@@ -17,7 +17,7 @@ import numpy as np
 from numba import njit
 
 from .base import Solver
-from .finite_strain import carried_rest, finite_volume, move_supports
+from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
@@ -120,7 +120,7 @@ class EmbeddedSolver(Solver):
             np.add.at(forces, *self._tet_loads())
         if self._constant_load is not None:
             forces += self._constant_load
-        self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
+        self.volume_displacement = solve_volume(self, forces)
         self._u[:] = self.volume_displacement[self.carrier_nodes]
 
     def _move_fixed(self, positions: np.ndarray) -> None:

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .base import Solver
-from .finite_strain import carried_rest, finite_volume, move_supports
+from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
@@ -82,7 +82,7 @@ class FineFEMSolver(Solver):
             self._volume_forces += self._constant_load
         if self.finite is None:
             return self.fem.solve(self._volume_forces)
-        self.volume_displacement = self.finite.solve(self._volume_forces, initial=self.volume_displacement)
+        self.volume_displacement = solve_volume(self, self._volume_forces)
         return self.volume_displacement
 
     def surface_to_volume(self) -> np.ndarray:

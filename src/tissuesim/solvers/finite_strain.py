@@ -13,6 +13,8 @@ import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError
 from ..fem.hyperelastic import MATERIALS, check_material
+from ..fem.nonlinear import UnstableLoadError
+from .report import FINITE_RANGE_J
 
 def check_method_material(cls, material) -> str:
     """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
@@ -119,29 +121,78 @@ def carried_rest(solver) -> np.ndarray:
 
 
 def unstable_load_error(solver, error) -> SolverError:
-    """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): the
-    load, the patch's mean pressure against the shear modulus μ, and the fix."""
+    """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): what acts
+    (the loads, with the patch's mean pressure against the shear modulus μ; else the weight, the ligaments or the
+    moved base: no load is never called an unstable one), and the fix."""
     loaded = np.unique(solver.load_nodes)
+    head = f"{solver.name} solver ({solver.material}): "
+    carried = f"{100 * error.reached:.3g} % of it was carried"
+    if loaded.size == 0:
+        return SolverError(head + f"with no load acting, {' and '.join(_other_causes(solver))} has no stable "
+                           f"equilibrium ({carried})" + _other_fixes(solver))
     force = float(sum(np.linalg.norm(load.force) for load in solver.loads))
     area = float(solver.lumped_areas()[loaded].sum())
     mu = solver.elasticity.shear_modulus
-    pressure = force / area if area > 0 else np.inf
+    pressure = f"{force / area:.3g} Pa = {force / area / mu:.2g} μ" if area > 0 else "over no area"
     return SolverError(
-        f"{solver.name} solver ({solver.material}): a dead load of {force:.3g} N on {loaded.size} "
-        f"node(s) ({1e6 * area:.3g} mm², mean pressure {pressure:.3g} Pa = {pressure / mu:.2g} μ, μ = {mu:.3g} Pa) "
-        f"has no stable equilibrium ({100 * error.reached:.3g} % of it was carried): above about μ over the patch "
-        "a body pressed by a fixed force buckles; lower the load, or press with tissuesim.Probe, a rigid tip driven by "
-        "displacement (the pin-head's force is a fixed force too)")
+        head + f"a dead load of {force:.3g} N on {loaded.size} node(s) ({1e6 * area:.3g} mm², mean pressure "
+        f"{pressure}, μ = {mu:.3g} Pa) has no stable equilibrium ({carried}): a fixed force of more than about μ over "
+        "its patch buckles the body, or crushes the surface ahead of a tip pushed sideways; lower the load, spread "
+        "it over a wider tip (radius=), or press with tissuesim.Probe, a rigid tip driven by displacement (the "
+        "pin-head's force is a fixed force too)")
+
+
+def _other_causes(solver) -> list[str]:
+    """What loads a body that carries no load: its weight, its ligaments, its moved base."""
+    causes = []
+    if solver.gravity is not None:
+        causes.append(f"its weight (g = {float(np.linalg.norm(solver.gravity)):.3g} m/s²)")
+    if solver.attachments:
+        causes.append("its attachments' pull")
+    if not np.array_equal(solver.fixed_positions, solver.rest_positions[solver.fixed]):
+        causes.append("the motion of its base (set_fixed_positions)")
+    return causes or ["its state"]
+
+
+def _other_fixes(solver) -> str:
+    fixes = []
+    if solver.gravity is not None or solver.attachments:
+        fixes.append("a stiffer material (youngs_modulus) or a lighter body (density)")
+    if not np.array_equal(solver.fixed_positions, solver.rest_positions[solver.fixed]):
+        fixes.append("a base carried or turned less far")
+    return f": try {' or '.join(fixes)}, then reset()" if fixes else ": call reset()"
+
+
+def solve_volume(solver, forces: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` a finite-strain ``solver``'s volume displacement [m] at equilibrium under ``forces`` ``(N, 3)``
+    [N], warm-started from its last one; where that start leads nowhere (a state tangled by an earlier load, e.g.
+    a contact's, now withdrawn), again from the body at rest carried with its base, before calling the load
+    unstable (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`)."""
+    try:
+        return solver.finite.solve(forces, initial=solver.volume_displacement)
+    except UnstableLoadError:
+        start = carried_rest(solver)
+        if np.array_equal(start, solver.volume_displacement):
+            raise
+        return solver.finite.solve(forces, initial=start)
 
 
 def inverted_element_count(solver) -> int | None:
     """How many of a finite-strain solver's volume elements are turned inside out now (None for linear)."""
-    finite = getattr(solver, "finite", None)
-    if finite is None:
+    if getattr(solver, "finite", None) is None:
         return None
-    from ..mesh.tetmesh import tet_signed_volumes
+    return int(np.count_nonzero(np.any(solver.finite.volume_ratios(solver.volume_displacement) <= 0.0, axis=1)))
 
-    return int(np.count_nonzero(tet_signed_volumes(finite.rest + solver.volume_displacement, finite.elements) <= 0.0))
+
+def volume_range(solver) -> dict:
+    """What a :class:`~.report.SolveReport` and ``Solver.warning`` need to judge ``solver``'s state: its material
+    and, with a finite-strain one, ``smallest_volume_ratio`` (the smallest J = det F of its volume's elements) and
+    ``crushed`` (how many are below :data:`~.report.FINITE_RANGE_J`)."""
+    if getattr(solver, "finite", None) is None:
+        return {"material": solver.material}
+    ratios = solver.finite.volume_ratios(solver.volume_displacement).min(axis=1)
+    return {"material": solver.material, "smallest_volume_ratio": float(ratios.min()),
+            "crushed": int(np.count_nonzero(ratios < FINITE_RANGE_J))}
 
 
 def finite_volume(solver, mesh, linear):

@@ -49,7 +49,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, warn
 from .registry import register
 from .embedded import map_embedded
-from .finite_strain import carried_rest, move_supports
+from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .surface_layer import SurfaceLayerSolver
@@ -87,7 +87,6 @@ class HybridSolver(SurfaceLayerSolver):
                  near_field: float | None = None, **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
-        from .finite_strain import finite_volume
 
         h = hybrid_mesh
         self.warm_start = bool(warm_start)
@@ -217,7 +216,7 @@ class HybridSolver(SurfaceLayerSolver):
         if self._constant_load is not None:
             forces += self._constant_load
         if exact:
-            self.volume_displacement = self.finite.solve(forces, initial=self.volume_displacement)
+            self.volume_displacement = solve_volume(self, forces)
             self._volume_settled = True
         else:
             self._volume_settled = self.finite.relax(forces, self.volume_displacement, iterations=VOLUME_ITERATIONS)

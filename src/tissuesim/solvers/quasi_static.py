@@ -13,7 +13,7 @@ import numpy as np
 from ..errors import InversionError, SolverError
 from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, is_integer, positive_number
-from .finite_strain import check_dead_press, unstable_load_error
+from .finite_strain import check_dead_press, unstable_load_error, volume_range
 from .report import SolveReport
 from .state import farthest_node, motion_and_displacement, remaining_error
 
@@ -103,7 +103,7 @@ class QuasiStaticSolve:
         if iterations is not None:
             self._check_blow_up(dt, " in its static solve", linear=self.material == "linear")
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
-                                          *self._largest_displacement())
+                                          **self._measures())
             return self.state.positions.copy()
         previous = self._previous
         previous[:] = self.state.positions
@@ -115,7 +115,7 @@ class QuasiStaticSolve:
             except InversionError:
                 # The surface cannot come back: report the solve as unsettled at its last (finite) state.
                 self.last_solve = SolveReport(steps, False, float(motion), tolerance, time.perf_counter() - start,
-                                              *self._largest_displacement())
+                                              **self._measures())
                 raise
             steps += 1
             self._check_blow_up(dt, f" after {steps} step" + "s" * (steps > 1))
@@ -123,7 +123,7 @@ class QuasiStaticSolve:
             history.append(motion)
             settled = motion <= tolerance or remaining_error(history) <= rtol * largest or self.static
         self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start,
-                                      *self._largest_displacement())
+                                      **self._measures())
         if not settled:
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
@@ -138,6 +138,8 @@ class QuasiStaticSolve:
         self.state.positions[:] = positions
         self.state.velocities[:] = velocities
 
-    def _largest_displacement(self) -> tuple[float, float]:
-        """``(largest node displacement from rest [m], model size [m])`` for a :class:`SolveReport`."""
-        return float(farthest_node(self.state.positions, self.rest_positions)[1]), self.size
+    def _measures(self) -> dict:
+        """A :class:`SolveReport`'s measures of the state: the largest node displacement from rest [m], the model's
+        size [m], the material and its volume's range (:func:`~.finite_strain.volume_range`)."""
+        return dict(largest_displacement=float(farthest_node(self.state.positions, self.rest_positions)[1]),
+                    model_size=self.size, **volume_range(self))

@@ -1,5 +1,7 @@
-"""What a solver tells about its answer: the report of a quasi-static solve, and whether linear elasticity is
-still a model of the body at a given displacement (for a static answer and for the state a step reached alike)."""
+"""What a solver tells about its answer: the report of a quasi-static solve, and whether its material is still a
+model of the body there (for a static answer and for the state a step reached alike): linear elasticity up to a
+displacement of a tenth of the body's size; a finite-strain material, through any rotation, up to elements crushed to
+half their volume."""
 
 from __future__ import annotations
 
@@ -21,6 +23,34 @@ def linear_validity_warning(largest_displacement: float, model_size: float) -> s
             f"(small-strain theory holds to about {LINEAR_VALIDITY_FRACTION:g}); lower the load")
 
 
+#: A finite-strain material (corotated, neo-Hookean) is Hooke's law of E and ν carried to large rotations and
+#: strains, not a law measured on tissue crushed this far: an element below this fraction of its volume (J = det F)
+#: lies beyond what it models. (Far below, at :data:`~tissuesim.fem.nonlinear.COLLAPSE_J`, a static solve refuses.)
+FINITE_RANGE_J = 0.5
+
+
+def finite_range_warning(material: str, smallest_volume_ratio: float, crushed: int) -> str | None:
+    """A sentence saying that the finite-strain ``material`` is beyond its range where ``crushed`` elements of the
+    volume are below :data:`FINITE_RANGE_J` of their volume (the smallest J = ``smallest_volume_ratio``), else
+    None. Large displacements and rotations are what such a material is for: they are never warned of."""
+    if not crushed:
+        return None
+    inverted = " (≤ 0: turned inside out)" if smallest_volume_ratio <= 0 else ""
+    return (f"the {material} material is beyond its range here: {crushed} element(s) of the volume are crushed below "
+            f"{FINITE_RANGE_J:g} of their volume (smallest J = {smallest_volume_ratio:.2g}{inverted}), a strain its "
+            "energy, fitted to E and ν at small strain, does not model; lower the load, spread it over a wider tip, "
+            "or press with tissuesim.Probe, a rigid tip driven by displacement")
+
+
+def validity_warning(material: str, largest_displacement: float, model_size: float,
+                     smallest_volume_ratio: float = math.nan, crushed: int = 0) -> str | None:
+    """The warning of a state under ``material``: :func:`linear_validity_warning` for the linear one, else
+    :func:`finite_range_warning`."""
+    if material == "linear":
+        return linear_validity_warning(largest_displacement, model_size)
+    return finite_range_warning(material, smallest_volume_ratio, crushed)
+
+
 @dataclass(frozen=True)
 class SolveReport:
     """What the last :meth:`Solver.solve_static` did.
@@ -35,6 +65,8 @@ class SolveReport:
         elapsed: wall time of the solve [s].
         largest_displacement: largest node displacement from rest at the end [m].
         model_size: the model's size, the diagonal of M_S's rest bounding box [m].
+        material: the solver's material; with a finite-strain one, ``smallest_volume_ratio`` the smallest J = det F
+            of its volume's elements and ``crushed`` how many lie below :data:`FINITE_RANGE_J` (NaN and 0 for linear).
     """
 
     steps: int
@@ -44,6 +76,9 @@ class SolveReport:
     elapsed: float
     largest_displacement: float = math.nan
     model_size: float = math.nan
+    material: str = "linear"
+    smallest_volume_ratio: float = math.nan
+    crushed: int = 0
 
     @property
     def linear_valid(self) -> bool:
@@ -52,5 +87,7 @@ class SolveReport:
 
     @property
     def warning(self) -> str | None:
-        """A sentence saying that linear elasticity is not valid for this answer, or None."""
-        return linear_validity_warning(self.largest_displacement, self.model_size)
+        """A sentence saying that the material does not model this answer (linear elasticity: too large a
+        displacement; finite strain: crushed elements), or None."""
+        return validity_warning(self.material, self.largest_displacement, self.model_size,
+                                self.smallest_volume_ratio, self.crushed)
