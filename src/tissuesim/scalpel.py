@@ -35,8 +35,7 @@ from .cutting.core import DEFAULT_SNAP
 from .solvers.cut_carry import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
-from .solvers.checks import checked_point
-from .solvers.checks import positive_number
+from .solvers.checks import checked_point, numeric_array, positive_number
 
 #: Default blade length in mean rest edge lengths of M_S.
 DEPTH_EDGES = 2.0
@@ -182,12 +181,8 @@ def _unit(direction) -> np.ndarray:
     """``direction`` ``(3,)`` scaled to unit length: by its largest component first, so neither a huge vector
     (whose squared length overflows) nor a tiny one (whose squared length underflows) loses it; SolverError for
     anything but 3 finite numbers, not all zero."""
-    given = direction
-    try:
-        direction = np.asarray(direction, dtype=np.float64)
-    except (TypeError, ValueError):
-        direction = np.full(3, np.nan)
-    if direction.shape != (3,) or not np.all(np.isfinite(direction)):
+    given, direction = direction, numeric_array(direction)   # np.asarray would read ["0", "0", "-1"] as a vector
+    if direction is None or direction.shape != (3,) or not np.all(np.isfinite(direction)):
         raise SolverError("the blade direction must be 3 finite numbers (a vector into the tissue, any length), "
                           f"got {given!r}; pass none for the inward normal")
     largest = float(np.max(np.abs(direction)))

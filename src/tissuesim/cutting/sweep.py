@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SolverError
+from ..loads import real_number
 
 #: Relative tolerance [1] under which a vertex counts as lying on the sweep plane (fraction of the edge length).
 PLANE_TOLERANCE = 1e-9
@@ -249,10 +250,8 @@ def _clip_bound(a, b, lo, hi):
 
 def check_snap(snap: float) -> float:
     """``snap`` as a float in [:data:`MIN_SNAP`, 1/3), or a SolverError naming the option, the range and why."""
-    try:
-        value = float(snap)
-    except (TypeError, ValueError):
-        value = math.nan
+    value = real_number(snap)      # no text: "0.2" would otherwise be read as 0.2
+    value = math.nan if value is None else value
     if not MIN_SNAP <= value < 1.0 / 3.0:
         why = (f"; below {MIN_SNAP:g} the cut's points are merged only when closer than snap x the edge, which "
                "leaves slivers (at 0, coincident vertices and zero-area triangles)") if 0.0 <= value < MIN_SNAP else ""
