@@ -73,3 +73,44 @@ def test_a_half_turn_of_the_base_on_the_default_cube_steps_the_embedded_body_to_
     solver.set_fixed_positions(expected[solver.fixed])
     solver.step()
     assert np.abs(solver.positions - expected).max() < 1e-9 * solver.size
+
+
+@pytest.mark.parametrize("point", [[0.0, 0.0, 0.0], [0.01, 0.02, 0.03], [-0.05, 0.1, 0.2]])
+def test_gathering_the_base_to_one_point_is_called_a_crush(small_cube, point):
+    from tissuesim.mesh import models as meshes
+
+    for hybrid in (small_cube, HybridMesh.build(meshes.liver(resolution=600))):
+        solver = make_solver("embedded", hybrid, material="corotated")
+        base = solver.rest_positions[solver.fixed].copy()
+        with pytest.raises(BoundaryConditionError, match="crushes") as refused:
+            solver.set_fixed_positions(np.broadcast_to(point, base.shape))
+        assert "mirror" not in str(refused.value)
+        np.testing.assert_array_equal(solver.fixed_positions, base)
+
+
+@pytest.mark.parametrize("shift", [1e300, 1000.0, 2.0])
+def test_a_base_carried_absurdly_far_is_refused_where_it_is_given(small_cube, small_cube_size, shift):
+    """1 km (or 1e300 m) on a 14 cm body was taken, and the next step failed as a divergence "under no load"."""
+    solver = make_solver("hybrid", small_cube, material="corotated")
+    base = solver.rest_positions[solver.fixed].copy()
+    with pytest.raises(BoundaryConditionError, match=r"times the body's size .*within 10 sizes of rest"):
+        solver.set_fixed_positions(base + shift)
+    np.testing.assert_array_equal(solver.fixed_positions, base)
+    solver.step()
+    assert np.abs(solver.positions - solver.rest_positions).max() < 1e-12
+    solver.set_fixed_positions(base + [5.0 * small_cube_size, 0.0, 0.0])      # far, but a carry
+    solver.step()
+    assert np.abs(solver.positions - solver.rest_positions - [5.0 * small_cube_size, 0.0, 0.0]).max() < 1e-6
+
+
+def test_fixed_vertices_scattered_independently_are_no_support_motion(small_cube):
+    solver = make_solver("embedded", small_cube, material="corotated")
+    base = solver.rest_positions[solver.fixed].copy()
+    scattered = base + np.random.default_rng(3).normal(scale=0.01, size=base.shape)
+    with pytest.raises(BoundaryConditionError, match=r"no support's motion: vertex \d+ of it lies .* affine map"):
+        solver.set_fixed_positions(scattered)
+    np.testing.assert_array_equal(solver.fixed_positions, base)
+    centre = base.mean(axis=0)
+    squeezed = (base - centre) * [0.7, 1.0, 1.0] + centre       # a jaw's squeeze is affine: taken
+    solver.set_fixed_positions(squeezed)
+    np.testing.assert_array_equal(solver.fixed_positions, squeezed)

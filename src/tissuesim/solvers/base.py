@@ -260,7 +260,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
             raise BoundaryConditionError(f"the {self.name} solver has no fixed vertex to move (attachments hold it); "
                                          "give fixed= vertices to carry or turn")
         positions = check_fixed_positions(positions, self.fixed)
-        check_support_motion(self.rest_positions[self.fixed], positions)
+        check_support_motion(self.rest_positions[self.fixed], positions, self.size)
         self._move_fixed(positions)
         self.fixed_positions = positions
 

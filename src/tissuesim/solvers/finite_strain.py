@@ -43,19 +43,52 @@ def check_fixed_positions(positions, fixed: np.ndarray) -> np.ndarray:
     return positions
 
 
-def check_support_motion(rest: np.ndarray, positions: np.ndarray) -> None:
-    """Refuse (BoundaryConditionError) a motion of the fixed set from ``rest`` to ``positions`` ``(k, 3)`` [m] that
-    crushes or mirrors it: the affine map that fits it must keep the orientation and at least 10 % of the volume,
-    and the set at least 30 % of its spread about its centre (a rigid motion keeps all of both; a grasper's squeeze
-    far more)."""
+#: Farthest a fixed vertex may be carried from rest, in body sizes (the diagonal of M_S's rest bounding box): a
+#: grasper or retractor carries an organ a few of its sizes at most, and a body carried rigidly stays then far within
+#: the runaway distance (``RUNAWAY_SIZES`` = 100 sizes) that a step calls a blow-up; farther is a slip of units or
+#: a wrong array, which the next step would only report as a divergence under no load.
+SUPPORT_REACH = 10.0
+#: The most a support motion may depart from the affine map that fits it: the largest distance of a fixed vertex
+#: from where that map puts it, over the fixed set's RMS distance from its centre. A base carried, turned or
+#: squeezed by a rigid jaw moves affinely (0); vertices scattered independently are no support's motion.
+NON_AFFINE = 0.1
+
+
+def check_support_motion(rest: np.ndarray, positions: np.ndarray, size: float) -> None:
+    """Refuse (BoundaryConditionError) a motion of the fixed set from ``rest`` to ``positions`` ``(k, 3)`` [m] that is
+    no support's motion on a body of ``size`` [m]: carried farther than :data:`SUPPORT_REACH` sizes; crushed or
+    mirrored (the affine map that fits it must keep the orientation and at least 10 % of the volume, and the set at
+    least 30 % of its spread about its centre: a rigid motion keeps all of both, a grasper's squeeze far more); or
+    scattered (farther than :data:`NON_AFFINE` of the set's spread from that map)."""
+    step = positions - rest
+    scale = np.abs(step).max(axis=1)        # the norm scaled, as 1e300² would overflow
+    travel = scale * np.linalg.norm(step / np.where(scale > 0, scale, 1.0)[:, None], axis=1)
+    far = int(np.argmax(travel))
+    if travel[far] > SUPPORT_REACH * size:
+        raise BoundaryConditionError(
+            f"the fixed set's motion carries vertex {far} of it {travel[far]:.3g} m from rest, {travel[far] / size:.3g} "
+            f"times the body's size {size:.3g} m: no grasper carries an organ that far (positions are in metres); "
+            f"give positions within {SUPPORT_REACH:g} sizes of rest, e.g. rest positions turned and shifted")
+    radius = np.sqrt(np.mean(np.sum((rest - rest.mean(axis=0)) ** 2, axis=1)))
     matrix, _ = affine_fit(rest, positions)
     determinant = float(np.linalg.det(matrix))
     spread = np.linalg.norm(positions - positions.mean(axis=0)) / np.linalg.norm(rest - rest.mean(axis=0))
     if not (determinant > 0.1 and spread > 0.3):    # a planar base's fit is a rotation: its spread says it all
+        # a set gathered to a point or a line is crushed, whatever the sign round-off gives its determinant
+        mirrored = determinant < -0.1 and spread > 0.3
         raise BoundaryConditionError(
-            f"the fixed set's motion {'mirrors' if determinant < 0 else 'crushes'} it (the affine map that fits it "
-            f"has determinant {determinant:.3g} and keeps {spread:.2g} of its spread; a rigid motion keeps 1 and 1): "
+            f"the fixed set's motion {'mirrors' if mirrored else 'crushes'} it (the affine map that fits it has "
+            f"determinant {determinant:.3g} and keeps {spread:.2g} of its spread; a rigid motion keeps 1 and 1): "
             "give positions that carry or turn the base, e.g. rest positions turned and shifted")
+    rest_h = np.hstack([rest, np.ones((len(rest), 1))])
+    off = np.linalg.norm(rest_h @ np.linalg.lstsq(rest_h, positions, rcond=None)[0] - positions, axis=1)
+    worst = int(np.argmax(off))
+    if off[worst] > NON_AFFINE * radius:
+        raise BoundaryConditionError(
+            f"the fixed set's motion is no support's motion: vertex {worst} of it lies {off[worst]:.3g} m from where "
+            f"the affine map that best fits the motion puts it, {off[worst] / radius:.2g} of the set's spread "
+            f"{radius:.3g} m (a base carried, turned or squeezed moves affinely; at most {NON_AFFINE:g} is taken); "
+            "move the whole base together, e.g. rest positions turned and shifted")
 
 
 def affine_fit(rest: np.ndarray, moved: np.ndarray):
