@@ -10,6 +10,7 @@ probe pushes it (frictionless: the force on the vertex is λ n with λ ≥ 0).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 from scipy.linalg import cho_factor, solve_triangular
 from scipy.optimize import nnls
 
@@ -61,16 +62,34 @@ def winding_numbers(points: np.ndarray, vertices: np.ndarray, triangles: np.ndar
     """``(k,) float64`` the winding number of the closed surface ``vertices`` ``(n, 3)`` [m], ``triangles``
     ``(m, 3) int`` (outward), about each of ``points`` ``(k, 3)`` [m]: 1 inside the body, 0 outside (the sum of the
     triangles' signed solid angles over 4π, Van Oosterom and Strackee 1983)."""
-    corners = vertices[np.asarray(triangles, dtype=np.int64)]
-    numbers = np.empty(len(points))
-    for i, point in enumerate(points):
-        a, b, c = (corners[:, k] - point for k in range(3))
-        la, lb, lc = (np.linalg.norm(v, axis=1) for v in (a, b, c))
-        volume = np.einsum("ij,ij->i", a, np.cross(b, c))
-        below = la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la \
-            + np.einsum("ij,ij->i", c, a) * lb
-        numbers[i] = 2.0 * np.arctan2(volume, below).sum() / (4.0 * np.pi)
-    return numbers
+    vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+    triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+    return np.array([_winding_number(np.asarray(point, dtype=np.float64), vertices, triangles) for point in points])
+
+
+@njit(cache=True)
+def _winding_number(point: np.ndarray, vertices: np.ndarray, triangles: np.ndarray) -> float:
+    """:func:`winding_numbers` about one ``point`` ``(3,)``: a pass over the triangles that allocates nothing (each
+    placing of the probe and each of its iterations take one; NumPy's temporaries made it 10 ms on 10k triangles)."""
+    total = 0.0
+    for t in range(triangles.shape[0]):
+        ax = vertices[triangles[t, 0], 0] - point[0]
+        ay = vertices[triangles[t, 0], 1] - point[1]
+        az = vertices[triangles[t, 0], 2] - point[2]
+        bx = vertices[triangles[t, 1], 0] - point[0]
+        by = vertices[triangles[t, 1], 1] - point[1]
+        bz = vertices[triangles[t, 1], 2] - point[2]
+        cx = vertices[triangles[t, 2], 0] - point[0]
+        cy = vertices[triangles[t, 2], 1] - point[1]
+        cz = vertices[triangles[t, 2], 2] - point[2]
+        la = np.sqrt(ax * ax + ay * ay + az * az)
+        lb = np.sqrt(bx * bx + by * by + bz * bz)
+        lc = np.sqrt(cx * cx + cy * cy + cz * cz)
+        volume = ax * (by * cz - bz * cy) + ay * (bz * cx - bx * cz) + az * (bx * cy - by * cx)
+        below = (la * lb * lc + (ax * bx + ay * by + az * bz) * lc + (bx * cx + by * cy + bz * cz) * la
+                 + (cx * ax + cy * ay + cz * az) * lb)
+        total += np.arctan2(volume, below)
+    return total / (2.0 * np.pi)      # each solid angle is 2 atan2(...); over 4π
 
 
 def half_space_compliance(rest: np.ndarray, areas: np.ndarray, youngs_modulus: float,
