@@ -2,9 +2,11 @@
 :meth:`~tissuesim.mesh.hybrid.HybridMesh.load` write and read it here.
 
 One ``.npz`` file of plain arrays (no pickle) plus a JSON header carrying the bundle format version and the tissuesim
-version that wrote it. Loading a bundle of another format version, an unreadable one, or one whose arrays fail the
-checks of :mod:`.bundle_check` (dtype, shape, finiteness, index range, consistency between the meshes) raises
-:class:`BundleError` naming the array. Saving writes a temporary file beside the target and renames it, so a bundle
+version that wrote it. Loading reads only the members a hybrid mesh has (others are never read), each after the
+shape and dtype its .npy header declares passed the checks of :mod:`.bundle_check` against the others' counts, so a
+forged or zip-bomb member is refused before its data is inflated. Loading a bundle of another format version, an
+unreadable one, or one whose arrays fail those checks (dtype, shape, finiteness, index range, consistency between the
+meshes) raises :class:`BundleError` naming the array. Saving writes a temporary file beside the target and renames it, so a bundle
 is never half-written; a target that exists and is not a regular file is refused. Arrays survive bit for bit; M'_S
 is stored as triangles only (its vertices are ``surface.vertices[control]``).
 """
@@ -20,13 +22,21 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import BundleError, MeshError
-from .bundle_check import (bundle_path, check_arrays, check_bundle_target, check_header, temporary_prefix,
-                           unsaveable)
+from .bundle_check import (FINE, OPTIONAL, REBUILD, REQUIRED, bundle_path, check_arrays, check_bundle_target,
+                           check_declared, check_header, temporary_prefix, unsaveable)
 from .surface import SurfaceMesh
 from .tetmesh import TetMesh
 
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
+#: Most a bundle's member may inflate: its uncompressed size over its compressed one. HybridMesh.save stores its
+#: arrays (1×); deflated, a mesh's arrays shrink 2-8× (measured on the cube's bundle), zeros about 1000×. Beyond it
+#: a member is a zip bomb (a 14 MB file could otherwise inflate to gigabytes); INFLATION_SLACK [bytes] spares tiny
+#: members, whose .npy header alone may deflate well.
+MAX_INFLATION = 100
+INFLATION_SLACK = 2 ** 16
+#: Largest JSON header [bytes] read (a mesh's build record is about 1 kB).
+MAX_HEADER_BYTES = 2 ** 24
 WHAT_A_BUNDLE_IS = ("a bundle is the .npz file that `tissuesim build MESH --output FILE.npz` or HybridMesh.save "
                     "writes; read a surface file with tissuesim.read_surface and build it with HybridMesh.build")
 
@@ -82,17 +92,7 @@ def load_bundle(path) -> dict:
     """The :class:`~tissuesim.mesh.hybrid.HybridMesh` fields of the bundle at ``path``, checked; see
     :meth:`HybridMesh.load <tissuesim.mesh.hybrid.HybridMesh.load>`."""
     path = bundle_path(path)
-    arrays = _read_arrays(path)
-    header = _read_header(path, arrays)
-    fine_volume = header["has_fine_volume"]
-    required = ["surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets",
-                "control", "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet",
-                "embedding_barycentric"]
-    if fine_volume:
-        required += ["fine_points", "fine_tets", "fine_surface_nodes"]
-    missing = [key for key in required if key not in arrays]
-    if missing:
-        raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+    arrays, fine_volume, info = _read_arrays(path)
     check_arrays(path, arrays, fine=fine_volume)
     try:
         surface = SurfaceMesh(arrays["surface_vertices"], arrays["surface_triangles"])
@@ -111,11 +111,14 @@ def load_bundle(path) -> dict:
                 control_volume=arrays["control_volume"], coarse_triangle=arrays["coarse_triangle"],
                 coarse_barycentric=arrays["coarse_barycentric"], embedding_tet=arrays["embedding_tet"],
                 embedding_barycentric=arrays["embedding_barycentric"], fine_volume=fine,
-                fine_surface_nodes=fine_nodes, info=header.get("info", {}), coarse_volume=coarse_volume)
+                fine_surface_nodes=fine_nodes, info=info, coarse_volume=coarse_volume)
 
 
-def _read_arrays(path: Path) -> dict:
-    """Every array of the ``.npz`` at ``path``, refusing (BundleError) what is no readable archive of plain arrays."""
+def _read_arrays(path: Path) -> tuple[dict, bool, dict]:
+    """``(arrays, has_fine_volume, info)`` of the bundle at ``path``: only the members a hybrid mesh has are read,
+    each after its declared shape and dtype passed :func:`.bundle_check.check_declared` (a member that is no array of
+    plain numbers, or is not there, or declares more than it holds, is a BundleError); other members are never
+    read, however large they would inflate."""
     if path.is_dir():
         raise BundleError(f"{path} is a folder, not a hybrid-mesh bundle; {WHAT_A_BUNDLE_IS}")
     if path.exists() and not path.is_file():
@@ -127,20 +130,68 @@ def _read_arrays(path: Path) -> dict:
         raise BundleError(f"{path} is not a readable hybrid-mesh bundle: it is not a .npz (zip) archive; "
                           f"{WHAT_A_BUNDLE_IS}")
     try:
-        with np.load(path, allow_pickle=False) as data:
-            return {key: data[key] for key in data.files}
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, KeyError) as error:
-        # numpy's own text would suggest allow_pickle=True: never load a file's Python objects
-        reason = "it holds Python objects, which a bundle never does" if "pickle" in str(error) else str(error)
-        raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({reason}); {WHAT_A_BUNDLE_IS}") \
-            from None
+        with zipfile.ZipFile(path) as archive:
+            members = {info.filename[:-len(".npy")]: info for info in archive.infolist()
+                       if info.filename.endswith(".npy")}
+            if "header" not in members:
+                raise BundleError(f"{path} has no bundle header; it is not a tissuesim hybrid-mesh bundle")
+            header = _read_header(path, _read_member(path, archive, members["header"], _declared_header))
+            fine = header["has_fine_volume"]
+            names = [*REQUIRED, *(FINE if fine else ()), *(name for name in OPTIONAL if name in members)]
+            missing = [name for name in names if name not in members]
+            if missing:
+                raise BundleError(f"{path} lacks arrays {', '.join(missing)}; the file is damaged, rebuild it")
+            declared = {name: _declared(path, archive, members[name]) for name in names}
+            check_declared(path, {name: (shape, dtype) for name, (shape, dtype, _) in declared.items()}, fine=fine)
+            arrays = {name: _read_member(path, archive, members[name]) for name in names}
+    except BundleError:
+        raise
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError, RuntimeError, NotImplementedError) as error:
+        raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); {WHAT_A_BUNDLE_IS}") from None
+    return arrays, fine, header.get("info", {})
 
 
-def _read_header(path: Path, arrays: dict) -> dict:
-    if "header" not in arrays:
-        raise BundleError(f"{path} has no bundle header; it is not a tissuesim hybrid-mesh bundle")
+def _declared(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> tuple[tuple, np.dtype, bool]:
+    """``(shape, dtype, fortran_order)`` that ``member``'s .npy header declares, read without inflating its data;
+    BundleError for Python objects, a member that inflates more than :data:`MAX_INFLATION` times, or a header that
+    declares more (or fewer) bytes than the member holds."""
+    name = member.filename[:-len(".npy")]
+    if member.file_size > MAX_INFLATION * member.compress_size + INFLATION_SLACK:
+        raise BundleError(f"{path}: member {name} inflates from {member.compress_size} to {member.file_size} bytes, "
+                          f"more than {MAX_INFLATION} times, which no mesh's arrays do; {REBUILD}")
+    with archive.open(member) as stream:
+        version = np.lib.format.read_magic(stream)
+        read_header = (np.lib.format.read_array_header_1_0 if version == (1, 0)
+                       else np.lib.format.read_array_header_2_0)
+        shape, fortran, dtype = read_header(stream)
+        header_bytes = stream.tell()
+    if dtype.hasobject:
+        raise BundleError(f"{path}: array {name} holds Python objects, which a bundle never does; {REBUILD}")
+    data = int(np.prod(shape, dtype=object)) * dtype.itemsize      # Python ints: a forged shape cannot overflow
+    if data != member.file_size - header_bytes:
+        raise BundleError(f"{path}: array {name} declares shape {shape} of {dtype} ({data} bytes) but its entry "
+                          f"holds {member.file_size - header_bytes} bytes; {REBUILD}")
+    return shape, dtype, fortran
+
+
+def _declared_header(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> None:
+    shape, dtype, _ = _declared(path, archive, member)
+    if dtype != np.uint8 or len(shape) != 1 or shape[0] > MAX_HEADER_BYTES:
+        raise BundleError(f"{path}: the bundle header declares shape {shape} of {dtype}, not at most "
+                          f"{MAX_HEADER_BYTES} bytes of JSON text; {REBUILD}")
+
+
+def _read_member(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo, check=None) -> np.ndarray:
+    """The array in ``member``, after ``check`` (path, archive, member) where one is given."""
+    if check is not None:
+        check(path, archive, member)
+    with archive.open(member) as stream:
+        return np.lib.format.read_array(stream, allow_pickle=False)
+
+
+def _read_header(path: Path, array: np.ndarray) -> dict:
     try:
-        header = json.loads(arrays["header"].tobytes().decode("utf-8"))
+        header = json.loads(array.tobytes().decode("utf-8"))
     except (UnicodeDecodeError, json.JSONDecodeError) as error:
         raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
     if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:

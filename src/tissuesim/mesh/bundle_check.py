@@ -47,21 +47,43 @@ def check_header(where, header: dict) -> None:
             raise BundleError(f"{where}: the header's info {key} is {value!r}, not a positive number; {REBUILD}")
 
 
+#: The arrays of every bundle, and those of a bundle with a fine volume.
+REQUIRED = ("surface_vertices", "surface_triangles", "coarse_triangles", "volume_points", "volume_tets", "control",
+            "control_volume", "coarse_triangle", "coarse_barycentric", "embedding_tet", "embedding_barycentric")
+FINE = ("fine_points", "fine_tets", "fine_surface_nodes")
+#: The array a bundle has once a cut released control nodes (M'_S's vertices, M_V nodes).
+OPTIONAL = ("coarse_volume",)
+#: The arrays of floating-point values (the others hold indices).
+FLOATING = ("surface_vertices", "volume_points", "coarse_barycentric", "embedding_barycentric", "fine_points")
+
+
+def check_declared(where, declared: dict, *, fine: bool) -> None:
+    """Dtype and shape of each bundle array, and its rows against the counts of the others, from ``declared`` (name
+    → ``(shape, dtype)``): what the .npy headers say, so a bundle is refused before its data is read."""
+    rows = {name: _rows(where, name, *declared[name], "f" if name in FLOATING else "i", width)
+            for name, width in _WIDTHS.items() if name in declared}
+    n, c = rows["surface_vertices"], rows["control"]
+    expected = {"control_volume": c, "coarse_triangle": n, "coarse_barycentric": n, "embedding_tet": n,
+                "embedding_barycentric": n, "fine_surface_nodes": n if fine else None}
+    for name, count in expected.items():
+        if count is not None and rows[name] != count:
+            raise BundleError(f"{where}: array {name} has {rows[name]} rows, expected {count}; {REBUILD}")
+
+
+#: Each array's columns (None: a 1-D array).
+_WIDTHS = {"surface_vertices": 3, "control": None, "volume_points": 3, "surface_triangles": 3, "coarse_triangles": 3,
+           "volume_tets": 4, "control_volume": None, "coarse_triangle": None, "coarse_barycentric": 3,
+           "embedding_tet": None, "embedding_barycentric": 4, "coarse_volume": None, "fine_points": 3,
+           "fine_tets": 4, "fine_surface_nodes": None}
+
+
 def check_arrays(where, a: dict, *, fine: bool) -> None:
     """Dtype, shape, finiteness, ranges and consistency of the bundle arrays ``a`` (name → array)."""
-    n = _rows(where, a, "surface_vertices", "f", 3)
-    c = _rows(where, a, "control", "i", None)
-    volume_nodes = _rows(where, a, "volume_points", "f", 3)
-    shapes = {"surface_triangles": ("i", 3, None), "coarse_triangles": ("i", 3, None), "volume_tets": ("i", 4, None),
-              "control_volume": ("i", None, c), "coarse_triangle": ("i", None, n),
-              "coarse_barycentric": ("f", 3, n), "embedding_tet": ("i", None, n), "embedding_barycentric": ("f", 4, n)}
-    if fine:
-        _rows(where, a, "fine_points", "f", 3)
-        shapes.update(fine_tets=("i", 4, None), fine_surface_nodes=("i", None, n))
-    for name, (kind, width, rows) in shapes.items():
-        found = _rows(where, a, name, kind, width)
-        if rows is not None and found != rows:
-            raise BundleError(f"{where}: array {name} has {found} rows, expected {rows}; {REBUILD}")
+    check_declared(where, {name: (array.shape, array.dtype) for name, array in a.items()}, fine=fine)
+    for name in FLOATING:
+        if name in a:
+            _finite(where, a, name)
+    n, c, volume_nodes = len(a["surface_vertices"]), len(a["control"]), len(a["volume_points"])
     _in_range(where, a, "surface_triangles", n)
     _in_range(where, a, "control", n)
     if np.any(np.diff(a["control"]) <= 0):
@@ -70,7 +92,7 @@ def check_arrays(where, a: dict, *, fine: bool) -> None:
     # M'_S's vertices: the control nodes, or, once a cut has released some, the M_V nodes kept in coarse_volume
     coarse_vertices = c
     if "coarse_volume" in a:
-        coarse_vertices = _rows(where, a, "coarse_volume", "i", None)
+        coarse_vertices = len(a["coarse_volume"])
         _in_range(where, a, "coarse_volume", volume_nodes)
     _in_range(where, a, "coarse_triangles", coarse_vertices)
     _in_range(where, a, "volume_tets", volume_nodes)
@@ -89,22 +111,25 @@ def check_arrays(where, a: dict, *, fine: bool) -> None:
     _embedding_reproduces_vertices(where, a)
 
 
-def _rows(where, a: dict, name: str, kind: str, width: int | None) -> int:
-    """Row count of ``a[name]`` after checking its dtype kind (``"i"``: integer, ``"f"``: float) and shape."""
-    array = a[name]
-    integer = np.issubdtype(array.dtype, np.integer)
-    if (kind == "i" and not integer) or (kind == "f" and not np.issubdtype(array.dtype, np.floating)):
+def _rows(where, name: str, shape: tuple, dtype: np.dtype, kind: str, width: int | None) -> int:
+    """Row count of array ``name`` of ``shape`` and ``dtype`` after checking its dtype kind (``"i"``: integer,
+    ``"f"``: float) and shape."""
+    integer = np.issubdtype(dtype, np.integer)
+    if (kind == "i" and not integer) or (kind == "f" and not np.issubdtype(dtype, np.floating)):
         wanted = "an integer" if kind == "i" else "a floating-point"
-        raise BundleError(f"{where}: array {name} has dtype {array.dtype}, expected {wanted} dtype; {REBUILD}")
-    shape = "(rows,)" if width is None else f"(rows, {width})"
-    if (width is None and array.ndim != 1) or (width is not None and (array.ndim != 2 or array.shape[1] != width)):
-        raise BundleError(f"{where}: array {name} has shape {array.shape}, expected {shape}; {REBUILD}")
-    if kind == "f":
-        bad = np.flatnonzero(~np.isfinite(array).reshape(len(array), -1).all(axis=1))
-        if bad.size:
-            raise BundleError(f"{where}: array {name} has {bad.size} non-finite rows (first: {first_indices(bad)}); "
-                              f"{REBUILD}")
-    return len(array)
+        raise BundleError(f"{where}: array {name} has dtype {dtype}, expected {wanted} dtype; {REBUILD}")
+    expected = "(rows,)" if width is None else f"(rows, {width})"
+    if (width is None and len(shape) != 1) or (width is not None and (len(shape) != 2 or shape[1] != width)):
+        raise BundleError(f"{where}: array {name} has shape {shape}, expected {expected}; {REBUILD}")
+    return int(shape[0])
+
+
+def _finite(where, a: dict, name: str) -> None:
+    array = a[name]
+    bad = np.flatnonzero(~np.isfinite(array).reshape(len(array), -1).all(axis=1))
+    if bad.size:
+        raise BundleError(f"{where}: array {name} has {bad.size} non-finite rows (first: {first_indices(bad)}); "
+                          f"{REBUILD}")
 
 
 def _in_range(where, a: dict, name: str, count: int) -> None:
