@@ -66,6 +66,15 @@ def test_a_half_turn_of_the_base_moves_the_unloaded_body_to_the_rigid_pose(small
     assert np.abs(solver.positions - expected).max() < 1e-9 * solver.size
 
 
+def test_a_half_turned_base_carries_the_hybrids_surface_layer_without_its_warm_start(small_cube):
+    expected = _turned(small_cube.surface.vertices, 180.0, 0)
+    solver = make_solver("hybrid", small_cube, material="corotated", warm_start=False)
+    solver.set_fixed_positions(expected[solver.fixed])
+    for _ in range(3):
+        solver.step()
+    assert np.abs(solver.positions - expected).max() < 1e-9 * solver.size
+
+
 def test_a_half_turn_of_the_base_on_the_default_cube_steps_the_embedded_body_to_the_rigid_pose(cube):
     rest = cube.surface.vertices
     expected = _turned(rest, 180.0, 0)

@@ -15,8 +15,9 @@ equilibrium (a minimum of Π):
   interactive path: warm-started from the last answer it costs back-substitutions only, and repeated under a
   constant load it converges to :meth:`solve`'s answer.
 
-A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch): then no
-load step converges, or the converged state's exact tangent is not positive definite. :meth:`solve` raises
+A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch, a tip pushed
+sideways that crushes the surface ahead of it): then no load step converges, or the converged state crushes an
+element below :data:`COLLAPSE_J` of its volume, or its exact tangent is not positive definite. :meth:`solve` raises
 :class:`UnstableLoadError` with the fraction of the load it reached; callers say what the load means.
 """
 

@@ -1,10 +1,12 @@
-"""What the solvers share for finite strain: the ``material`` option, a moving fixed set, and the refusal of a dead
-load that has no stable equilibrium.
+"""What the solvers share for finite strain: the ``material`` option, a moving fixed set, the volume's solve, its
+range, and the refusal of a load that has no stable equilibrium.
 
 A moving fixed set (:meth:`Solver.set_fixed_positions <tissuesim.solvers.base.Solver.set_fixed_positions>`) gives
 the positions of the fixed M_S vertices; a volume's fixed nodes follow them: exactly where a volume node is one of
 those vertices, and through the affine map that best fits the given motion (least squares) elsewhere, so a rigid
-motion of the fixed set moves every fixed node rigidly.
+motion of the fixed set moves every fixed node rigidly. The volume is carried with its base by the same map, so a
+solve starts from the carried body, and a motion that is no support's motion (too far, crushed, mirrored,
+scattered) is refused where it is given.
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from ..errors import BoundaryConditionError, SolverError
 from ..fem.hyperelastic import MATERIALS, check_material
 from ..fem.nonlinear import UnstableLoadError
 from .report import FINITE_RANGE_J
+
 
 def check_method_material(cls, material) -> str:
     """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
@@ -124,12 +127,12 @@ def support_displacement(solver, positions: np.ndarray) -> np.ndarray:
     return displacement
 
 
-def move_supports(solver, positions: np.ndarray) -> None:
+def move_supports(solver, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Carry a finite-strain ``solver``'s fixed volume nodes to where its fixed vertices go, ``positions``
     ``(k, 3)`` [m], and its volume's displacement with them by the affine map that fits the base's motion from
     where it is now: the solves start from the body carried with its base, not from a body left behind, whose
     way to the carried one can pass through a crushed state (a half turn interpolated linearly crushes the base to
-    a line halfway)."""
+    a line halfway). Returns that map, ``(A (3, 3), b (3,) [m])``."""
     matrix, shift = affine_fit(solver.fixed_positions, positions)
     points = solver.finite.rest
     solver.volume_displacement[:] = (points + solver.volume_displacement) @ matrix.T + shift - points
@@ -137,6 +140,7 @@ def move_supports(solver, positions: np.ndarray) -> None:
     finite.set_fixed_displacement(support_displacement(solver, positions))
     fixed = solver.fem.fixed_dofs
     solver.volume_displacement[fixed] = finite.fixed_displacement[fixed]
+    return matrix, shift
 
 
 def carried_rest(solver) -> np.ndarray:

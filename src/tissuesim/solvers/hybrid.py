@@ -203,7 +203,11 @@ class HybridSolver(SurfaceLayerSolver):
         if self._near is not None:
             raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
                                          "to move the fixed set")
-        move_supports(self, positions)
+        matrix, shift = move_supports(self, positions)
+        # the surface layer goes with its volume (its warm start then adds nothing), so its first steps need not
+        # find the carried body from the one left behind
+        for carried in (self.state.positions, self._embedded):
+            carried[:] = carried @ matrix.T + shift
         self._dirty = True
 
     def _finite_response(self, exact: bool) -> None:
