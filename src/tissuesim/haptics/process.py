@@ -16,7 +16,9 @@ multiprocessing refuses to start a process from there).
 from __future__ import annotations
 
 import multiprocessing
+import pickle
 import time
+from multiprocessing.reduction import ForkingPickler
 
 import numpy as np
 
@@ -57,6 +59,7 @@ class HapticProcess(Coupler):
         if not callable(device):
             raise SolverError(f"device must be a picklable callable returning (position, apply_force), got "
                               f"{type(device).__name__}; pass a module-level function or class")
+        check_picklable(device)
         super().__init__(solver, stiffness=stiffness, radius=radius, rate=rate)
         self.device = device
         self._coupling: Coupling | None = None
@@ -78,6 +81,7 @@ class HapticProcess(Coupler):
         timings start afresh. Raises SolverError if it stops before ticking (its device failed)."""
         if self.running:
             raise SolverError("the haptic process is already running; stop() it before starting it again")
+        check_picklable(self.device)    # before anything is made (a queue's lock starts a resource tracker)
         context = multiprocessing.get_context("spawn")  # no fork of a process whose solver may hold threads
         self._block = context.RawArray("d", BLOCK)
         self._shared = np.frombuffer(self._block, dtype=np.float64)
@@ -143,6 +147,19 @@ class HapticProcess(Coupler):
     def _raise_error(self) -> None:
         if self._errors is not None and not self._errors.empty():
             raise SolverError(f"the haptic process stopped: {self._errors.get()}")
+
+
+def check_picklable(device) -> None:
+    """SolverError unless ``device`` can be sent to the servo process: it runs in its own process (``spawn``), which
+    receives the device pickled, as ``multiprocessing`` pickles it."""
+    try:
+        ForkingPickler.dumps(device)
+    except (pickle.PicklingError, AttributeError, TypeError) as error:
+        raise SolverError(
+            f"the haptic device must be picklable: the servo loop runs in its own process, which receives the "
+            f"device pickled, and {type(device).__name__} {device!r:.60} cannot be ({error}); pass a module-level "
+            "function or class that opens the device when called there (not a lambda, a local function or an open "
+            "handle), or use HapticLoop, whose servo thread shares this process") from None
 
 
 def read_consistent(shared: np.ndarray, sequence: int, part: slice) -> np.ndarray:
