@@ -6,6 +6,8 @@ and method, for material="linear" and the finite-strain material; the row "linea
 on the reference's own mesh against the finite one (what no small-strain method can beat). Also: each method's
 error against the linear reference at the smallest load, the yardstick of the target (finite-strain error ≤
 1.1× that). The hybrid's near field (W = 15 mm) is included with --near-field (its quadratic Newton takes minutes).
+A method that has no finite-strain material (pbd: a surface has no volume) gets its linear row only, and its
+finite-strain row says it is skipped and why.
 
     python benchmarks/finite_strain_errors.py [--material neo-hookean] [--near-field]
 """
@@ -19,7 +21,9 @@ import numpy as np
 from tissuesim import HybridMesh, make_solver, models
 from tissuesim.experiments.finite_reference import load_finite_reference
 from tissuesim.experiments.protocol import relative_rmse
+from tissuesim.fem.hyperelastic import MATERIALS
 from tissuesim.solvers.near_field import NEAR_FIELD_WINDOW
+from tissuesim.solvers.registry import solver_class
 
 METHODS = {"hybrid": ("hybrid", {}), "hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW}),
            "fem": ("fem", {}), "embedded": ("embedded", {}), "pbd": ("pbd", {})}
@@ -35,11 +39,32 @@ def errors_against(reference_field: dict, answers: dict, rest: np.ndarray, sampl
     return errors
 
 
-def main(argv=None) -> int:
+def parse(argv=None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--material", default="neo-hookean")
+    parser.add_argument("--material", default="neo-hookean", choices=MATERIALS[1:],
+                        help="the finite-strain material beside linear (default neo-hookean)")
     parser.add_argument("--near-field", action="store_true")
-    args = parser.parse_args(argv)
+    return parser.parse_args(argv)
+
+
+def rows(material: str, near_field: bool) -> list[tuple[str, str, dict, str, str | None]]:
+    """The table's rows: ``(name, method, options, material, skipped)`` for each method (the near field with
+    ``near_field``) and each of linear and ``material``; ``skipped`` says why a method that does not take that
+    material has no answer (None where it has)."""
+    table = []
+    for name, (method, options) in METHODS.items():
+        if name == "hybrid-near" and not near_field:
+            continue
+        for kind in ("linear", material):
+            taken = solver_class(method).materials
+            skipped = None if kind in taken else (f"skipped: the {method} method takes only "
+                                                  f"{' or '.join(taken)}, it has no volume for finite strain")
+            table.append((name, method, options, kind, skipped))
+    return table
+
+
+def main(argv=None) -> int:
+    args = parse(argv)
     reference = load_finite_reference()
     hybrid = HybridMesh.build(models.model(reference.model))
     rest = hybrid.surface.vertices
@@ -51,16 +76,17 @@ def main(argv=None) -> int:
     linear_ref = errors_against(reference.displacements,
                                 {f: _placed(rest, samples, reference.linear[f]) for f in forces}, rest, samples)
     print(f"  {'linear reference':28}" + "  ".join(f"{linear_ref[f]:6.3f}" for f in forces))
-    for name, (method, options) in METHODS.items():
-        if name == "hybrid-near" and not args.near_field:
+    for name, method, options, material, skipped in rows(args.material, args.near_field):
+        label = f"  {name + ', ' + material:28}"
+        if skipped:
+            print(label + skipped)
             continue
-        for material in ("linear", args.material):
-            solver = make_solver(method, hybrid, material=material, **options)
-            answers = {f: solver.solve_static(node, (0.0, 0.0, f), radius=radius) for f in forces}
-            finite = errors_against(reference.displacements, answers, rest, samples)
-            against_linear = errors_against(reference.linear, {forces[0]: answers[forces[0]]}, rest, samples)
-            print(f"  {name + ', ' + material:28}" + "  ".join(f"{finite[f]:6.3f}" for f in forces)
-                  + f"   (vs the linear reference at {forces[0]:g} N: {against_linear[forces[0]]:.3f})")
+        solver = make_solver(method, hybrid, material=material, **options)
+        answers = {f: solver.solve_static(node, (0.0, 0.0, f), radius=radius) for f in forces}
+        finite = errors_against(reference.displacements, answers, rest, samples)
+        against_linear = errors_against(reference.linear, {forces[0]: answers[forces[0]]}, rest, samples)
+        print(label + "  ".join(f"{finite[f]:6.3f}" for f in forces)
+              + f"   (vs the linear reference at {forces[0]:g} N: {against_linear[forces[0]]:.3f})")
     return 0
 
 
