@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tissuesim import PinHead, make_solver
-from tissuesim.errors import SolverError
+from tissuesim.errors import MaterialError, SolverError
 from tissuesim.loads import contact_radius
 from tissuesim.solvers.checks import check_force, checked_point, positive_number, time_step
 
@@ -112,3 +112,10 @@ def test_numeric_arrays_of_every_numeric_type_are_taken():
     for force in ([0, 0, -1], np.array([0, 0, -1], dtype=np.int32), np.array([0.0, 0.0, -1.0], dtype=np.float32),
                   (np.float64(0.0), 0, np.int8(-1))):
         assert np.array_equal(check_force(force), [0.0, 0.0, -1.0])
+
+
+@pytest.mark.parametrize("option, value", [("youngs_modulus", "5500"), ("poisson_ratio", "0.3"),
+                                           ("youngs_modulus", b"5500")])
+def test_the_material_refuses_text(small_cube, option, value):
+    with pytest.raises(MaterialError, match=rf"{option} must be a real number, got {value!r}; pass a number"):
+        make_solver("pbd", small_cube, **{option: value})

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import MaterialError, warn
+from ..loads import number_fix, real_number
 
 # The paper's tissue (§8.3): E = 5.5 kPa, ν = 0.3.
 DEFAULT_YOUNGS_MODULUS = 5500.0
@@ -37,12 +38,12 @@ class Material:
     def __post_init__(self):
         for name in ("youngs_modulus", "poisson_ratio"):
             value = getattr(self, name)
-            if isinstance(value, bool):     # float(True) is 1.0: a flag passed by mistake, not a modulus
-                raise MaterialError(f"{name} must be a real number, got the bool {value!r}")
-            try:
-                value = float(value)
-            except (TypeError, ValueError):
-                raise MaterialError(f"{name} must be a real number, got {value!r}") from None
+            number = real_number(value)     # no text (a string would silently parse) and no bool (True is 1.0)
+            if number is None:
+                what = "the bool " if isinstance(value, (bool, np.bool_)) else ""
+                raise MaterialError(f"{name} must be a real number, got {what}{value!r}; "
+                                    f"{number_fix(value, '5500' if name == 'youngs_modulus' else '0.3')}")
+            value = number
             if not math.isfinite(value):
                 raise MaterialError(f"{name} must be finite, got {value}")
             object.__setattr__(self, name, value)
