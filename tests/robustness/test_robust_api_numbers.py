@@ -119,3 +119,8 @@ def test_numeric_arrays_of_every_numeric_type_are_taken():
 def test_the_material_refuses_text(small_cube, option, value):
     with pytest.raises(MaterialError, match=rf"{option} must be a real number, got {value!r}; pass a number"):
         make_solver("pbd", small_cube, **{option: value})
+
+
+def test_the_paper_pbd_forms_stiffness_refuses_text(small_cube):
+    with pytest.raises(SolverError, match=r"stiffness must be a number \[1\], got '0.5'; pass a number, e.g. 0.5"):
+        make_solver("pbd", small_cube, form="pbd", stiffness="0.5")

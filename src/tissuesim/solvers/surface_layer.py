@@ -249,9 +249,9 @@ class SurfaceLayerSolver(Solver):
         self._applied_stale = True
 
     def _init_pbd(self, stiffness, mass_scale) -> None:
-        if not (np.isfinite(stiffness) and 0.0 < stiffness <= 1.0):
+        self.stiffness = positive_number("stiffness", stiffness, "1", "0.5")
+        if self.stiffness > 1.0:
             raise SolverError(f"stiffness must lie in (0, 1], got {stiffness!r}")
-        self.stiffness = float(stiffness)
         self.mass_scale = positive_number("mass_scale", mass_scale, "1")
         self.mass = self.mass * self.mass_scale
 
