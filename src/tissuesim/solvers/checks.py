@@ -32,10 +32,10 @@ def _number(name: str, value, unit: str, example: str = "0.01") -> float:
 
 
 def numeric_array(value) -> np.ndarray | None:
-    """``value`` as a new ``float64`` array, or None unless every element is a real number (no text, bool or None:
-    ``np.asarray`` would read ``"1"`` as 1.0 and ``True`` as 1.0)."""
+    """``value`` as a ``float64`` array (the caller's own where it is one: copy what you keep), or None unless every
+    element is a real number (no text, bool or None: ``np.asarray`` would read ``"1"`` as 1.0 and ``True`` as 1.0)."""
     try:
-        array = np.array(value)
+        array = np.asarray(value)
     except (TypeError, ValueError):      # ragged nesting
         return None
     if array.dtype.kind == "O":
@@ -45,7 +45,7 @@ def numeric_array(value) -> np.ndarray | None:
         return np.array(numbers, dtype=np.float64).reshape(array.shape)
     if array.dtype.kind not in "iuf":
         return None
-    return array.astype(np.float64)
+    return array.astype(np.float64, copy=False)
 
 
 def positive_number(name: str, value, unit: str, example: str = "1") -> float:
@@ -146,7 +146,7 @@ def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.n
 
 
 def checked_point(point, *, name: str = "a point") -> np.ndarray:
-    """``point`` as a new ``(3,) float64`` array [m], or a SolverError
+    """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError
     naming it (``name``, e.g. "the probe centre")."""
     given, point = point, numeric_array(point)
     if point is None:
@@ -162,5 +162,6 @@ def finite_triple(value) -> np.ndarray | None:
     vector = numeric_array(value)
     if vector is None or vector.shape != (3,) or not np.all(np.isfinite(vector)):
         return None
+    vector = vector.copy()
     vector.flags.writeable = False
     return vector
