@@ -12,7 +12,12 @@ Public API (imported lazily, so ``import tissuesim`` stays fast and Numba kernel
 
 from importlib import import_module
 
+from . import numba_cache as _numba_cache
+
 __version__ = "0.1.0"
+
+# Before any kernel is compiled or loaded: processes started together share one on-disk cache.
+_numba_cache.install()
 
 # public name -> module that defines it
 _EXPORTS = {

@@ -1,0 +1,98 @@
+"""Numba's on-disk cache of compiled kernels, made safe for several processes compiling at once (a study's workers
+started together on a fresh machine, a test run beside a fuzz run).
+
+Numba (0.58 to 0.61) saves a kernel's compiled signature in steps that are each atomic but not together: it reads
+the function's index (``*.nbi``), takes the first data-file number (``*.N.nbc``) the index does not use, writes the
+index, then the data file. Two processes that compile different signatures of one kernel at once both take number 1:
+the index one of them leaves names the machine code the other wrote, and every later process that loads that
+signature runs code compiled for other argument types (glibc's ``free(): invalid pointer``, a segfault or a wrong
+answer) until the cache is deleted. A process that loads while another saves can likewise pair a new index with a
+data file left from an older version of the source. numba/numba#4807 and #10128 report the same from dask workers.
+
+:func:`install` makes each save (read the index, write it and the data) and each load (read both) one step under a
+lock on a file of the cache folder (``fcntl.flock``: exclusive to save, shared to load). It patches Numba's cache
+file class when Numba is imported, so ``import tissuesim`` still imports no Numba. Where no lock can be taken (a
+read-only folder, a platform without ``fcntl``) the cache behaves as Numba's own.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.abc
+import importlib.util
+import os
+import sys
+
+try:
+    import fcntl
+except ImportError:          # Windows: Numba's own behaviour
+    fcntl = None
+
+#: The lock file, one per cache folder (each source folder's ``__pycache__``, or under ``NUMBA_CACHE_DIR``).
+LOCK_NAME = "tissuesim-numba.lock"
+_MODULE = "numba.core.caching"
+
+
+@contextlib.contextmanager
+def cache_lock(folder: str, *, exclusive: bool):
+    """Hold the lock of the cache ``folder`` (exclusive or shared) for the ``with`` block; nothing when the lock
+    file cannot be opened (no folder yet: nothing to load)."""
+    try:
+        handle = os.open(os.path.join(folder, LOCK_NAME), os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:
+        yield
+        return
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        yield
+    finally:
+        os.close(handle)        # releases the lock
+
+
+def _patch(caching) -> None:
+    """Wrap ``IndexDataCacheFile.save`` and ``load`` of Numba's ``caching`` module in the folder's lock (once)."""
+    cache_file = caching.IndexDataCacheFile
+    if getattr(cache_file, "_tissuesim_locked", False):
+        return
+    save, load = cache_file.save, cache_file.load
+
+    def locked_save(self, key, data):
+        with cache_lock(self._cache_path, exclusive=True):
+            return save(self, key, data)
+
+    def locked_load(self, key):
+        with cache_lock(self._cache_path, exclusive=False):
+            return load(self, key)
+
+    cache_file.save, cache_file.load = locked_save, locked_load
+    cache_file._tissuesim_locked = True
+
+
+class _PatchOnImport(importlib.abc.MetaPathFinder):
+    """Finds nothing itself: when Numba's caching module is first imported, lets the other finders find it and
+    patches it once it has run."""
+
+    def find_spec(self, name, path, target=None):
+        if name != _MODULE:
+            return None
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        run = spec.loader.exec_module
+
+        def exec_module(module):
+            run(module)
+            _patch(module)
+
+        spec.loader.exec_module = exec_module
+        return spec
+
+
+def install() -> None:
+    """Lock Numba's cache saves and loads in this process: now if Numba's caching module is loaded, else when it
+    is."""
+    if fcntl is None:
+        return
+    if _MODULE in sys.modules:
+        _patch(sys.modules[_MODULE])
+    elif not any(isinstance(finder, _PatchOnImport) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _PatchOnImport())
