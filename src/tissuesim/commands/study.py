@@ -14,7 +14,10 @@ from __future__ import annotations
 import argparse
 import os
 import sys
+import time
 from pathlib import Path
+
+from .run import add_confine_argument
 
 HELP = "run a study file (many cases) on Dask: a LocalCluster, or an existing cluster with --scheduler"
 
@@ -28,9 +31,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=None, metavar="N",
                         help="LocalCluster workers (default: one per core; 0: serial, in this process)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_confine_argument(parser, "study")
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..experiments.output import check_output_folder
     from ..study.cases import expand
     from ..study.load import StudyError, read_study
     from ..study.report import write_report
@@ -42,16 +47,18 @@ def run(args: argparse.Namespace) -> int:
     if args.scheduler is not None and args.workers is not None:
         raise StudyError("--workers sizes the LocalCluster; an existing cluster (--scheduler) has its own workers: "
                          "give one of them")
-    loaded = read_study(args.study)
-    cases = expand(loaded)
-    store = Store(args.output)
+    loaded = read_study(args.study, confine=args.confine)
+    output = check_output_folder(args.output)
+    cases = expand(loaded, announce=lambda count: print(f"{loaded.path.name}: {count}", file=sys.stderr))
+    store = Store(output)
     print(_plan(cases), file=sys.stderr)
     client = _client(args)
     try:
         workers = 1 if client is None else len(client.scheduler_info()["workers"])
-        pilot = _pilot(cases, store)
+        pilot, seconds = _pilot(cases, store)
         summary = run_study(cases, store, client=client, progress=not args.quiet,
-                            on_start=lambda pending: print(_estimate(pending, cases, store, workers), file=sys.stderr))
+                            on_start=lambda pending: print(_estimate(pending, cases, seconds, workers),
+                                                           file=sys.stderr))
         summary.done, summary.failed, summary.skipped = (summary.done + pilot.done, summary.failed + pilot.failed,
                                                          summary.skipped - pilot.done - pilot.failed)
     finally:
@@ -84,26 +91,25 @@ def _plan(cases) -> str:
 
 
 def _pilot(cases, store):
-    """A fresh study's first case, run here before the others, so that the estimate rests on a measured case time
-    (it includes building the mesh and compiling the kernels, so the estimate errs high); its result is kept like
-    any other. A study with finished cases in its folder needs none."""
+    """The first case still to run, run here before the others, and its wall time [s] (None when fewer than two
+    cases are left): the estimate rests on a case measured now, its reference, mesh and kernels included, so it errs
+    high; not on the cases found done, whose recorded times leave those out. Its result is kept like any other."""
     from ..study.runner import Summary, run_study
 
     pending = [case for case in cases if not store.done(case)]
-    if len(pending) < 2 or store.case_ms:
-        return Summary(cases=0, skipped=0)
-    return run_study(pending[:1], store, progress=False)
+    if len(pending) < 2:
+        return Summary(cases=0, skipped=0), None
+    start = time.perf_counter()
+    summary = run_study(pending[:1], store, progress=False)
+    return summary, time.perf_counter() - start
 
 
-def _estimate(pending, cases, store, workers: int) -> str:
-    """How many cases are left, and their time at the median time of the cases already done here, if any."""
-    import numpy as np
-
+def _estimate(pending, cases, seconds, workers: int) -> str:
+    """How many cases are left, and their time at ``seconds`` a case (the pilot's), if measured."""
     text = f"{len(pending)} to run, {len(cases) - len(pending)} already done"
-    if pending and store.case_ms:
-        seconds = 1e-3 * float(np.median(store.case_ms)) * len(pending) / max(workers, 1)
-        text += (f"; about {_duration(seconds)} on {_count(workers, 'worker')} at the median case time so far "
-                 f"({float(np.median(store.case_ms)):.0f} ms)")
+    if pending and seconds is not None:
+        text += (f"; about {_duration(seconds * len(pending) / max(workers, 1))} on {_count(workers, 'worker')} at "
+                 f"the time of the case just run here ({seconds:.3g} s)")
     elif pending:
         text += f" on {_count(workers, 'worker')}; the bar gives the time left once the first cases finish"
     return text

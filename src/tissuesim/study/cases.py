@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 from dataclasses import asdict, dataclass
 from itertools import product
 from pathlib import Path
@@ -19,6 +20,7 @@ from ..errors import MaterialError
 from ..fem.material import Material
 from ..fem.presets import preset
 from .load import StudyError, StudyFile
+from .schema import MAX_CASES
 
 #: Changes whenever a case's answer would change for the same inputs; part of every hash.
 FORMAT = "tissuesim-study-1"
@@ -99,11 +101,18 @@ class Case:
         return content_hash("case", {**asdict(self), "model": self.model.key})
 
 
-def expand(loaded: StudyFile) -> list[Case]:
-    """Every case of the study, in the file's order (models, then methods, materials, loads)."""
+def expand(loaded: StudyFile, *, announce=None) -> list[Case]:
+    """Every case of the study, in the file's order (models, then methods, materials, loads). The cases are first
+    counted, none expanded: a study of more than :data:`~.schema.MAX_CASES` is refused, and ``announce``, if given,
+    is called with the count (a line of text) before the expansion, which takes a fraction of a millisecond a
+    case."""
     study = loaded.study
     _check_methods(loaded)
-    models = [m for i, spec in enumerate(study.models) for m in _models(loaded, i, spec)]
+    sources = [_sources(loaded, i, spec) for i, spec in enumerate(study.models)]
+    text = counted(loaded, sum(map(len, sources)))
+    if announce is not None:
+        announce(text)
+    models = [_model(source, spec) for spec, found in zip(study.models, sources) for source in found]
     methods = [(m.name, json.dumps(m.options, sort_keys=True)) for m in study.methods]
     record = Recording(**study.record.model_dump())
     reference = (("fem",) if study.reference.kind == "fem" else
@@ -115,6 +124,31 @@ def expand(loaded: StudyFile) -> list[Case]:
         raise StudyError("the study lists the same case twice (a model, method, material or load repeated); "
                          "remove the repetition")
     return cases
+
+
+def counted(loaded: StudyFile, models: int) -> str:
+    """``"N cases (models × methods × materials × loads)"`` of the study of ``models`` models, each factor counted
+    from the file, none expanded; StudyError with the same count above :data:`~.schema.MAX_CASES`."""
+    study = loaded.study
+    spec = study.materials
+    varied = spec.youngs_modulus is not None or spec.poisson_ratio is not None or not spec.presets
+    materials = len(spec.presets) + (_count(spec.youngs_modulus) * _count(spec.poisson_ratio) if varied else 0)
+    loads = study.loads
+    load_count = (loads.random.count if loads.random is not None else
+                  len(loads.directions) * len(loads.depths if loads.kind == "probe" else loads.forces))
+    factors = [(models, "model"), (len(study.methods), "method"), (materials, "material"), (load_count, "load")]
+    total = math.prod(count for count, _ in factors)
+    text = f"{total} cases ({' × '.join(f'{count} {noun}' + ('' if count == 1 else 's') for count, noun in factors)})"
+    if total > MAX_CASES:
+        raise StudyError(f"{loaded.path.name}: {text}, more than the {MAX_CASES} one study runs; split it into "
+                         f"studies of at most {MAX_CASES} cases (e.g. one per model or method, or fewer values) and "
+                         "run them into the same --output")
+    return text
+
+
+def _count(values) -> int:
+    """How many values a list or a range of ``[materials]`` gives (1 when absent: the paper's)."""
+    return 1 if values is None else (len(values) if isinstance(values, list) else values.count)
 
 
 def _check_methods(loaded: StudyFile) -> None:
@@ -135,29 +169,38 @@ def _check_methods(loaded: StudyFile) -> None:
                                  f"options are {', '.join(sorted(set(accepted) - set(MATERIAL_KEYS)))}")
 
 
-def _models(loaded: StudyFile, index: int, spec) -> list[ModelRef]:
+def _sources(loaded: StudyFile, index: int, spec) -> list[tuple[str, Path | None]]:
+    """``(kind, path)`` of each model an entry names (``("builtin", None)`` for a built-in), each file found."""
     from ..io import SURFACE_EXTENSIONS
 
     if spec.name is not None:
-        return [ModelRef("builtin", spec.name, spec.resolution, spec.scale, spec.repair,
-                         content_hash("builtin", spec.name, spec.resolution, spec.scale))]
+        return [("builtin", None)]
     key = "folder" if spec.folder is not None else ("file" if spec.file is not None else "bundle")
-    path = loaded.resolve(getattr(spec, key)).resolve()
+    where = f"{loaded.path.name}: models[{index}].{key}"
+    path = loaded.resolve(getattr(spec, key), key=f"models[{index}].{key}").resolve()
     if key == "folder":
         if not path.is_dir():
-            raise StudyError(f"{loaded.path.name}: models[{index}].folder: no folder {str(path)!r}; fix the path")
+            raise StudyError(f"{where}: {str(path)!r} is a file, not a folder; name a folder of surface files"
+                             if path.exists() else f"{where}: no folder {str(path)!r}; fix the path")
         files = sorted(p for p in path.iterdir() if p.suffix.lower() in SURFACE_EXTENSIONS)
         if not files:
-            raise StudyError(f"{loaded.path.name}: models[{index}].folder: no surface file "
-                             f"({', '.join(SURFACE_EXTENSIONS)}) in {str(path)!r}")
-        return [_file_model("file", f, spec) for f in files]
+            raise StudyError(f"{where}: no surface file ({', '.join(SURFACE_EXTENSIONS)}) in {str(path)!r}")
+        # a file in the folder may be a link out of it
+        return [("file", loaded.resolve(str(f), key=f"models[{index}].folder").resolve()) for f in files]
+    if path.is_dir():
+        raise StudyError(f"{where}: {str(path)!r} is a folder, not a file; name a file in it, or use folder = for "
+                         "every surface file in it")
     if not path.is_file():
-        raise StudyError(f"{loaded.path.name}: models[{index}].{key}: no file {str(path)!r} (names are relative to "
-                         "the study file's folder); fix the name or the path")
-    return [_file_model(key, path, spec)]
+        raise StudyError(f"{where}: no file {str(path)!r} (names are relative to the study file's folder); fix the "
+                         "name or the path")
+    return [(key, path)]
 
 
-def _file_model(kind: str, path: Path, spec) -> ModelRef:
+def _model(source: tuple[str, Path | None], spec) -> ModelRef:
+    kind, path = source
+    if path is None:
+        return ModelRef("builtin", spec.name, spec.resolution, spec.scale, spec.repair,
+                        content_hash("builtin", spec.name, spec.resolution, spec.scale))
     digest = hashlib.sha256(path.read_bytes()).hexdigest()
     scale = 1.0 if kind == "bundle" else spec.scale
     return ModelRef(kind, str(path), None, scale, spec.repair, content_hash(kind, digest, scale, spec.repair))

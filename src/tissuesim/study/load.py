@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from ..errors import TissuesimError
-from ..scene.load import read_text, validated
+from ..scene.load import named_path, read_text, validated
 from ..scene.schema import LOCATED
 from .schema import Study
 
@@ -19,27 +19,36 @@ class StudyError(TissuesimError, ValueError):
 
 @dataclass(frozen=True)
 class StudyFile:
-    """A validated study and where it came from (file names in it are relative to its folder)."""
+    """A validated study and where it came from (file names in it are relative to its folder; with ``confine``
+    they must lie in it, see :func:`~tissuesim.scene.load.named_path`)."""
 
     study: Study
     path: Path
+    confine: bool = False
 
-    def resolve(self, name: str) -> Path:
-        """``name`` (a file named in the study) as a path: relative names are relative to the study file."""
-        path = Path(name).expanduser()
-        return path if path.is_absolute() else self.path.parent / path
+    def resolve(self, name: str, *, key: str) -> Path:
+        """``name`` (a file named in the study under ``key``) as a path: relative names are relative to the study
+        file; StudyError for one outside its folder when confined."""
+        return named_path(name, self.path, key=key, confine=self.confine, error=StudyError, kind="study")
 
 
-def read_study(path) -> StudyFile:
-    """The study in the TOML file ``path``, validated; StudyError for an unreadable file or any invalid key."""
+def read_study(path, *, confine: bool = False) -> StudyFile:
+    """The study in the TOML file ``path``, validated; StudyError for an unreadable file or any invalid key, and,
+    with ``confine``, for a file named in it that lies outside its folder."""
     path = Path(path)
-    return parse_study(read_text(path, error=StudyError, kind="study"), path)
+    return parse_study(read_text(path, error=StudyError, kind="study"), path, confine=confine)
 
 
-def parse_study(text: str, path) -> StudyFile:
+def parse_study(text: str, path, *, confine: bool = False) -> StudyFile:
     """The study in the TOML ``text`` of the file ``path`` (which names its folder), validated."""
     path = Path(path)
-    return StudyFile(validated(text, path, Study, error=StudyError, doc="docs/studies.md", line=_line), path)
+    study = StudyFile(validated(text, path, Study, error=StudyError, doc="docs/studies.md", line=_line), path,
+                      confine)
+    for index, model in enumerate(study.study.models):
+        for key in ("file", "bundle", "folder"):
+            if getattr(model, key) is not None:
+                study.resolve(getattr(model, key), key=f"models[{index}].{key}")
+    return study
 
 
 def _line(item: dict) -> str:
@@ -59,4 +68,4 @@ def _line(item: dict) -> str:
 
 
 def _member(part: str) -> bool:
-    return part.startswith(("list[", "literal[", "function-")) or part in ("Range", "str")
+    return part.startswith(("list[", "literal[", "function-")) or part in ("Range", "str", "list", "range")

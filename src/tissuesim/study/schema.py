@@ -10,14 +10,26 @@ from __future__ import annotations
 from typing import Annotated, Any, Literal, Union
 
 import numpy as np
-from pydantic import Field, field_validator, model_validator
+from pydantic import Discriminator, Field, Tag, field_validator, model_validator
 
 from ..experiments.protocol import LOAD_DIRECTIONS, RMSE_SAMPLES
 from ..fem.presets import PRESETS
 from ..mesh.models import MODELS
-from ..scene.schema import Flag, Positive, Strict, Vector, located
+from ..scene.schema import Flag, Positive, Resolution, Strict, Vector, finite_options, located
 
 Count = Annotated[int, Field(strict=True, ge=1)]
+
+#: The most cases one study runs: each is a Dask task submitted at the start, and expanding 100,000 cases takes
+#: about half a minute and 40 MB on the client; a larger study is split into several (docs/studies.md).
+MAX_CASES = 100_000
+
+
+def bounded(count: int, what: str) -> int:
+    """``count`` (of ``what``, e.g. "values") unless it alone exceeds :data:`MAX_CASES`."""
+    if count > MAX_CASES:
+        raise ValueError(f"{count} {what}, more than the {MAX_CASES} cases a study runs; give fewer, or split them "
+                         "over several studies (docs/studies.md)")
+    return count
 
 #: What a model entry may name, exactly one of them.
 MODEL_SOURCES = ("name", "file", "bundle", "folder")
@@ -30,8 +42,7 @@ class ModelSpec(Strict):
     file: str | None = Field(None, description="a surface file (.obj, .stl, .ply, .off), relative to the study file")
     bundle: str | None = Field(None, description="a saved hybrid bundle with its fine volume, relative to the study")
     folder: str | None = Field(None, description="a folder whose surface files are each a model")
-    resolution: Annotated[int, Field(strict=True, ge=50)] | None = Field(
-        None, description="the vertex count of a built-in model (at least 50)")
+    resolution: Resolution | None = Field(None, description="the vertex count of a built-in model (50 to 100000)")
     scale: Positive = Field(1.0, description="the factor from a surface file's unit to metres (0.01 for cm)")
     repair: Flag = Field(False, description="true to repair a surface file's safe defects")
 
@@ -54,6 +65,11 @@ class MethodSpec(Strict):
     name: str = Field(description="the method: hybrid, pbd, mass-spring, embedded or fem")
     options: dict[str, Any] = Field(default_factory=dict, description="the method's own keyword options")
 
+    @field_validator("options")
+    @classmethod
+    def _finite(cls, options):
+        return finite_options(options)
+
 
 class Range(Strict):
     """``{ start, stop, count }``: ``count`` values evenly spaced from ``start`` to ``stop``, both included."""
@@ -62,11 +78,19 @@ class Range(Strict):
     stop: Positive = Field(description="the last value")
     count: Count = Field(description="how many values (1: start alone)")
 
+    @field_validator("count")
+    @classmethod
+    def _bounded(cls, count):
+        return bounded(count, "values")
+
     def values(self) -> list[float]:
         return [float(v) for v in np.linspace(self.start, self.stop, self.count)]
 
 
-Values = Union[Annotated[list[Positive], Field(min_length=1)], Range]
+# told apart by the value's type, so that a range's defect is not also reported as "not a list"
+Values = Annotated[Union[Annotated[Annotated[list[Positive], Field(min_length=1)], Tag("list")],
+                         Annotated[Range, Tag("range")]],
+                   Discriminator(lambda value: "list" if isinstance(value, list) else "range")]
 
 
 class Materials(Strict):
@@ -94,6 +118,11 @@ class RandomLoads(Strict):
     seed: Annotated[int, Field(strict=True, ge=0)] = Field(0, description="the seed: the same seed, the same loads")
     force: Annotated[list[Positive], Field(min_length=2, max_length=2)] = Field(
         description="[lowest, highest] force magnitude [N]")
+
+    @field_validator("count")
+    @classmethod
+    def _bounded(cls, count):
+        return bounded(count, "random loads")
 
     @field_validator("force")
     @classmethod

@@ -47,7 +47,6 @@ class Store:
         self.root = Path(root)
         (self.root / PARTS).mkdir(parents=True, exist_ok=True)
         self._group = None
-        self.case_ms: list[float] = []      # wall times [ms] of the finished cases :meth:`done` found
 
     def part(self, case_id: str) -> Path:
         return self.root / PARTS / f"{case_id}.parquet"
@@ -61,10 +60,7 @@ class Store:
         if row is None or row.get("case_id") != case.case_id or row.get("status") not in ("done", "failed"):
             path.unlink(missing_ok=True)
             return False
-        sound = row["status"] == "failed" or not case.record.field or self._field_sound(case.case_id, row)
-        if sound and row["status"] == "done" and row.get("case_ms") is not None:
-            self.case_ms.append(float(row["case_ms"]))
-        return sound
+        return row["status"] == "failed" or not case.record.field or self._field_sound(case.case_id, row)
 
     def write(self, case: Case, row: dict, field: np.ndarray | None) -> None:
         """Write ``case``'s result: its field first, then its part (renamed into place: the commit)."""
