@@ -60,12 +60,22 @@ def test_no_gravity_by_default_and_none_is_the_paper_model_bit_for_bit(cube, top
         assert np.array_equal(make_solver(method, cube, gravity=None).solve_static(top, [0.0, 0.0, -0.5]), expected)
 
 
+#: The top node's sag over the analytic column's ρgH²/(2E) (the 8 cm cube: 5.71 mm), as measured: the volume
+#: methods near 1 (the fixed base's lateral restraint at ν = 0.3 makes even the fine FEM's 0.975), the surface
+#: methods well below (no volume carries the weight: docs/gravity-and-supports.md).
+TOP_SAG = {"fem": 0.975, "hybrid": 0.951, "embedded": 0.946, "pbd": 0.432, "mass-spring": 0.500}
+
+
 @pytest.mark.parametrize("method", METHODS)
-def test_every_method_sags_down_and_forces_stay_the_users_loads(cube, top, method):
+def test_every_method_sags_down_by_its_weight_and_forces_stay_the_users_loads(cube, top, method):
     solver = make_solver(method, cube, gravity=G)
     u = sag(solver, top)
     assert not np.any(solver.forces)                    # gravity is not a load
-    assert u[top, 2] < 0.0 and np.all(np.isfinite(u))
+    height = np.ptp(cube.surface.vertices[:, 2])
+    column = solver.density * abs(G[2]) * height**2 / (2.0 * solver.youngs_modulus)
+    # 5 %: a weight counted twice or half, or a wrong ρ, g or E, moves it by far more
+    assert -u[top, 2] / column == pytest.approx(TOP_SAG[method], rel=0.05)
+    assert np.all(np.isfinite(u))
     assert np.abs(u[:, :2]).max() < np.abs(u[:, 2]).max()       # mostly down
     assert np.array_equal(u[solver.fixed], np.zeros((solver.fixed.size, 3)))
 
@@ -174,16 +184,23 @@ def test_finite_strain_sags_as_linear_for_a_small_sag(cube, top):
 
 @pytest.mark.parametrize("method", ["hybrid", "pbd", "embedded"])
 def test_a_cut_keeps_the_weight(cube, top, method):
-    """After an incision the carried solver's answer under gravity is a fresh solver's on the cut mesh."""
+    """After an incision the carried solver's answer under gravity is a fresh solver's on the cut mesh, and the
+    weight is the body's: the top's sag, away from the cut, is the uncut one's (measured: 0.9997, 1.006 and 1.0)."""
     solver = make_solver(method, cube, gravity=G)
+    uncut = sag(solver, top)[top, 2]
     scripted_incision(solver)
     fresh = make_solver(method, solver.hybrid, gravity=G)
     carried = sag(solver, top)
     assert np.abs(carried - sag(fresh, top)).max() <= 1e-8 * np.abs(carried).max()
-    if method == "pbd":             # the weight of every node, new ones too: the body's weight, once
-        weight = solver.constant_forces().sum(axis=0)
-        assert np.allclose(weight, solver.mass.sum() * np.array(G), rtol=1e-12)
-        assert np.isclose(solver.mass.sum(), 1000.0 * abs(cube.surface.signed_volume), rtol=1e-9)
+    assert carried[top, 2] / uncut == pytest.approx(1.0, abs=0.02)
+
+
+def test_a_cut_keeps_the_surface_layers_weight_once(cube):
+    """pbd weighs every node, new ones too: after a cut the weights sum to the body's weight m g, m = ρ V."""
+    solver = make_solver("pbd", cube, gravity=G)
+    scripted_incision(solver)
+    weight = 1000.0 * abs(cube.surface.signed_volume) * np.array(G)
+    assert np.allclose(solver.constant_forces().sum(axis=0), weight, rtol=1e-9, atol=1e-12)
 
 
 def test_the_mass_spring_weight_follows_a_cut(cube, top):
