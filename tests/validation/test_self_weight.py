@@ -108,12 +108,18 @@ def test_the_volume_methods_give_the_column_its_analytic_sag():
         assert abs(-u[top, 2].mean() / exact - 1.0) < 0.01, method
 
 
-# Relative RMS difference from the fine FEM under gravity alone, over every M_S vertex (measured: cube 0.094,
-# sphere 0.177, liver 0.231 for the hybrid; the embedded method within 0.01 of it; pbd 0.22-0.49 and mass-spring
-# 0.85-0.98 have no volume to carry the weight: docs/gravity-and-supports.md). The coarse M_V is stiffer than the
-# fine volume under a load spread over the whole body; this bound guards the measured values, it is not a target
-# met with room to spare.
-VOLUME_BOUND = 0.25
+# Under gravity alone, over every M_S vertex: the relative RMS difference from the fine FEM and the mean vertical sag
+# over the fine FEM's, as measured. The hybrid and embedded methods: the coarse M_V is stiffer than the fine volume
+# under a load spread over the whole body. pbd and mass-spring have no volume to carry the weight
+# (docs/gravity-and-supports.md): far off, but at known values.
+MEASURED = {
+    "cube": {"hybrid": (0.0937, 1.091), "embedded": (0.0987, 1.098), "pbd": (0.220, 0.817),
+             "mass-spring": (0.860, 0.167)},
+    "sphere": {"hybrid": (0.177, 0.915), "embedded": (0.176, 0.918), "pbd": (0.488, 1.088),
+               "mass-spring": (0.982, 0.0187)},
+    "liver": {"hybrid": (0.231, 0.982), "embedded": (0.229, 0.987), "pbd": (0.471, 0.987),
+              "mass-spring": (0.847, 0.375)},
+}
 
 
 @pytest.mark.parametrize("model", ["cube", pytest.param("sphere", marks=pytest.mark.slow),
@@ -123,9 +129,9 @@ def test_the_models_sag_as_the_fine_fem_does(model):
     v = hybrid.surface.vertices
     reference = make_solver("fem", hybrid, gravity=G).solve_static() - v
     scale = np.sqrt(np.mean(np.sum(reference**2, axis=1)))
-    for method in ("hybrid", "embedded", "pbd", "mass-spring"):
+    for method, (difference, sag) in MEASURED[model].items():
         u = make_solver(method, hybrid, gravity=G).solve_static() - v
-        difference = np.sqrt(np.mean(np.sum((u - reference) ** 2, axis=1))) / scale
-        assert np.mean(u[:, 2]) < 0.0, method           # every method sags
-        if method in ("hybrid", "embedded"):
-            assert difference < VOLUME_BOUND, (method, difference)
+        # 10 % over the measured difference and 5 % about the measured sag: a weight counted twice, half or on the
+        # wrong nodes leaves both bands (the hybrid's cube at twice its sag differs by 1.0, not 0.094)
+        assert np.sqrt(np.mean(np.sum((u - reference) ** 2, axis=1))) / scale <= 1.1 * difference, method
+        assert np.mean(u[:, 2]) / np.mean(reference[:, 2]) == pytest.approx(sag, rel=0.05), method
