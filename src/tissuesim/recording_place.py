@@ -7,6 +7,7 @@ import itertools
 import os
 import re
 import shutil
+import tempfile
 from datetime import datetime
 from pathlib import Path
 
@@ -53,6 +54,12 @@ def _check_place(path: Path) -> None:
         raise RecordingError(f"cannot record to {str(path)!r}: the name is too long; its frames folder is written "
                              f"as {longest!r} ({len(os.fsencode(longest))} bytes), more than the {limit} bytes a "
                              "file name may have there; use a shorter name")
+    try:
+        # the permission bits do not tell everything (root, /proc, a read-only mount, ACLs): try it for real
+        os.rmdir(tempfile.mkdtemp(prefix=".tissuesim-check-", dir=folder))
+    except OSError as error:
+        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} cannot be written (creating a "
+                             f"folder there failed: {error.strerror or error}); record into another folder") from None
 
 
 def _name_max(folder: Path) -> int:
