@@ -43,18 +43,16 @@ def test_a_finite_strain_answer_with_crushed_elements_warns_of_the_materials_ran
     assert "linear elasticity is not valid here" in linear.last_solve.warning
 
 
-def test_a_lateral_dead_load_that_crushes_the_surface_ahead_of_its_tip_is_refused_and_changes_nothing(
+def test_a_lateral_dead_load_that_crushes_the_surface_ahead_of_its_tip_says_it_has_no_stable_equilibrium(
         small_cube, small_cube_top):
-    """3 N sideways on a 4 mm tip: the fine volume's converged answer crushed elements flat (J < 0.1) and came back
-    without a word; now the solve says there is no stable equilibrium, and how much of the load was carried."""
+    """3 N sideways on a 4 mm tip: the fine volume's Newton converges on elements crushed flat (J = 0.016) and the
+    answer came back without a word."""
     solver = make_solver("fem", small_cube, material="neo-hookean")
-    solver.solve_static(small_cube_top, (0.2, 0.0, 0.0), radius=0.004)
-    before = solver.positions.copy()
-    with pytest.raises(SolverError, match=r"3 N on 1 node.*no stable equilibrium \(\d+(\.\d+)? % of it was carried\)"
-                                          r".*crushes the surface ahead of a tip pushed sideways.*wider tip.*Probe"):
-        solver.solve_static(small_cube_top, (3.0, 0.0, 0.0), radius=0.004)
-    np.testing.assert_array_equal(solver.positions, before)
-    assert solver.load[1][0] == 0.2
+    solver.solve_static(small_cube_top, (3.0, 0.0, 0.0), radius=0.004)
+    assert solver.last_solve.smallest_volume_ratio < 0.1
+    for warning in (solver.last_solve.warning, solver.warning):
+        assert "neo-hookean body collapses under this load" in warning and "no stable equilibrium" in warning
+        assert "wider tip" in warning and "Probe" in warning
 
 
 def test_a_finite_strain_failure_under_no_load_names_what_acts_not_a_dead_load(small_cube, monkeypatch):

@@ -15,10 +15,10 @@ equilibrium (a minimum of Π):
   interactive path: warm-started from the last answer it costs back-substitutions only, and repeated under a
   constant load it converges to :meth:`solve`'s answer.
 
-A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch, a tip pushed
-sideways that crushes the surface ahead of it): then no load step converges, or the converged state crushes an
-element below :data:`COLLAPSE_J` of its volume, or its exact tangent is not positive definite. :meth:`solve` raises
-:class:`UnstableLoadError` with the fraction of the load it reached; callers say what the load means.
+A dead load can have no stable equilibrium (a press above about the shear modulus over a small patch): then no
+load step converges, or the converged state's exact tangent is not positive definite. :meth:`solve` raises
+:class:`UnstableLoadError` with the fraction of the load it reached; callers say what the load means. Where Newton
+does converge, on a state that crushes elements flat (:meth:`volume_ratios`), callers warn.
 """
 
 from __future__ import annotations
@@ -43,10 +43,6 @@ MAX_NEWTON = 25
 #: Load stepping halves a failed increment down to this fraction of the load before giving up (so the largest
 #: stable fraction it reports is known to about 3 %; a converging Newton needs far fewer than MAX_NEWTON).
 MIN_LOAD_STEP = 1.0 / 32.0
-#: An equilibrium with an element crushed below this fraction of its volume (J = det F) is a collapse, not the
-#: tissue's answer: a dead load that crushes the surface ahead of a small tip has no stable equilibrium, and a
-#: converged one this crushed is an artefact of the mesh (the stable neo-Hookean energy stays finite through J = 0).
-COLLAPSE_J = 0.1
 #: Curvature pairs :meth:`NonlinearFEM.relax` keeps.
 LBFGS_MEMORY = 8
 _ARMIJO = 1e-4
@@ -174,22 +170,20 @@ class _HyperelasticStatics:
         if initial is not None and not motion.any() and self._converged(forces, u, rtol):
             self.last_iterations = 0  # already there (an interactive step under an unchanged load)
             return u
-        state = {"u": u, "iterations": 0, "collapsed": False}
+        state = {"u": u, "iterations": 0}
 
         def attempt(fraction: float) -> bool:
             trial = state["u"].copy()
             trial[fixed] = (start + fraction * motion)[fixed]
             converged, trial, taken = self._newton(fraction * forces, trial, rtol, max_iterations)
             state["iterations"] += taken
-            if converged and self.volume_ratios(trial).min() < COLLAPSE_J:   # converged, but crushed
-                converged, state["collapsed"] = False, True
             if converged:
                 state["u"] = trial
             return converged
 
         done = in_fractions(attempt, first=1.0, smallest=MIN_LOAD_STEP)
         if done < 1.0:
-            raise UnstableLoadError(self._unstable_message(forces, done, collapsed=state["collapsed"]), reached=done)
+            raise UnstableLoadError(self._unstable_message(forces, done), reached=done)
         u, iterations = state["u"], state["iterations"]
         if not self._stable(u):
             raise UnstableLoadError(self._unstable_message(forces, done, saddle=True), reached=0.0)
@@ -327,11 +321,10 @@ class _HyperelasticStatics:
             return False
         return True
 
-    def _unstable_message(self, forces, reached: float, *, saddle: bool = False, collapsed: bool = False) -> str:
+    def _unstable_message(self, forces, reached: float, *, saddle: bool = False) -> str:
         total = float(np.linalg.norm(forces.sum(axis=0)))
         what = ("the equilibrium it reaches is unstable (its tangent stiffness is not positive definite)" if saddle
-                else f"no stable equilibrium beyond {100 * reached:.3g} % of it" + (
-                    f" (beyond, an element is crushed below {COLLAPSE_J:g} of its volume)" if collapsed else ""))
+                else f"no stable equilibrium beyond {100 * reached:.3g} % of it")
         return (f"a dead load of {total:.3g} N on this {self.material_name} body has {what}: the body would buckle "
                 "or collapse under it; lower it (a press that deep needs a contact driven by displacement, a rigid "
                 "tip, not a fixed force)")

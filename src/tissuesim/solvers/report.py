@@ -25,21 +25,32 @@ def linear_validity_warning(largest_displacement: float, model_size: float) -> s
 
 #: A finite-strain material (corotated, neo-Hookean) is Hooke's law of E and ν carried to large rotations and
 #: strains, not a law measured on tissue crushed this far: an element below this fraction of its volume (J = det F)
-#: lies beyond what it models. (Far below, at :data:`~tissuesim.fem.nonlinear.COLLAPSE_J`, a static solve refuses.)
+#: lies beyond what it models.
 FINITE_RANGE_J = 0.5
+#: An element crushed below this fraction of its volume is a collapse: a dead load too concentrated for its patch
+#: (a tip pushed sideways crushes the surface ahead of it; a one-node pull tears a crater) has no stable equilibrium
+#: that the mesh resolves, and the state Newton converges to is the mesh's, not the tissue's (the stable neo-Hookean
+#: energy stays finite through J = 0, so it does converge there).
+COLLAPSE_J = 0.1
 
 
 def finite_range_warning(material: str, smallest_volume_ratio: float, crushed: int) -> str | None:
     """A sentence saying that the finite-strain ``material`` is beyond its range where ``crushed`` elements of the
-    volume are below :data:`FINITE_RANGE_J` of their volume (the smallest J = ``smallest_volume_ratio``), else
-    None. Large displacements and rotations are what such a material is for: they are never warned of."""
+    volume are below :data:`FINITE_RANGE_J` of their volume (the smallest J = ``smallest_volume_ratio``), and that
+    the load has no stable equilibrium where one is below :data:`COLLAPSE_J`; else None. Large displacements and
+    rotations are what such a material is for: they are never warned of."""
     if not crushed:
         return None
-    inverted = " (≤ 0: turned inside out)" if smallest_volume_ratio <= 0 else ""
+    smallest = f"smallest J = {smallest_volume_ratio:.2g}" + (" (≤ 0: inside out)" * (smallest_volume_ratio <= 0))
+    fix = ("lower the load, spread it over a wider tip (radius=), or press with tissuesim.Probe, a rigid tip driven by "
+           "displacement")
+    if smallest_volume_ratio < COLLAPSE_J:
+        return (f"the {material} body collapses under this load: elements of its volume are crushed below "
+                f"{COLLAPSE_J:g} of their volume ({smallest}); a fixed force this concentrated has no stable "
+                "equilibrium, and the answer near it is the mesh's, not the tissue's; " + fix)
     return (f"the {material} material is beyond its range here: {crushed} element(s) of the volume are crushed below "
-            f"{FINITE_RANGE_J:g} of their volume (smallest J = {smallest_volume_ratio:.2g}{inverted}), a strain its "
-            "energy, fitted to E and ν at small strain, does not model; lower the load, spread it over a wider tip, "
-            "or press with tissuesim.Probe, a rigid tip driven by displacement")
+            f"{FINITE_RANGE_J:g} of their volume ({smallest}), a strain its energy, fitted to E and ν at small strain, "
+            "does not model; " + fix)
 
 
 def validity_warning(material: str, largest_displacement: float, model_size: float,
