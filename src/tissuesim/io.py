@@ -292,7 +292,7 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
     except (Exception, SystemExit) as exc:  # ReadError, ValueError, struct.error, SystemExit, ...
         printed = chatter.getvalue().strip().splitlines()
         reason = (printed[0] if printed else "") if isinstance(exc, SystemExit) else str(exc)
-        reason = " ".join(reason.split()) or type(exc).__name__
+        reason = _unquoted(reason) or type(exc).__name__
         if ext == ".stl":
             # meshio's ASCII STL reader refuses valid files it did not write (e.g. trimesh's blank line before
             # 'endsolid'); trimesh reads those.
@@ -314,6 +314,12 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
     return points, blocks
 
 
+def _unquoted(reason: str) -> str:
+    """A reader library's ``reason`` on one line, its quoted text (the file's words, e.g. "could not convert string
+    to float: 'x'") left out: a message never quotes a file's content, which may be someone else's."""
+    return " ".join(re.sub(r"'[^']*'|\"[^\"]*\"", "(...)", reason).split())
+
+
 def _read_stl_with_trimesh(path: Path, meshio_reason: str) -> tuple[np.ndarray, list[np.ndarray]]:
     """An STL file meshio could not read, read by trimesh (unprocessed: one vertex per corner, merged later)."""
     import trimesh
@@ -324,7 +330,7 @@ def _read_stl_with_trimesh(path: Path, meshio_reason: str) -> tuple[np.ndarray, 
         faces = np.asarray(mesh.faces, dtype=np.int64).reshape(-1, 3)
         trimesh_reason = "" if len(faces) else "no triangle faces"
     except Exception as exc:  # trimesh raises many kinds on a malformed file
-        trimesh_reason = " ".join(str(exc).split()) or type(exc).__name__
+        trimesh_reason = _unquoted(str(exc)) or type(exc).__name__
     if trimesh_reason:
         raise MeshError(f"cannot read {path} as STL: {meshio_reason} (meshio); {trimesh_reason} (trimesh); check "
                         "that the file is a complete ASCII or binary STL with its faces")
@@ -346,15 +352,15 @@ def _read_obj(path: Path) -> tuple[np.ndarray, list[np.ndarray]]:
             try:
                 vertices.append([float(parts[1]), float(parts[2]), float(parts[3])])
             except (IndexError, ValueError):
-                raise MeshError(f"{path}:{number}: malformed vertex line {line.strip()!r}; expected 'v x y z'")
+                raise MeshError(f"{path}:{number}: malformed vertex line; expected 'v x y z' with three numbers")
         elif line.startswith("f ") or line.startswith("f\t"):
             parts = line.split()[1:]
             try:
                 corners = [int(p.split("/", 1)[0]) for p in parts]
             except ValueError:
-                raise MeshError(f"{path}:{number}: malformed face line {line.strip()!r}; expected 'f i j k'")
+                raise MeshError(f"{path}:{number}: malformed face line; expected 'f i j k' with vertex numbers")
             if len(corners) < 3:
-                raise MeshError(f"{path}:{number}: a face needs at least 3 corners, got {line.strip()!r}")
+                raise MeshError(f"{path}:{number}: a face needs at least 3 corners, got {len(corners)}")
             count = len(vertices)
             resolved = []
             for c in corners:

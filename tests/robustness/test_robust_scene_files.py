@@ -94,3 +94,11 @@ def test_a_mask_of_other_numbers_is_refused_without_quoting_them(tmp_path, capsy
     (tmp_path / "held.txt").write_text("4194304\n" * cube(200).vertex_count)
     status, lines = _run(tmp_path, capsys, FIXED_BY.format("held.txt"))
     assert status == 1 and "neither 0 nor 1" in lines[-1] and "4194304" not in lines[-1]
+
+
+@pytest.mark.parametrize("name, text", [("m.stl", "vmlinuz secret\n"), ("m.obj", "v 0 0 0\nv 1 vmlinuz 0\n"),
+                                        ("m.obj", "v 0 0 0\nf 1 vmlinuz 2\n")])
+def test_a_model_file_that_is_no_mesh_is_refused_without_quoting_it(tmp_path, capsys, name, text):
+    (tmp_path / name).write_text(text)
+    status, lines = _run(tmp_path, capsys, f'[model]\nfile = "{name}"\n')
+    assert status == 1 and name in lines[-1] and "vmlinuz" not in lines[-1]
