@@ -116,19 +116,28 @@ def test_a_held_pin_head_keeps_its_node_and_stepping_goes_on(cube):
 
 
 # The mass-spring model needs ~360 explicit substeps per step after the cut (its smallest new masses), ~30 s for 500
-# steps: slow-marked, and checked over 50 steps in the quick suite.
-@pytest.mark.parametrize("method,steps", [("hybrid", 500), ("pbd", 500), ("embedded", 500), ("mass-spring", 50),
-                                          pytest.param("mass-spring", 500, marks=pytest.mark.slow)])
-def test_no_nan_after_500_steps_with_1_newton_next_to_the_cut(cube, method, steps):
-    solver = tissuesim.make_solver(method, cube)
-    run = scripted_incision(solver)
-    start, end = run["line"]
-    node = int(np.argmin(np.linalg.norm(solver.rest_positions - (0.5 * (start + end) + [0, 0.004, -0.001]),
-                                        axis=1)))
-    solver.set_load(node, [0.0, 1.0, 0.0])
-    for _ in range(steps):
-        solver.step()
-    assert np.all(np.isfinite(solver.positions))
+# steps: slow-marked, and checked over 50 steps in the quick suite. Measured after the steps, the load node's
+# displacement along the 1 N pull over the uncut body's (the cut frees the side it pulls) and the wound's widest
+# opening [m] (the embedded method's surface cannot open: its M_V is whole).
+@pytest.mark.parametrize("method,steps,softer,gap", [
+    ("hybrid", 500, 1.64, 0.0224), ("pbd", 500, 1.40, 0.0102), ("embedded", 500, 1.09, 0.0),
+    ("mass-spring", 50, 2.27, 0.00336),
+    pytest.param("mass-spring", 500, 2.27, 0.00336, marks=pytest.mark.slow)])
+def test_1_newton_next_to_the_cut_pulls_further_than_uncut_and_opens_the_wound(cube, method, steps, softer, gap):
+    moved = {}
+    for cut in (False, True):
+        solver = tissuesim.make_solver(method, cube)
+        start, end = scripted_incision(solver)["line"] if cut else incision_line(solver.rest_positions)
+        node = int(np.argmin(np.linalg.norm(solver.rest_positions - (0.5 * (start + end) + [0, 0.004, -0.001]),
+                                            axis=1)))
+        solver.set_load(node, [0.0, 1.0, 0.0])
+        for _ in range(steps):
+            solver.step()
+        moved[cut] = solver.displacements[node, 1]
+    # 10 % about the measured ratio and 25 % about the measured opening (a dynamic state after a fixed number of
+    # steps): a cut that did not free the lips, or a blow-up beside it, leaves both
+    assert moved[True] / moved[False] == pytest.approx(softer, rel=0.10)
+    assert wound_gap(solver) == pytest.approx(gap, rel=0.25, abs=1e-12)
 
 
 def test_control_nodes_on_the_cut_are_released_on_both_sides(cube):
