@@ -1,5 +1,5 @@
-"""What a finite-strain answer says about itself: its own range (not linear elasticity's), a load with no stable
-equilibrium refused for what it is, and no load never called an unstable one."""
+"""What a finite-strain answer says about itself: its own range (not linear elasticity's), a collapse under a load with
+no stable equilibrium, and no load never called an unstable one."""
 
 import numpy as np
 import pytest

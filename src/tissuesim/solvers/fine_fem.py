@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import SolverError
 from .base import Solver
-from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
+from .finite_strain import finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
@@ -91,7 +91,3 @@ class FineFEMSolver(Solver):
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         move_supports(self, positions)
-
-    def _on_reset(self) -> None:
-        if self.finite is not None:     # a solve from rest starts from the body carried with its base
-            self.volume_displacement[:] = carried_rest(self)
