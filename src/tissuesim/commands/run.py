@@ -12,6 +12,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from .view import add_confine_argument
+
 HELP = "simulate a scene file headless (its tools follow their scripted paths); --record FILE.pvd records it"
 
 
@@ -22,12 +24,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "and after every step that moved something)")
     parser.add_argument("--quiet", action="store_true", help="no progress bar")
     add_confine_argument(parser, "scene")
-
-
-def add_confine_argument(parser: argparse.ArgumentParser, kind: str) -> None:
-    parser.add_argument("--confine", action="store_true",
-                        help=f"refuse a file named in the {kind} file that lies outside its folder (links followed), "
-                             f"as a service running others' {kind} files needs; default: any path is read")
 
 
 def run(args: argparse.Namespace) -> int:

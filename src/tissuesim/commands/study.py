@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from .run import add_confine_argument
+from .view import add_confine_argument
 
 HELP = "run a study file (many cases) on Dask: a LocalCluster, or an existing cluster with --scheduler"
 

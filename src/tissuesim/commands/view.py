@@ -16,7 +16,6 @@ from functools import partial
 from pathlib import Path
 
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
-from .run import add_confine_argument
 
 HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
 
@@ -45,6 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "something moved; an old recording of that name is replaced at the end)")
     parser.add_argument("--replay", type=Path, default=None, metavar="FILE.pvd", help="play a recording back")
     add_confine_argument(parser, "scene")
+
+
+def add_confine_argument(parser: argparse.ArgumentParser, kind: str) -> None:
+    parser.add_argument("--confine", action="store_true",
+                        help=f"refuse a file named in the {kind} file that lies outside its folder (links followed), "
+                             f"as a service running others' {kind} files needs; default: any path is read")
 
 
 def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
