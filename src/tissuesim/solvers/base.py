@@ -168,6 +168,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.runaway_distance = RUNAWAY_SIZES * self.size
         self.last_solve: SolveReport | None = None
         self.largest_displacement = 0.0
+        self._range: tuple | None = None     # (volume array, its volume_range) of the state last measured
         #: Quasi-static solves whose static solver could not answer (a cut left a flap only inertia holds) and were
         #: finished by stepping.
         self.static_fallbacks = 0
@@ -181,7 +182,11 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         None: what ``last_solve.warning`` says of a static answer, for the interactive path too. Linear elasticity:
         a node moved more than :data:`~.report.LINEAR_VALIDITY_FRACTION` of the model's size; a finite-strain
         material: an element crushed below :data:`~.report.FINITE_RANGE_J` of its volume."""
-        range_ = volume_range(self)
+        volume = getattr(self, "volume_displacement", None)
+        # once per measured state (a viewer asks every frame); a state put back brings its own volume array
+        if self._range is None or self._range[0] is not volume:
+            self._range = volume, volume_range(self)
+        range_ = dict(self._range[1])
         return validity_warning(range_.pop("material"), self.largest_displacement, self.size, **range_)
 
     @property
@@ -241,6 +246,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
         self.largest_displacement = 0.0
+        self._range = None
         self._on_load_changed()
         self._on_reset()
 
@@ -275,6 +281,7 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         linear answer cannot run away; a large one is reported by :attr:`SolveReport.warning` instead."""
         node, distance = farthest_node(self.state.positions, self.rest_positions)
         self.largest_displacement = float(distance)
+        self._range = None
         if distance <= self.runaway_distance or ((linear or self.static) and np.isfinite(distance)):
             return
         if np.isfinite(distance):
