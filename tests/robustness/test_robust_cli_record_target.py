@@ -30,6 +30,7 @@ def test_the_check_writes_for_real_and_leaves_nothing(tmp_path, monkeypatch):
     check_target(tmp_path / "a.pvd")
     assert sorted(os.listdir(tmp_path)) == before
     monkeypatch.setattr(os, "mkdir", refused)             # a folder the permission bits do not tell (root, ACLs)
-    with pytest.raises(RecordingError, match=r"cannot be written \(creating a folder there failed: Permission denied\); record into another folder"):
+    with pytest.raises(RecordingError, match=r"cannot be written \(creating a folder there failed: Permission "
+                                             r"denied\); record into another folder"):
         check_target(tmp_path / "a.pvd")
     assert sorted(os.listdir(tmp_path)) == before
