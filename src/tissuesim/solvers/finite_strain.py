@@ -71,8 +71,8 @@ def check_support_motion(rest: np.ndarray, positions: np.ndarray, size: float) -
         raise BoundaryConditionError(
             f"the fixed set's motion carries vertex {far} of it {travel[far]:.3g} m from rest, "
             f"{travel[far] / size:.3g} times the body's size {size:.3g} m: no grasper carries an organ that far "
-            "(positions are in metres); "
-            f"give positions within {SUPPORT_REACH:g} sizes of rest, e.g. rest positions turned and shifted")
+            f"(positions are in metres); give positions within {SUPPORT_REACH:g} sizes of rest, e.g. rest positions "
+            "turned and shifted")
     radius = np.sqrt(np.mean(np.sum((rest - rest.mean(axis=0)) ** 2, axis=1)))
     matrix, _ = affine_fit(rest, positions)
     determinant = float(np.linalg.det(matrix))
