@@ -1,7 +1,7 @@
 """Numba's on-disk cache of compiled kernels, made safe for several processes compiling at once (a study's workers
 started together on a fresh machine, a test run beside a fuzz run).
 
-Numba (0.58 to 0.61) saves a kernel's compiled signature in steps that are each atomic but not together: it reads
+Numba (0.58 to 0.68 at least) saves a kernel's compiled signature in steps that are each atomic but not together: it reads
 the function's index (``*.nbi``), takes the first data-file number (``*.N.nbc``) the index does not use, writes the
 index, then the data file. Two processes that compile different signatures of one kernel at once both take number 1:
 the index one of them leaves names the machine code the other wrote, and every later process that loads that
