@@ -1,13 +1,14 @@
 """Numba's on-disk cache of compiled kernels, made safe for several processes compiling at once (a study's workers
 started together on a fresh machine, a test run beside a fuzz run).
 
-Numba (0.58 to 0.68 at least) saves a kernel's compiled signature in steps that are each atomic but not together: it reads
-the function's index (``*.nbi``), takes the first data-file number (``*.N.nbc``) the index does not use, writes the
-index, then the data file. Two processes that compile different signatures of one kernel at once both take number 1:
-the index one of them leaves names the machine code the other wrote, and every later process that loads that
-signature runs code compiled for other argument types (glibc's ``free(): invalid pointer``, a segfault or a wrong
-answer) until the cache is deleted. A process that loads while another saves can likewise pair a new index with a
-data file left from an older version of the source. numba/numba#4807 and #10128 report the same from dask workers.
+Numba (0.58 to 0.68 at least) saves a kernel's compiled signature in steps that are each atomic but not together:
+it reads the function's index (``*.nbi``), takes the first data-file number (``*.N.nbc``) the index does not use,
+writes the index, then the data file. Two processes that compile different signatures of one kernel at once both
+take number 1: the index one of them leaves names the machine code the other wrote, and every later process that
+loads that signature runs code compiled for other argument types (glibc's ``free(): invalid pointer``, a segfault or
+a wrong answer) until the cache is deleted. A process that loads while another saves can likewise pair a new index
+with a data file left from an older version of the source. numba/numba#4807 and #10128 report the same from dask
+workers.
 
 :func:`install` makes each save (read the index, write it and the data) and each load (read both) one step under a
 lock on a file of the cache folder (``fcntl.flock``: exclusive to save, shared to load). It patches Numba's cache
