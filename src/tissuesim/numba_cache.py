@@ -40,7 +40,7 @@ def cache_lock(folder: str, *, exclusive: bool):
     file cannot be opened (no folder yet: nothing to load)."""
     try:
         handle = os.open(os.path.join(folder, LOCK_NAME), os.O_RDWR | os.O_CREAT, 0o666)
-    except OSError:
+    except (OSError, TypeError):    # no folder yet, or a Numba that keeps its folder elsewhere
         yield
         return
     try:
@@ -52,17 +52,17 @@ def cache_lock(folder: str, *, exclusive: bool):
 
 def _patch(caching) -> None:
     """Wrap ``IndexDataCacheFile.save`` and ``load`` of Numba's ``caching`` module in the folder's lock (once)."""
-    cache_file = caching.IndexDataCacheFile
-    if getattr(cache_file, "_tissuesim_locked", False):
-        return
+    cache_file = getattr(caching, "IndexDataCacheFile", None)
+    if cache_file is None or getattr(cache_file, "_tissuesim_locked", False):
+        return      # a Numba whose cache is built otherwise keeps its own behaviour
     save, load = cache_file.save, cache_file.load
 
     def locked_save(self, key, data):
-        with cache_lock(self._cache_path, exclusive=True):
+        with cache_lock(getattr(self, "_cache_path", None), exclusive=True):
             return save(self, key, data)
 
     def locked_load(self, key):
-        with cache_lock(self._cache_path, exclusive=False):
+        with cache_lock(getattr(self, "_cache_path", None), exclusive=False):
             return load(self, key)
 
     cache_file.save, cache_file.load = locked_save, locked_load
