@@ -48,7 +48,7 @@ from ..errors import SolverError, warn
 from ..layer.kernels import pbd_step, xpbd_step
 from ..fem.nonlinear import in_fractions
 from .base import Solver
-from .checks import positive_number
+from .checks import is_integer, positive_number
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
@@ -128,8 +128,9 @@ class SurfaceLayerSolver(Solver):
 
         if form not in FORMS:
             raise SolverError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
-        if isinstance(iterations, bool) or int(iterations) != iterations or int(iterations) < 1:
-            raise SolverError(f"iterations must be a positive integer, got {iterations!r}")
+        if not is_integer(iterations) or iterations < 1:
+            raise SolverError(f"iterations must be a positive integer, got {iterations!r}; pass a whole number, e.g. "
+                              f"{DEFAULT_ITERATIONS}")
         if integrator not in INTEGRATORS:
             raise SolverError(f"unknown integrator {integrator!r}; choose one of {', '.join(INTEGRATORS)}")
         if self.material != "linear" and (form, integrator, signed_bending) not in (("xpbd", "implicit", None),
