@@ -17,6 +17,7 @@ import json
 import os
 import tempfile
 import zipfile
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -146,9 +147,24 @@ def _read_arrays(path: Path) -> tuple[dict, bool, dict]:
             arrays = {name: _read_member(path, archive, members[name]) for name in names}
     except BundleError:
         raise
-    except (zipfile.BadZipFile, ValueError, OSError, EOFError, RuntimeError, NotImplementedError) as error:
-        raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({error}); {WHAT_A_BUNDLE_IS}") from None
+    except (zipfile.BadZipFile, zlib.error, ValueError, OSError, EOFError, RuntimeError,
+            NotImplementedError) as error:
+        raise BundleError(f"{path} is not a readable hybrid-mesh bundle ({_damage(error)}); {WHAT_A_BUNDLE_IS}") \
+            from None
     return arrays, fine, header.get("info", {})
+
+
+def _damage(error: Exception) -> str:
+    """What kind of damage ``error`` (from zipfile, zlib or numpy's .npy reader) shows, in words of our own: the
+    readers' text quotes the file's bytes (a .npy magic string, a header's keys), and a bundle may be someone
+    else's."""
+    if isinstance(error, ValueError):
+        return "a member is no .npy array of plain numbers"
+    if isinstance(error, (zipfile.BadZipFile, zlib.error, EOFError)):
+        return "its zip archive is damaged or cut short"
+    if isinstance(error, (RuntimeError, NotImplementedError)):
+        return "a member is encrypted or compressed in a way a .npz never is"
+    return f"it could not be read: {error.strerror or type(error).__name__}"
 
 
 def _declared(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> tuple[tuple, np.dtype, bool]:
@@ -192,8 +208,8 @@ def _read_member(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo, 
 def _read_header(path: Path, array: np.ndarray) -> dict:
     try:
         header = json.loads(array.tobytes().decode("utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as error:
-        raise BundleError(f"{path} has a corrupt bundle header ({error}); rebuild it") from error
+    except (UnicodeDecodeError, json.JSONDecodeError):
+        raise BundleError(f"{path} has a corrupt bundle header (not JSON text); rebuild it") from None
     if not isinstance(header, dict) or header.get("format") != BUNDLE_FORMAT:
         raise BundleError(f"{path} is not a tissuesim hybrid-mesh bundle")
     check_header(path, header)
