@@ -182,7 +182,8 @@ def _declared(path: Path, archive: zipfile.ZipFile, member: zipfile.ZipInfo) -> 
         shape, fortran, dtype = read_header(stream)
         header_bytes = stream.tell()
     if dtype.hasobject:
-        raise BundleError(f"{path}: array {name} holds Python objects, which a bundle never does; {REBUILD}")
+        raise BundleError(f"{path} is not a readable hybrid-mesh bundle: its array {name} holds Python objects, "
+                          f"which a bundle never does; {WHAT_A_BUNDLE_IS}")
     data = int(np.prod(shape, dtype=object)) * dtype.itemsize      # Python ints: a forged shape cannot overflow
     if data != member.file_size - header_bytes:
         raise BundleError(f"{path}: array {name} declares shape {shape} of {dtype} ({data} bytes) but its entry "
