@@ -15,6 +15,7 @@ from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, is_integer, positive_number
 from .finite_strain import check_dead_press, unstable_load_error, volume_range
 from .report import SolveReport
+from .snapshot import Snapshot
 from .state import farthest_node, motion_and_displacement, remaining_error
 
 #: Relative accuracy of a stepped quasi-static solve: its remaining error over the largest displacement (methods
@@ -69,9 +70,8 @@ class QuasiStaticSolve:
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
         check_dead_press(self, node, force, radius)
-        # only a finite-strain solve can find no stable equilibrium and have to restore what it was given
-        before = None if self.material == "linear" else (self.state.positions.copy(), self.state.velocities.copy(),
-                                                         self.kept_loads())
+        # only a finite-strain solve can find no stable equilibrium and have to put back what it was given
+        before = None if self.material == "linear" else Snapshot(self)
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
@@ -80,20 +80,21 @@ class QuasiStaticSolve:
     def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool):
         """:meth:`solve_static` under the loads acting: they are kept through the reset and put back if refused."""
         loads = self.kept_loads()
-        before = self.state.positions.copy(), self.state.velocities.copy(), loads
+        before = Snapshot(self)
         if reset:
             self._unloaded()
             self.put_back_loads(loads)
         return self._settle_or_restore(before, dt, tolerance, rtol, max_steps)
 
     def _settle_or_restore(self, before, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
-        """:meth:`_settle`; where a finite-strain solve finds no stable equilibrium, the state and loads ``before``
-        (``(positions, velocities, kept loads)``) are put back and the refusal says why."""
+        """:meth:`_settle`; where a finite-strain solve finds no stable equilibrium, the solver's whole state
+        ``before`` (a :class:`~.snapshot.Snapshot`: its volume's displacement and warm start too) is put back and the
+        refusal says why."""
         try:
             return self._settle(dt, tolerance, rtol, max_steps)
         except UnstableLoadError as error:
             refusal = unstable_load_error(self, error)
-            self._restore(*before)
+            before.restore(self)
             raise refusal from None
 
     def _settle(self, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
@@ -130,13 +131,6 @@ class QuasiStaticSolve:
                 f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"
             )
         return self.state.positions.copy()
-
-    def _restore(self, positions, velocities, loads) -> None:
-        """Back to a state and loads taken before a refused solve."""
-        self._unloaded()
-        self.put_back_loads(loads)
-        self.state.positions[:] = positions
-        self.state.velocities[:] = velocities
 
     def _measures(self) -> dict:
         """A :class:`SolveReport`'s measures of the state: the largest node displacement from rest [m], the model's
