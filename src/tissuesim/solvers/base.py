@@ -246,7 +246,9 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
         self.state.positions[:] = self.rest_positions
         self.state.velocities[:] = 0.0
         self.largest_displacement = 0.0
-        self._range = None
+        # at rest (or carried rigidly with its base) no element is strained, whatever warm start a volume keeps
+        self._range = getattr(self, "volume_displacement", None), {"material": self.material,
+                                                                    "smallest_volume_ratio": 1.0, "crushed": 0}
         self._on_load_changed()
         self._on_reset()
 
