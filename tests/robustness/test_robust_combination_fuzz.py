@@ -18,7 +18,8 @@ MOVES = 40
 #: Seeds of the fast form: between them the probe on a cut surface, finite strain with the base moved after a cut
 #: (hybrid and embedded), gravity switched on a cut mesh (pbd, mass-spring, hybrid), ligaments, the shared livers.
 FAST_SEEDS = [0, 8, 11, 14, 23]
-#: Episodes of the slow form: at least 5,000 moves.
+#: Episodes of the slow form: at least 5,000 moves. Measured: 6,000 moves, 594 cutting, 492 refused, in 14 minutes
+#: on two busy cores.
 SLOW_EPISODES = 150
 
 
@@ -36,7 +37,8 @@ def test_five_thousand_random_tool_combinations_never_crash_or_change_state_when
     print("\n" + tally.summary())
     assert tally.failures == []
     assert tally.moves >= 5000
-    # every method with every material it takes was drawn, and the scalpel cut often enough to matter
+    # every method with every material it takes was drawn, and the scalpel cut often enough to matter (measured:
+    # 0.099 of the moves; fem episodes cannot cut)
     drawn = {config.split("/")[0].removesuffix("-xpbd") + "/" + config.split("/")[1] for config in tally.configs}
     assert drawn >= {f"{method}/{material}" for method, _ in METHODS for material in solver_class(method).materials}
     assert tally.cuts >= 0.05 * tally.moves, (tally.cuts, tally.moves)
