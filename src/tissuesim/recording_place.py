@@ -40,7 +40,9 @@ def check_target(path) -> Path:
 def _check_place(path: Path) -> None:
     folder, frames = path.parent, frames_folder(path)
     if not folder.is_dir():
-        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} does not exist")
+        what = "is a file, not a folder; record into a folder" if folder.exists() else \
+            "does not exist; create it or record into another folder"
+        raise RecordingError(f"cannot record to {str(path)!r}: folder {str(folder)!r} {what}")
     if path.exists() and not path.is_file():
         raise RecordingError(f"cannot record to {str(path)!r}: it is a folder; name a .pvd file beside it")
     if frames.exists() and not frames.is_dir():

@@ -53,8 +53,9 @@ def check_output_folder(folder) -> Path:
         raise OutputError(f"output path {str(folder)!r} is a file, not a folder; give a folder path (it is created)")
     target = folder.resolve()
     if not target.is_dir() and not target.parent.is_dir():
-        raise OutputError(f"cannot create output folder {str(folder)!r}: its parent {str(target.parent)!r} does not "
-                          "exist")
+        what = ("is a file, not a folder; choose another --output" if target.parent.exists()
+                else "does not exist; create it, or choose another --output")
+        raise OutputError(f"cannot create output folder {str(folder)!r}: its parent {str(target.parent)!r} {what}")
     if target.is_dir() and not os.access(target, os.W_OK):
         raise OutputError(f"output folder {str(folder)!r} is not writable; choose another --output")
     _remove_abandoned_staging(target)
