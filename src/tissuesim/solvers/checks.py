@@ -31,6 +31,14 @@ def _number(name: str, value, unit: str, example: str = "0.01") -> float:
     return number
 
 
+def flag(name: str, value) -> bool:
+    """``value`` as a bool, or a :class:`SolverError` naming the switch ``name`` unless True or False (any non-empty
+    text, "no" too, would be true; scene files refuse it alike)."""
+    if isinstance(value, (bool, np.bool_)):
+        return bool(value)
+    raise SolverError(f"{name} is True or False, got {value!r}; pass {name}=False or {name}=True")
+
+
 def numeric_array(value) -> np.ndarray | None:
     """``value`` as a ``float64`` array (the caller's own where it is one: copy what you keep), or None unless every
     element is a real number (no text, bool or None: ``np.asarray`` would read ``"1"`` as 1.0 and ``True`` as 1.0)."""

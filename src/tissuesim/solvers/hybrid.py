@@ -47,6 +47,7 @@ from functools import partial
 import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, warn
+from .checks import flag
 from .registry import register
 from .embedded import map_embedded
 from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
@@ -89,7 +90,7 @@ class HybridSolver(SurfaceLayerSolver):
         from ..fem.linear import LinearFEM
 
         h = hybrid_mesh
-        self.warm_start = bool(warm_start)
+        self.warm_start = flag("warm_start", warm_start)
         volume = h.volume
         control = np.asarray(h.control, dtype=np.int64)
         control_volume = np.asarray(h.control_volume, dtype=np.int64)

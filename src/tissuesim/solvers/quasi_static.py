@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InversionError, SolverError
 from ..fem.nonlinear import UnstableLoadError
-from .checks import check_force, is_integer, positive_number
+from .checks import check_force, flag, is_integer, positive_number
 from .finite_strain import check_dead_press, unstable_load_error, volume_range
 from .report import SolveReport
 from .snapshot import Snapshot
@@ -62,6 +62,7 @@ class QuasiStaticSolve:
         if not is_integer(max_steps) or max_steps < 1:
             raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
+        reset = flag("reset", reset)
         if node is None and force is None:
             return self._solve_under_loads(dt, tolerance, rtol, max_steps, reset)
         if node is None or force is None:

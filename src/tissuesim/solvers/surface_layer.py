@@ -48,7 +48,7 @@ from ..errors import SolverError, warn
 from ..layer.kernels import pbd_step, xpbd_step
 from ..fem.nonlinear import in_fractions
 from .base import Solver
-from .checks import is_integer, positive_number
+from .checks import flag, is_integer, positive_number
 from .mass_spring import surface_lumped_mass
 
 FORMS = ("xpbd", "pbd")
@@ -126,6 +126,7 @@ class SurfaceLayerSolver(Solver):
         from ..layer.topology import SurfaceConstraints
         from . import calibrated as frozen
 
+        signed_bending = None if signed_bending is None else flag("signed_bending", signed_bending)
         if form not in FORMS:
             raise SolverError(f"unknown form {form!r}; choose one of {', '.join(FORMS)}")
         if not is_integer(iterations) or iterations < 1:
@@ -144,7 +145,7 @@ class SurfaceLayerSolver(Solver):
         self.integrator = integrator
         self.iterations = int(iterations)
         self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
-        self.signed_bending = (form == "xpbd") if signed_bending is None else bool(signed_bending)
+        self.signed_bending = (form == "xpbd") if signed_bending is None else signed_bending
         self._rest_angle = (self.constraints.rest_signed_angle if self.signed_bending
                             else self.constraints.rest_angle)
         option, value = frozen.option(self.name, form)
