@@ -9,7 +9,7 @@ import time
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.study import work
+from tissuesim.study import cases, work
 from tissuesim.study.load import StudyError, read_study
 
 HEAD = '[[models]]\nname = "cube"\nresolution = 60\n[[methods]]\nname = "hybrid"\n'
@@ -33,20 +33,25 @@ def _refused(tmp_path, capsys, text, *arguments) -> str:
     return lines[0]
 
 
-def test_a_billion_random_loads_are_counted_and_refused_at_once(tmp_path, capsys):
-    start = time.perf_counter()
+@pytest.fixture
+def never_expanded(monkeypatch):
+    """The study's materials and loads are counted, never listed: listing them fails the test (where it hung)."""
+    def listed(study):
+        raise AssertionError("the study's cases were expanded before they were counted")
+    monkeypatch.setattr(cases, "_materials", listed)
+    monkeypatch.setattr(cases, "_loads", listed)
+
+
+def test_a_billion_random_loads_are_counted_and_refused_at_once(tmp_path, capsys, never_expanded):
     line = _refused(tmp_path, capsys, HEAD + "[loads.random]\ncount = 1000000000\nforce = [0.1, 1.0]\n")
-    assert time.perf_counter() - start < 5.0
     assert "loads.random.count: 1000000000 random loads, more than the 100000 cases a study runs" in line
     assert "split them over several studies" in line
 
 
-def test_a_product_of_two_long_lists_is_counted_and_refused_at_once(tmp_path, capsys):
+def test_a_product_of_two_long_lists_is_counted_and_refused_at_once(tmp_path, capsys, never_expanded):
     values = ", ".join(str(1000.0 + i) for i in range(20_000))
     ratios = ", ".join(str(0.1 + 1e-6 * i) for i in range(20_000))
-    start = time.perf_counter()
     line = _refused(tmp_path, capsys, HEAD + f"[materials]\nyoungs_modulus = [{values}]\npoisson_ratio = [{ratios}]\n")
-    assert time.perf_counter() - start < 5.0
     assert "400000000 cases (1 model × 1 method × 400000000 materials × 1 load)" in line and "split it" in line
 
 

@@ -82,7 +82,7 @@ def test_a_drag_the_pin_head_refuses_keeps_the_hold_and_says_why(small_cube, ori
 def test_bad_pointer_and_key_events_are_shown_not_raised(small_cube):
     c = Controller(small_cube)
     c.pointer_down("abc", [0.0, 0.0, 1.0], DOWN)
-    assert "3 coordinates" in c.notice and not c.pin.grabbed
+    assert "3 numbers" in c.notice and not c.pin.grabbed
     c.key(["s"])
     assert "got ['s']" in c.notice and c.mode == "pin"
     c.set_mode("scalpel")
