@@ -316,8 +316,8 @@ def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
 
 def _unquoted(reason: str) -> str:
     """A reader library's ``reason`` on one line, its quoted text (the file's words, e.g. "could not convert string
-    to float: 'x'") left out: a message never quotes a file's content, which may be someone else's."""
-    return " ".join(re.sub(r"'[^']*'|\"[^\"]*\"", "(...)", reason).split())
+    to float: 'x'", or meshio's "got `element vertex x`") left out: a message never quotes a file's content."""
+    return " ".join(re.sub(r"'[^']*'|\"[^\"]*\"|`[^`]*`", "(...)", reason).split())
 
 
 def _read_stl_with_trimesh(path: Path, meshio_reason: str) -> tuple[np.ndarray, list[np.ndarray]]:
