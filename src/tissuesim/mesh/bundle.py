@@ -6,9 +6,10 @@ version that wrote it. Loading reads only the members a hybrid mesh has (others 
 shape and dtype its .npy header declares passed the checks of :mod:`.bundle_check` against the others' counts, so a
 forged or zip-bomb member is refused before its data is inflated. Loading a bundle of another format version, an
 unreadable one, or one whose arrays fail those checks (dtype, shape, finiteness, index range, consistency between the
-meshes) raises :class:`BundleError` naming the array. Saving writes a temporary file beside the target and renames it, so a bundle
-is never half-written; a target that exists and is not a regular file is refused. Arrays survive bit for bit; M'_S
-is stored as triangles only (its vertices are ``surface.vertices[control]``).
+meshes) raises :class:`BundleError` naming the array, never quoting the file's bytes. Saving writes a temporary file
+beside the target and renames it, so a bundle is never half-written; a target that exists and is not a regular file
+is refused. Arrays survive bit for bit; M'_S is stored as triangles only (its vertices are
+``surface.vertices[control]``).
 """
 
 from __future__ import annotations
