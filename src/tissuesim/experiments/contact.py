@@ -333,13 +333,7 @@ def _equilibrium(solver, node, force, radius, max_steps) -> tuple[np.ndarray, di
     solver.reset()
     solver.last_solve = None
     start = time.perf_counter()
-    try:
-        positions = np.array(solver.solve_static(node, force, radius=radius, max_steps=max_steps))
-    except SolverError:
-        report = solver.last_solve
-        if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
-            raise
-        positions = np.array(solver.positions)
+    positions = np.array(solver.solve_static(node, force, radius=radius, max_steps=max_steps, keep_unsettled=True))
     elapsed = 1e3 * (time.perf_counter() - start)
     report = solver.last_solve
     inverted = inverted_elements(solver)

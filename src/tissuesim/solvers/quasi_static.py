@@ -10,7 +10,7 @@ import time
 
 import numpy as np
 
-from ..errors import InversionError, SolverError
+from ..errors import InversionError, SolverError, TissuesimError
 from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, flag, is_integer, positive_number
 from .finite_strain import check_dead_press, unstable_load_error, volume_range
@@ -38,6 +38,7 @@ class QuasiStaticSolve:
         max_steps: int = DEFAULT_MAX_STEPS,
         dt: float | None = None,
         reset: bool = True,
+        keep_unsettled: bool = False,
     ) -> np.ndarray:
         """Quasi-static response: ``(n, 3) float64`` M_S positions [m] at equilibrium under ``force`` at ``node``;
         with neither given, at equilibrium under the loads acting now (any number: several tools at once), which
@@ -52,8 +53,11 @@ class QuasiStaticSolve:
         applied afterwards. ``reset`` (default) starts from rest, so the answer depends only on the load (and on
         where :meth:`set_fixed_positions` put the fixed set, which it keeps).
         What was done, and whether linear elasticity is valid for the answer (``last_solve.warning``), is in
-        :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling, or at once when the state
-        blows up (see :meth:`step`).
+        :attr:`last_solve`. Raises SolverError when ``max_steps`` pass without settling (a mass-spring surface
+        turned inside out: InversionError), or at once when the state blows up (see :meth:`step`); a refused solve
+        changes nothing (the state, the loads and :attr:`last_solve` are as before). ``keep_unsettled`` returns the
+        last state of a stepping method that did not settle, or turned inside out, instead (``last_solve.converged``
+        is False), as the experiments record it.
         """
         tolerance = 0.0 if tolerance is None else positive_number("tolerance", tolerance, "m")
         rtol = positive_number("rtol", rtol, "1")
@@ -63,42 +67,47 @@ class QuasiStaticSolve:
             raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
         dt = self._check_dt(dt)
         reset = flag("reset", reset)
+        keep = flag("keep_unsettled", keep_unsettled)
         if node is None and force is None:
-            return self._solve_under_loads(dt, tolerance, rtol, max_steps, reset)
+            return self._solve_under_loads(dt, tolerance, rtol, max_steps, reset, keep)
         if node is None or force is None:
             raise SolverError("solve_static takes a node and a force together, or neither (the loads acting now)")
         node = self._check_node(node)
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
         check_dead_press(self, node, force, radius)
-        # only a finite-strain solve can find no stable equilibrium and have to put back what it was given
-        before = None if self.material == "linear" else Snapshot(self)
+        before = Snapshot(self)
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
-        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps)
+        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps, keep)
 
-    def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool):
+    def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool, keep: bool):
         """:meth:`solve_static` under the loads acting: they are kept through the reset and put back if refused."""
         loads = self.kept_loads()
         before = Snapshot(self)
         if reset:
             self._unloaded()
             self.put_back_loads(loads)
-        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps)
+        return self._settle_or_restore(before, dt, tolerance, rtol, max_steps, keep)
 
-    def _settle_or_restore(self, before, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
-        """:meth:`_settle`; where a finite-strain solve finds no stable equilibrium, the solver's whole state
-        ``before`` (a :class:`~.snapshot.Snapshot`: its volume's displacement and warm start too) is put back and the
-        refusal says why."""
+    def _settle_or_restore(self, before, dt: float, tolerance: float, rtol: float, max_steps: int,
+                           keep: bool) -> np.ndarray:
+        """:meth:`_settle`; where it is refused (a finite-strain solve that finds no stable equilibrium, a stepping
+        method that does not settle, turns inside out or blows up), the solver's whole state ``before`` (a
+        :class:`~.snapshot.Snapshot`: its loads, volume displacement and warm start too) is put back first, so a
+        refused solve changes nothing."""
         try:
-            return self._settle(dt, tolerance, rtol, max_steps)
+            return self._settle(dt, tolerance, rtol, max_steps, keep)
         except UnstableLoadError as error:
             refusal = unstable_load_error(self, error)
             before.restore(self)
             raise refusal from None
+        except TissuesimError:
+            before.restore(self)
+            raise
 
-    def _settle(self, dt: float, tolerance: float, rtol: float, max_steps: int) -> np.ndarray:
+    def _settle(self, dt: float, tolerance: float, rtol: float, max_steps: int, keep: bool) -> np.ndarray:
         """:meth:`solve_static`'s work once the load is set: the method's static solve, else stepping."""
         start = time.perf_counter()
         iterations = self._static_solve()
@@ -118,6 +127,8 @@ class QuasiStaticSolve:
                 # The surface cannot come back: report the solve as unsettled at its last (finite) state.
                 self.last_solve = SolveReport(steps, False, float(motion), tolerance, time.perf_counter() - start,
                                               **self._measures())
+                if keep:
+                    return self.state.positions.copy()
                 raise
             steps += 1
             self._check_blow_up(dt, f" after {steps} step" + "s" * (steps > 1))
@@ -126,7 +137,7 @@ class QuasiStaticSolve:
             settled = motion <= tolerance or remaining_error(history) <= rtol * largest or self.static
         self.last_solve = SolveReport(steps, settled, float(motion), tolerance, time.perf_counter() - start,
                                       **self._measures())
-        if not settled:
+        if not (settled or keep):
             raise SolverError(
                 f"{self.name} solver did not settle within {max_steps} steps of {dt:g} s (last step still moved "
                 f"{motion:.3g} m); raise max_steps or damping, or loosen rtol"

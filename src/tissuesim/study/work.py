@@ -115,16 +115,9 @@ def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.nda
 def _settled(solver, node: int, force: np.ndarray, case: Case) -> np.ndarray:
     """A pin-head's equilibrium; a solve that has not settled within ``max_steps`` keeps its last (finite)
     positions, as the experiments record it (``converged`` false in the row), anything else is raised."""
-    from ..errors import SolverError
-
     solver.last_solve = None
-    try:
-        return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record.max_steps))
-    except SolverError:
-        report = solver.last_solve
-        if report is None or report.converged or not np.all(np.isfinite(solver.positions)):
-            raise
-        return np.array(solver.positions)
+    return np.array(solver.solve_static(node, force, radius=case.radius, max_steps=case.record.max_steps,
+                                        keep_unsettled=True))
 
 
 def reference(case: Case) -> dict:
