@@ -12,6 +12,7 @@ varies, per method.
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import sys
 import time
@@ -133,6 +134,9 @@ def _client(args):
         client = Client(args.scheduler)
     else:
         workers = args.workers or os.cpu_count() or 1
-        client = Client(LocalCluster(n_workers=workers, threads_per_worker=1, processes=True))
+        # A case or reference that a worker refuses is recorded in its row, with its message; the worker's own log
+        # of it ("Compute Failed" and a traceback) would only repeat it as a traceback.
+        client = Client(LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                     silence_logs=logging.CRITICAL))
     print(f"Dask dashboard: {client.dashboard_link}", file=sys.stderr)
     return client
