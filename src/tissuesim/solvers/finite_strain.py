@@ -160,8 +160,8 @@ def carried_rest(solver) -> np.ndarray:
 
 def unstable_load_error(solver, error) -> SolverError:
     """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): what acts
-    (the loads, with the patch's mean pressure against the shear modulus μ; else the weight, the ligaments or the
-    moved base: no load is never called an unstable one), and the fix."""
+    (the loads, with the patch's mean traction, a press's or a pull's, against the shear modulus μ; else the weight,
+    the ligaments or the moved base: no load is never called an unstable one), and the fix."""
     loaded = np.unique(solver.load_nodes)
     head = f"{solver.name} solver ({solver.material}): "
     carried = f"{100 * error.reached:.3g} % of it was carried"
@@ -173,7 +173,7 @@ def unstable_load_error(solver, error) -> SolverError:
     mu = solver.elasticity.shear_modulus
     pressure = f"{force / area:.3g} Pa = {force / area / mu:.2g} μ" if area > 0 else "over no area"
     return SolverError(
-        head + f"a dead load of {force:.3g} N on {loaded.size} node(s) ({1e6 * area:.3g} mm², mean pressure "
+        head + f"a dead load of {force:.3g} N on {loaded.size} node(s) ({1e6 * area:.3g} mm², mean traction "
         f"{pressure}, μ = {mu:.3g} Pa) has no stable equilibrium ({carried}): a fixed force of more than about μ over "
         "its patch buckles the body, or crushes the surface ahead of a tip pushed sideways; lower the load, spread "
         "it over a wider tip (radius=), or press with tissuesim.Probe, a rigid tip driven by displacement (the "
