@@ -4,7 +4,7 @@ ligaments, gravity, a moved base and cuts together, on the built-in cube and liv
 Strict: any traceback, a refusal that changed anything, a structural defect of the surface, a loose piece, a
 non-finite position or a probe that pulls or lets a vertex in fails, with the seed and action index that replay it
 alone (``python tests/robustness/combination_fuzz.py SEED MOVES``). A mass-spring surface turned inside out and a
-run-away after a cut are counted and printed, not failed (see the helper's docstring).
+run-away after a cut are counted and printed, not failed (see the docstring of combination_fuzz.py).
 """
 
 import pytest
