@@ -45,7 +45,7 @@ import numpy as np
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
 from .probe_contact import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
                             undetected_depth, vertex_spans, winding_numbers)
-from .solvers.checks import checked_point, is_integer, positive_number
+from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.snapshot import Snapshot
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
@@ -150,7 +150,8 @@ class Probe:
         tenth of it (at most ``max_steps`` steps). Raises SolverError when ``max_iterations`` pass first, or where
         :meth:`move_to` refuses the place, or the solver's own error when it cannot carry an iteration's forces; a
         refused press changes nothing (the solver's state and loads, and the probe, are as before the call)."""
-        max_iterations, max_steps = _counts(max_iterations=max_iterations, max_steps=max_steps)
+        max_iterations = whole_count("max_iterations", max_iterations)
+        max_steps = whole_count("max_steps", max_steps)
         with self._refused_changes_nothing(solving=True):
             self._place(center, end)
             if not self._iterate(max_iterations, max_steps):
@@ -168,10 +169,10 @@ class Probe:
         before a dynamic step lags and rings instead, the step not being the tissue's equilibrium. Raises what
         :meth:`press_static` raises for a place it refuses or forces the solver cannot carry, and then changes
         nothing."""
-        max_iterations, max_steps = _counts(max_iterations=max_iterations, max_steps=DEFAULT_MAX_STEPS)
+        max_iterations = whole_count("max_iterations", max_iterations)
         with self._refused_changes_nothing(solving=True):
             self._place(center, end)
-            return self._iterate(max_iterations, max_steps)
+            return self._iterate(max_iterations, DEFAULT_MAX_STEPS)
 
     def release(self) -> None:
         """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
@@ -379,10 +380,3 @@ def _core_name(end) -> str:
     return "centre" if end is None else "core (the segment from its centre to its end)"
 
 
-def _counts(**counts) -> tuple[int, ...]:
-    """The ``counts`` (keyword: value) as ints, or a SolverError naming the first that is not a whole number of at
-    least 1."""
-    for name, value in counts.items():
-        if not is_integer(value) or value < 1:
-            raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
-    return tuple(int(value) for value in counts.values())

@@ -85,6 +85,14 @@ def is_integer(value) -> bool:
     return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
+def whole_count(name: str, value) -> int:
+    """``value`` as an int of at least 1 (a count of steps or iterations), or a :class:`SolverError` naming ``name``
+    (:func:`is_integer`: 2.5 or True is no count)."""
+    if not is_integer(value) or value < 1:
+        raise SolverError(f"{name} must be a whole number of at least 1, got {value!r}")
+    return int(value)
+
+
 def fraction(name: str, value) -> float:
     """``value`` as a float in [0, 1), or a :class:`SolverError` naming ``name``."""
     value = _number(name, value, "1")

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..errors import InversionError, SolverError, TissuesimError
 from ..fem.nonlinear import UnstableLoadError
-from .checks import check_force, flag, is_integer, positive_number
+from .checks import check_force, flag, positive_number, whole_count
 from .finite_strain import check_dead_press, unstable_load_error, volume_range
 from .report import SolveReport
 from .snapshot import Snapshot
@@ -63,8 +63,7 @@ class QuasiStaticSolve:
         rtol = positive_number("rtol", rtol, "1")
         if rtol >= 1.0:  # a remaining error as large as the answer itself accepts any state as settled
             raise SolverError(f"rtol is a relative accuracy and must lie in (0, 1), got {rtol!r}; e.g. 1e-5")
-        if not is_integer(max_steps) or max_steps < 1:
-            raise SolverError(f"max_steps must be a whole number of at least 1, got {max_steps!r}")
+        max_steps = whole_count("max_steps", max_steps)
         dt = self._check_dt(dt)
         reset = flag("reset", reset)
         keep = flag("keep_unsettled", keep_unsettled)

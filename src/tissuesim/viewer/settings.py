@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import SolverError
 from ..fem.hyperelastic import check_material
 from ..layer.prestress import check_prestrain
-from ..solvers.checks import is_integer, positive_number, time_step
+from ..solvers.checks import positive_number, time_step, whole_count
 from ..solvers.registry import available_solvers
 
 DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
@@ -70,9 +70,7 @@ def _iterations(value) -> int | None:
     """PBD iterations as an int of at least 1 (or None), else SolverError: 2.5 or True is no count."""
     if value is None:
         return None
-    if not is_integer(value) or int(value) < 1:
-        raise SolverError(f"setting iterations must be a whole number of at least 1, got {value!r}")
-    return int(value)
+    return whole_count("setting iterations", value)
 
 
 def checked_settings(settings: Settings) -> Settings:
