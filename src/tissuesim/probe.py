@@ -226,15 +226,21 @@ class Probe:
         nodes = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
         nodes = nodes[~np.isin(nodes, solver.fixed)]
         held = np.array([float(np.linalg.norm(self._loads[i].force)) if i in self._loads else 0.0 for i in nodes])
-        compliance = self._compliance(nodes)
+        compliance = self._compliance(nodes, normals[nodes])
         forces = held + relaxation * (complementary_forces(compliance, gaps[nodes], held) - held)
         pushed = forces > 0.0
         self._set_forces(nodes[pushed], forces[pushed, None] * normals[nodes[pushed]])
         return nodes, gaps[nodes], gaps[nodes] + compliance @ (forces - held)
 
-    def _compliance(self, nodes: np.ndarray) -> np.ndarray:
-        """``(k, k)`` the scaled half-space model of ``nodes`` [m/N]."""
+    def _compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """``(k, k)`` [m/N] the normal compliance of ``nodes`` along their ``normals`` ``(k, 3)``: the solver's own
+        where it has it exactly (``contact_compliance``: the Newton step is then exact for a linear method), else the
+        scaled half-space model."""
         solver = self.solver
+        exact = getattr(solver, "contact_compliance", None)
+        found = None if exact is None else exact(nodes, normals)
+        if found is not None:
+            return found
         return self.scale * half_space_compliance(solver.rest_positions[nodes], self._surface_arrays()[1][nodes],
                                                   solver.youngs_modulus, solver.poisson_ratio)
 
@@ -260,11 +266,12 @@ class Probe:
     def _residual(self) -> float:
         """max |min(λ_i w_ii, g_i)| [m] over the vertices near the probe: a gap where no force acts, the force's
         own dimple where a vertex is pushed but left the probe."""
-        gaps = self.gaps()
+        gaps, normals = gaps_and_normals(self.solver.positions, self.center, self.end, self.radius)
         residual = np.minimum(gaps, 0.0)
-        for node, load in self._loads.items():
-            own = float(self._compliance(np.array([node]))[0, 0]) * float(np.linalg.norm(load.force))
-            residual[node] = min(own, gaps[node])
+        nodes = np.fromiter(self._loads, dtype=np.int64, count=len(self._loads))
+        own = np.diagonal(self._compliance(nodes, normals[nodes])) if nodes.size else np.zeros(0)
+        for node, dimple in zip(nodes, own):
+            residual[node] = min(float(dimple) * float(np.linalg.norm(self._loads[node].force)), gaps[node])
         return float(np.abs(residual).max())
 
     def _learn_scale(self, nodes: np.ndarray, before: np.ndarray, predicted: np.ndarray) -> None:

@@ -44,6 +44,26 @@ def quadratic_elements(tets: np.ndarray, node_count: int) -> tuple[np.ndarray, n
     return elements, edges
 
 
+def shape_values(barycentric: np.ndarray) -> np.ndarray:
+    """``(k, 10) float64`` the quadratic shape functions at barycentric points ``(k, 4)``: corners L_a (2 L_a − 1),
+    then the midsides 4 L_a L_b in :data:`TET_EDGES` order (module docstring); they sum to 1 at every point."""
+    points = np.asarray(barycentric, dtype=np.float64)
+    values = np.empty((len(points), 10))
+    values[:, :4] = points * (2.0 * points - 1.0)
+    values[:, 4:] = 4.0 * points[:, TET_EDGES[:, 0]] * points[:, TET_EDGES[:, 1]]
+    return values
+
+
+def quadratic_body_force(mesh: TetMesh, elements: np.ndarray, node_count: int, density: float,
+                         acceleration) -> np.ndarray:
+    """``(N, 3) float64`` consistent nodal load [N] of the body force ρ g on the quadratic ``elements`` ``(m, 10)``:
+    ∫ N ρ g dV gives each corner −ρ g V/20 and each midside ρ g V/5 (exact for a constant g; they sum to ρ g V)."""
+    share = mesh.volumes * float(density)
+    nodal = np.bincount(elements[:, :4].ravel(), weights=np.repeat(-share / 20.0, 4), minlength=node_count)
+    nodal += np.bincount(elements[:, 4:].ravel(), weights=np.repeat(share / 5.0, 6), minlength=node_count)
+    return nodal[:, None] * np.asarray(acceleration, dtype=np.float64)[None, :]
+
+
 def quadratic_element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray:
     """``(m, 30, 30) float64`` element stiffness ∫ Bᵀ D B dV [N/m] of the quadratic tets, node-major local dofs
     (corners 0–3, then midsides in :data:`TET_EDGES` order); exactly symmetric."""
@@ -172,6 +192,14 @@ class QuadraticFEM:
         u = np.zeros(3 * self.node_count)
         u[self.free_dofs] = self._factor.solve(forces.ravel()[self.free_dofs])
         return u.reshape(-1, 3)
+
+
+    def solve_columns(self, forces: np.ndarray) -> np.ndarray:
+        """``(3N, k) float64`` displacements [m] of all dofs (node-major) under ``k`` load cases ``(3N, k)`` [N]: one
+        call of the factor for them all."""
+        u = np.zeros((3 * self.node_count, forces.shape[1]))
+        u[self.free_dofs] = self._factor.solve(np.ascontiguousarray(forces[self.free_dofs]))
+        return u
 
 
 def _check_triangles(triangles) -> np.ndarray:

@@ -34,6 +34,12 @@ consistent load of ρ g on its tets) and the attachments' stiffness (through eac
 as loads); their response is solved once and added to each load's, and the layer follows M_V through its control
 nodes, without a weight of its own (its masses are the same body's).
 
+Option ``element`` (beyond the paper, :mod:`.quadratic_field`): ``"linear"`` (default, the paper's M_V) or
+``"quadratic"``: M_V's tets get a midside node on each edge, and every M_S vertex follows M_V's quadratic field
+through its embedding (as accurate as the fine FEM on the contact references); the layer then has no free vertex.
+It takes the loads, the probe, gravity and the finite-strain materials; attachments, a moving base, the near field
+and cuts are refused with the reason.
+
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
 the rest. It needs the fine volume, costs one factorisation when built and three back-substitutions per new contact,
@@ -72,6 +78,7 @@ class HybridSolver(SurfaceLayerSolver):
         warm_start: move free nodes with the embedded FEM displacement when the load changes.
         near_field: None (default, the paper's method) or a distance W [m]: M_S nodes within W of the contact node
             follow the fine volume's quadratic-tet response (:mod:`.near_field`).
+        element: ``"linear"`` (default, the paper's M_V) or ``"quadratic"`` (:mod:`.quadratic_field`).
 
     Attributes:
         fem: the :class:`~tissuesim.fem.linear.LinearFEM` of M_V.
@@ -85,12 +92,13 @@ class HybridSolver(SurfaceLayerSolver):
     body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it
 
     def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
-                 near_field: float | None = None, **options):
+                 near_field: float | None = None, element: str = "linear", **options):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
 
         h = hybrid_mesh
         self.warm_start = flag("warm_start", warm_start)
+        self.element = check_element(element, self, near_field)
         volume = h.volume
         control = np.asarray(h.control, dtype=np.int64)
         control_volume = np.asarray(h.control_volume, dtype=np.int64)
@@ -111,12 +119,15 @@ class HybridSolver(SurfaceLayerSolver):
         pinned = self.fixed[~is_control[self.fixed]].astype(np.int64)
         self._held = np.concatenate([control, pinned])
         self._set_prescribed(self._held)
-        self.finite = finite_volume(self, volume, self.fem)
+        self.finite = None if self.element == "quadratic" else finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
         self._volume_settled = True
         self._init_near_field(near_field)
+        self._field = None
+        if self.element == "quadratic":
+            self._init_quadratic()
         self.control = control
         self.control_count = control.size
         # M_V nodes whose displacement a step needs: control nodes first, then (warm start) the embedding tets.
@@ -136,6 +147,8 @@ class HybridSolver(SurfaceLayerSolver):
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
         self._dirty = self._constant_load is not None    # the first step moves M_V under its weight
+        if self._field is not None:
+            self._dirty = self._field.constant_load is not None
 
     def _pieces(self) -> np.ndarray:
         """M_V's pieces: the volume holds the surface together where a cut splits it."""
@@ -177,8 +190,35 @@ class HybridSolver(SurfaceLayerSolver):
         self._is_pinned = np.zeros(self.node_count, dtype=bool)
         self._is_pinned[self.fixed] = True
 
+    def _init_quadratic(self) -> None:
+        """``element="quadratic"``: M_V's quadratic field (:mod:`.quadratic_field`) prescribes every M_S vertex; it
+        carries the weight and the finite strain in place of the linear M_V's."""
+        from ..mesh.regions import nodes_below
+        from .near_field import fixed_corners
+        from .quadratic_field import QuadraticField, midside_points
+
+        volume = self.hybrid.volume
+        if self.fixed_from_height:    # as every volume: the nodes at or below the height, midsides included
+            fixed = np.zeros(volume.node_count + len(midside_points(volume)), dtype=bool)
+            fixed[nodes_below(np.concatenate([volume.points, midside_points(volume)]), self.fixed_height)] = True
+        else:
+            fixed = fixed_corners(volume, self.fixed_volume)(None)
+        weight = None if self.gravity is None else self.density * self.gravity
+        self._field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                                     fixed=fixed, material=self.material, weight=weight)
+        self.finite = self._field.finite
+        self._constant_load = None
+        self.volume_displacement = np.zeros((self._field.node_count, 3))
+        self._volume_forces = np.zeros((self._field.node_count, 3))
+        self._held = np.arange(self.node_count, dtype=np.int64)
+        self._set_prescribed(self._held)
+        self.static = self.finite is None       # a step is then the static answer under the loads acting
+
     def _before_first_cut(self) -> None:
         """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
+        if self._field is not None:
+            raise SolverError("the hybrid with element='quadratic' does not cut yet: every M_S vertex follows M_V, "
+                              "which a cut does not separate; make the solver with element='linear' to cut")
         if self.near_field is None:
             return
         warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
@@ -201,6 +241,9 @@ class HybridSolver(SurfaceLayerSolver):
         self._update_fem()
 
     def _move_fixed(self, positions: np.ndarray) -> None:
+        if self._field is not None:
+            raise BoundaryConditionError("the hybrid with element='quadratic' keeps its supports at rest: make the "
+                                         "solver with element='linear' to move the fixed set")
         if self._near is not None:
             raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
                                          "to move the fixed set")
@@ -242,6 +285,9 @@ class HybridSolver(SurfaceLayerSolver):
                 (self.load_weights[load.nodes] * load.shares[:, None]).ravel())
 
     def _update_fem(self, *, exact: bool = False) -> None:
+        if self._field is not None:
+            self._quadratic_update(exact)
+            return
         if self.finite is not None:
             self._finite_response(exact)
         else:
@@ -261,6 +307,35 @@ class HybridSolver(SurfaceLayerSolver):
             self.state.positions += self._delta
             self._embedded[:] = self._embedded_new
         self._dirty = False
+
+    def _quadratic_update(self, exact: bool) -> None:
+        """``element="quadratic"``: every vertex's target is M_V's quadratic field under the loads and the weight
+        (finite strain: converged when ``exact``, else :data:`VOLUME_ITERATIONS` iterations toward it); the fixed
+        vertices stay where the support holds them."""
+        field = self._field
+        if self.finite is None:
+            u = field.linear_displacement(self._loads)
+        else:
+            forces = field.volume_forces(self._loads)
+            if exact:
+                self.volume_displacement = solve_volume(self, forces)
+                self._volume_settled = True
+            else:
+                self._volume_settled = self.finite.relax(forces, self.volume_displacement,
+                                                         iterations=VOLUME_ITERATIONS)
+            u = field.surface(self.volume_displacement)
+        np.add(self.rest_positions, u, out=self.targets)        # every vertex is prescribed, in order
+        self.targets[self.fixed] = self.fixed_positions
+        self._u[: self.control_count] = u[self.control]
+        self._dirty = False
+
+    def contact_compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray | None:
+        """``(k, k)`` [m/N] the exact normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)``
+        (what the probe's Newton step uses): with ``element="quadratic"`` and the linear material; None otherwise
+        (the probe then models it)."""
+        if self._field is None or self.finite is not None:
+            return None
+        return self._field.compliance(nodes, normals)
 
     def _linear_response(self) -> None:
         """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
@@ -341,3 +416,21 @@ class HybridSolver(SurfaceLayerSolver):
     def _step(self, dt: float) -> None:
         self._prepare_static()
         super()._step(dt)
+
+
+#: M_V's elements (option ``element``): the paper's linear tets, or quadratic ones (:mod:`.quadratic_field`).
+ELEMENTS = ("linear", "quadratic")
+
+
+def check_element(element, solver, near_field) -> str:
+    """``element`` checked against :data:`ELEMENTS` and what the quadratic M_V does not take yet (SolverError with
+    the fix)."""
+    if not isinstance(element, str) or element not in ELEMENTS:
+        raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
+    if element == "quadratic":
+        if near_field is not None:
+            raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
+        if solver.attachments:
+            raise SolverError("element='quadratic' does not take attachments yet: drop the attachments, or make the "
+                              "solver with element='linear'")
+    return element

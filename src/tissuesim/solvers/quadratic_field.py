@@ -1,0 +1,170 @@
+"""The hybrid's quadratic volume (option ``element="quadratic"``, beyond the paper): 10-node tets on M_V drive every
+M_S vertex.
+
+The paper's M_V has linear tets and drives the control nodes only; the surface layer relaxes the vertices between
+them. Measured against the converged contact references (docs/solvers.md), that layer carries no volume and M_V's
+linear tets are too stiff under a concentrated load, so the hybrid's error is 1.3–2.7× the fine FEM's. The same M_V
+with quadratic tets (:mod:`tissuesim.fem.quadratic`: a midside node on each edge) is as accurate as the fine FEM
+while keeping a third of its nodes as corners, and its field is curved between the control nodes, so every M_S
+vertex follows it:
+
+* **Surface.** Vertex i lies in tet t_i at barycentric coordinates L_i (``hybrid.embedding_tet`` /
+  ``embedding_barycentric``); its displacement is Σ_a N_a(L_i) u_a over the tet's ten nodes
+  (:func:`~tissuesim.fem.quadratic.shape_values`). A control node is a corner: it takes that corner's displacement
+  exactly.
+* **Load.** By virtual work, a force f on vertex i loads node a with N_a(L_i) f (the transpose of the surface map):
+  the load does the same work on M_V as on M_S.
+* **Cost.** Linear material: each contact patch's response at every vertex is three back-substitutions (one per
+  axis) when the patch first acts, kept for the patches acting last; a drag that changes the force costs one
+  product per vertex. Finite strain: M_V's quadratic equilibrium under the same forces
+  (:class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM`), Newton in a static solve and constant-factor iterations
+  per step, as the paper's M_V.
+* **Weight.** The consistent load of ρ g on the quadratic tets (:func:`~tissuesim.fem.quadratic.quadratic_body_force`),
+  solved once.
+"""
+
+from __future__ import annotations
+
+from collections import OrderedDict
+
+import numpy as np
+
+from ..fem.quadratic import QuadraticFEM, quadratic_body_force, quadratic_elements, shape_values
+
+#: Contact patches whose responses are kept (pin-heads grabbed in turn).
+KEPT_RESPONSES = 16
+#: Up to this many loads act through their kept responses (a force changed costs one product per vertex); more
+#: (a probe's contacts) are solved at once (one back-substitution).
+KEPT_LOADS = 4
+#: Memory [bytes] for the kept responses of single vertices (the probe's exact contact compliance).
+KEPT_BYTES = 256 * 2 ** 20
+
+
+class QuadraticField:
+    """M_V's quadratic-tet displacement at every M_S vertex (see the module docstring).
+
+    Args:
+        hybrid_mesh: the :class:`~tissuesim.mesh.hybrid.HybridMesh` (M_V and each M_S vertex's embedding).
+        youngs_modulus, poisson_ratio: the material [Pa], [-].
+        fixed: ``(N,) bool`` the fixed nodes among M_V's corner and midside nodes
+            (:func:`~tissuesim.solvers.near_field.fixed_corners`).
+        material: ``"linear"``, ``"corotated"`` or ``"neo-hookean"``.
+        weight: ``(3,)`` ρ g [N/m³] or None: the body force M_V carries.
+
+    Attributes:
+        fem: the :class:`~tissuesim.fem.quadratic.QuadraticFEM` of M_V.
+        finite: its :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` (finite strain) or None.
+        nodes: ``(n, 10) int64`` the ten M_V nodes each M_S vertex moves with; ``values`` ``(n, 10) float64`` [-]
+            their shape functions there.
+        constant_load: ``(N, 3) float64`` [N] the weight's nodal load, or None.
+    """
+
+    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
+                 material: str = "linear", weight=None):
+        volume = hybrid_mesh.volume
+        self.fem = QuadraticFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                                fixed=lambda points: fixed)
+        self.finite = None
+        if material != "linear":
+            from ..fem.nonlinear import QuadraticNonlinearFEM
+
+            self.finite = QuadraticNonlinearFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
+                                                fixed=lambda points: fixed, material=material, linear=self.fem)
+        self.nodes = self.fem.elements[np.asarray(hybrid_mesh.embedding_tet, dtype=np.int64)]
+        self.values = shape_values(hybrid_mesh.embedding_barycentric)
+        self.constant_load = None if weight is None else quadratic_body_force(
+            volume, self.fem.elements, self.fem.node_count, 1.0, weight)
+        self._constant_u = None
+        self._responses: OrderedDict = OrderedDict()
+        self._points: OrderedDict = OrderedDict()
+
+    @property
+    def node_count(self) -> int:
+        """Corner and midside nodes of M_V."""
+        return self.fem.node_count
+
+    def surface(self, displacement: np.ndarray) -> np.ndarray:
+        """``(n, 3) float64`` [m] every M_S vertex's displacement from M_V's ``(N, 3)`` [m]."""
+        return np.einsum("ik,ikd->id", self.values, displacement[self.nodes])
+
+    def volume_forces(self, loads) -> np.ndarray:
+        """``(N, 3) float64`` [N] M_V's nodal forces of ``loads`` (each with ``nodes``, ``shares``, ``force``), the
+        weight included."""
+        forces = np.zeros((self.node_count, 3)) if self.constant_load is None else self.constant_load.copy()
+        for load in loads:
+            shares = self.values[load.nodes] * np.asarray(load.shares)[:, None]          # (p, 10)
+            np.add.at(forces, self.nodes[load.nodes].ravel(), shares.ravel()[:, None] * np.asarray(load.force))
+        return forces
+
+    def linear_displacement(self, loads) -> np.ndarray:
+        """``(n, 3) float64`` [m] every M_S vertex's small-strain displacement under ``loads`` and the weight."""
+        if len(loads) > KEPT_LOADS:     # a probe's many contacts: one solve, cheaper than a response for each
+            return self.surface(self.fem.solve(self.volume_forces(loads)))
+        u = np.zeros((len(self.nodes), 3))
+        for load in loads:
+            u += self.response(load.nodes, load.shares) @ np.asarray(load.force, dtype=np.float64)
+        if self.constant_load is not None:
+            if self._constant_u is None:
+                self._constant_u = self.surface(self.fem.solve(self.constant_load))
+            u += self._constant_u
+        return u
+
+    def response(self, nodes: np.ndarray, shares: np.ndarray) -> np.ndarray:
+        """``(n, 3, 3) float64`` [m/N]: ``[i, a, b]`` is M_S vertex i's displacement along a under a unit force along
+        b shared as ``shares`` ``(p,)`` by the M_S vertices ``nodes`` ``(p,)``; computed once per patch."""
+        nodes, shares = np.asarray(nodes, dtype=np.int64), np.asarray(shares, dtype=np.float64)
+        key = (nodes.tobytes(), shares.tobytes())
+        found = self._responses.get(key)
+        if found is not None:
+            self._responses.move_to_end(key)
+            return found
+        weights = np.zeros(self.node_count)
+        np.add.at(weights, self.nodes[nodes].ravel(), (self.values[nodes] * shares[:, None]).ravel())
+        response = np.empty((len(self.nodes), 3, 3))
+        forces = np.zeros((self.node_count, 3))
+        for axis in range(3):
+            forces[:] = 0.0
+            forces[:, axis] = weights
+            response[:, :, axis] = self.surface(self.fem.solve(forces))
+        if len(self._responses) >= KEPT_RESPONSES:
+            self._responses.popitem(last=False)
+        self._responses[key] = response
+        return response
+
+
+    def compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray:
+        """``(k, k) float64`` [m/N] the small-strain normal compliance of M_S vertices ``nodes`` ``(k,)`` along
+        ``normals`` ``(k, 3)``: ``[j, i]`` is vertex j's motion along its normal under a unit force on vertex i along
+        its normal. Each vertex's M_V response to a unit force along each axis is kept (:meth:`point_response`)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        normals = np.asarray(normals, dtype=np.float64)
+        columns = self.point_responses(nodes)                                    # (k, N, 3, 3)
+        at = columns[:, self.nodes[nodes]]                                       # (k, j, 10, 3, 3)
+        motion = np.einsum("ja,ijadb->ijdb", self.values[nodes], at)             # (i, j, 3, 3)
+        return np.einsum("jd,ijdb,ib->ji", normals, motion, normals)
+
+    def point_responses(self, nodes: np.ndarray) -> np.ndarray:
+        """``(k, N, 3, 3) float64`` [m/N]: M_V's displacement (node, axis) under a unit force along each axis on
+        each M_S vertex of ``nodes``; those not kept yet are solved together in one factor call."""
+        missing = [int(i) for i in dict.fromkeys(nodes.tolist()) if int(i) not in self._points]
+        if missing:
+            columns = np.zeros((3 * self.node_count, 3 * len(missing)))
+            for slot, node in enumerate(missing):
+                for axis in range(3):
+                    columns[3 * self.nodes[node] + axis, 3 * slot + axis] += self.values[node]
+            solved = self.fem.solve_columns(columns).reshape(self.node_count, 3, len(missing), 3)
+            kept = max(1, KEPT_BYTES // solved[:, :, 0].nbytes)
+            for slot, node in enumerate(missing):
+                self._points[node] = np.ascontiguousarray(solved[:, :, slot])
+                if len(self._points) > kept:
+                    self._points.popitem(last=False)
+        for node in nodes.tolist():
+            self._points.move_to_end(int(node))
+        return np.stack([self._points[int(i)] for i in nodes.tolist()])
+
+
+def midside_points(volume) -> np.ndarray:
+    """``(e, 3) float64`` [m] the midside nodes of ``volume``'s edges, in the order
+    :class:`~tissuesim.fem.quadratic.QuadraticFEM` numbers them (after the corners)."""
+    edges = quadratic_elements(volume.tets, volume.node_count)[1]
+    return 0.5 * (volume.points[edges[:, 0]] + volume.points[edges[:, 1]])
