@@ -59,6 +59,7 @@ from .embedded import map_embedded
 from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
+from .quadratic_field import check_element
 from .surface_layer import SurfaceLayerSolver
 
 DEFAULT_WARM_START = True
@@ -193,16 +194,9 @@ class HybridSolver(SurfaceLayerSolver):
     def _init_quadratic(self) -> None:
         """``element="quadratic"``: M_V's quadratic field (:mod:`.quadratic_field`) prescribes every M_S vertex; it
         carries the weight and the finite strain in place of the linear M_V's."""
-        from ..mesh.regions import nodes_below
-        from .near_field import fixed_corners
-        from .quadratic_field import QuadraticField, midside_points
+        from .quadratic_field import QuadraticField, quadratic_supports
 
-        volume = self.hybrid.volume
-        if self.fixed_from_height:    # as every volume: the nodes at or below the height, midsides included
-            fixed = np.zeros(volume.node_count + len(midside_points(volume)), dtype=bool)
-            fixed[nodes_below(np.concatenate([volume.points, midside_points(volume)]), self.fixed_height)] = True
-        else:
-            fixed = fixed_corners(volume, self.fixed_volume)(None)
+        fixed = quadratic_supports(self)
         weight = None if self.gravity is None else self.density * self.gravity
         self._field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
                                      fixed=fixed, material=self.material, weight=weight)
@@ -417,20 +411,3 @@ class HybridSolver(SurfaceLayerSolver):
         self._prepare_static()
         super()._step(dt)
 
-
-#: M_V's elements (option ``element``): the paper's linear tets, or quadratic ones (:mod:`.quadratic_field`).
-ELEMENTS = ("linear", "quadratic")
-
-
-def check_element(element, solver, near_field) -> str:
-    """``element`` checked against :data:`ELEMENTS` and what the quadratic M_V does not take yet (SolverError with
-    the fix)."""
-    if not isinstance(element, str) or element not in ELEMENTS:
-        raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
-    if element == "quadratic":
-        if near_field is not None:
-            raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
-        if solver.attachments:
-            raise SolverError("element='quadratic' does not take attachments yet: drop the attachments, or make the "
-                              "solver with element='linear'")
-    return element

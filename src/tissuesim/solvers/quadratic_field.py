@@ -29,6 +29,7 @@ from collections import OrderedDict
 
 import numpy as np
 
+from ..errors import SolverError
 from ..fem.quadratic import QuadraticFEM, quadratic_body_force, quadratic_elements, shape_values
 
 #: Contact patches whose responses are kept (pin-heads grabbed in turn).
@@ -163,8 +164,41 @@ class QuadraticField:
         return np.stack([self._points[int(i)] for i in nodes.tolist()])
 
 
+def quadratic_supports(solver) -> np.ndarray:
+    """``(N,) bool`` the fixed nodes of ``solver``'s quadratic M_V: with the default bottom, every corner and
+    midside node at or below its height (as every volume's); else the fixed corners and the midsides between them."""
+    from ..mesh.regions import nodes_below
+    from .near_field import fixed_corners
+
+    volume = solver.hybrid.volume
+    if not solver.fixed_from_height:
+        return fixed_corners(volume, solver.fixed_volume)(None)
+    points = np.concatenate([volume.points, midside_points(volume)])
+    fixed = np.zeros(len(points), dtype=bool)
+    fixed[nodes_below(points, solver.fixed_height)] = True
+    return fixed
+
+
 def midside_points(volume) -> np.ndarray:
     """``(e, 3) float64`` [m] the midside nodes of ``volume``'s edges, in the order
     :class:`~tissuesim.fem.quadratic.QuadraticFEM` numbers them (after the corners)."""
     edges = quadratic_elements(volume.tets, volume.node_count)[1]
     return 0.5 * (volume.points[edges[:, 0]] + volume.points[edges[:, 1]])
+
+
+#: M_V's elements (option ``element``): the paper's linear tets, or quadratic ones (:mod:`.quadratic_field`).
+ELEMENTS = ("linear", "quadratic")
+
+
+def check_element(element, solver, near_field) -> str:
+    """``element`` checked against :data:`ELEMENTS` and what the quadratic M_V does not take yet (SolverError with
+    the fix)."""
+    if not isinstance(element, str) or element not in ELEMENTS:
+        raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
+    if element == "quadratic":
+        if near_field is not None:
+            raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
+        if solver.attachments:
+            raise SolverError("element='quadratic' does not take attachments yet: drop the attachments, or make the "
+                              "solver with element='linear'")
+    return element
