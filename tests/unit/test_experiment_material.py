@@ -64,7 +64,7 @@ def test_the_contact_protocol_runs_the_methods_that_have_the_material_against_a_
         finite_contact_run):
     meta = finite_contact_run["metadata"]
     assert meta["material"] == "neo-hookean"
-    assert set(meta["methods"]) == {"hybrid", "fem", "embedded", "hybrid-near"}     # pbd, mass-spring: linear only
+    assert set(meta["methods"]) == {"hybrid", "fem", "embedded", "hybrid-near", "hybrid-quadratic"}     # pbd, mass-spring: linear only
     records = finite_contact_run["records"]
     assert {(r["method"], r["load"]) for r in records} == {(m, "tension") for m in meta["methods"]}
     assert all(r["inverted_elements"] == 0 and r["relative_rmse"] is not None for r in records)

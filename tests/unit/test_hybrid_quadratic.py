@@ -186,3 +186,19 @@ def test_the_contact_compliance_is_the_solvers_own_response(cube, node, solver):
                            atol=1e-10 * np.abs(compliance).max(), rtol=0)
     neo = tissuesim.make_solver("hybrid", cube, element="quadratic", material="neo-hookean")
     assert neo.contact_compliance(nodes, normals) is None      # the probe models it (finite strain)
+
+
+@pytest.mark.parametrize("material", ["linear", "neo-hookean"])
+def test_a_body_hung_on_attachments_balances_its_weight(cube, node, material):
+    """No support but springs on the top face: their total force is the weight (the cube's M_V encloses M_S's
+    volume), linear and finite strain; the body hangs below its rest place."""
+    from tissuesim.solvers.attachments import Attachment
+
+    v = cube.surface.vertices
+    top_face = np.flatnonzero(v[:, 2] > v[:, 2].max() - 1e-9)
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic", material=material, fixed=[],
+                                   attachments=(Attachment(top_face, 50.0),), gravity=(0.0, 0.0, -9.81))
+    u = solver.solve_static(node, (0.0, 0.0, 0.0), rtol=1e-8) - solver.rest_positions
+    weight = solver.density * abs(cube.surface.signed_volume) * 9.81
+    assert np.allclose(solver.attachment_forces().sum(axis=0), [0.0, 0.0, weight], rtol=1e-8, atol=1e-8 * weight)
+    assert u[:, 2].max() < 0.0

@@ -62,7 +62,8 @@ QUICK = dict(models=("cube",), resolution=400, forces=(1.0, 10.0), radii_mm=(8.0
 
 METRICS = ("rmse", "rmse_outside", "contact_error")
 #: Measured options run as methods of their own: name -> (solver, options).
-VARIANTS = {"hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW})}
+VARIANTS = {"hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW}),
+            "hybrid-quadratic": ("hybrid", {"element": "quadratic"})}
 
 
 @dataclass(frozen=True)

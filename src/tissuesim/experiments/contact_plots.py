@@ -11,14 +11,15 @@ import numpy as np
 
 from .tables import LABELS
 
-COLOURS = {"hybrid": "tab:red", "hybrid-near": "darkred", "pbd": "tab:blue", "mass-spring": "tab:green",
-           "embedded": "tab:orange", "fem": "grey"}
+COLOURS = {"hybrid": "tab:red", "hybrid-near": "darkred", "hybrid-quadratic": "tab:purple", "pbd": "tab:blue",
+           "mass-spring": "tab:green", "embedded": "tab:orange", "fem": "grey"}
 #: The absolute target drawn across the plot (relative RMSE).
 TARGET = 0.10
 LEGEND_COLUMN_IN = 3.3
 #: What each bar is, in the legend: the short labels of the tables alone do not say.
-MEANINGS = {"hybrid": "hybrid", "hybrid-near": "hybrid + near field", "pbd": "surface PBD",
-            "mass-spring": "mass-spring", "embedded": "embedded surface", "fem": "default fine volume, linear tets"}
+MEANINGS = {"hybrid": "hybrid", "hybrid-near": "hybrid + near field", "hybrid-quadratic": "hybrid, quadratic M_V",
+            "pbd": "surface PBD", "mass-spring": "mass-spring", "embedded": "embedded surface",
+            "fem": "default fine volume, linear tets"}
 
 
 def error_figure(data: dict):

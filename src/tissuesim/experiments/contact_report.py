@@ -48,7 +48,7 @@ def ratio_table(data: dict, *, embedded_ratio: float = 0.5, pbd_ratio: float = 0
             case = (r["model"], r["radius_mm"], r["load"], r["force_N"])
             by_case.setdefault(case, {})[r["method"]] = r["relative_rmse"]
     rows = []
-    for method in ("hybrid", "hybrid-near"):
+    for method in ("hybrid", "hybrid-near", "hybrid-quadratic"):
         cases = [c for c in by_case.values() if {method, "embedded", "pbd"} <= set(c)]
         if not cases:
             continue

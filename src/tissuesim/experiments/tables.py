@@ -19,7 +19,7 @@ from . import paper
 from .protocol import REFERENCE
 
 LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM",
-          "hybrid-near": "Ours+NF"}
+          "hybrid-near": "Ours+NF", "hybrid-quadratic": "Ours-Q"}
 COMPARED = ("hybrid", "pbd", "mass-spring", "embedded")
 
 #: What Table 1's "size (kB)" is, here, in ``tissuesim build`` and in the README: the paper's Table 1 gives sizes in

@@ -410,3 +410,4 @@ class QuadraticNonlinearFEM(_HyperelasticStatics):
         self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3),
                     np.ascontiguousarray(self.linear.elements, dtype=np.int64), *quadrature_gradients(mesh),
                     self.linear._factor)
+        self._springs = self.linear.spring_stiffness      # the QuadraticFEM's springs (ligaments), if any

@@ -25,6 +25,7 @@ from ..mesh.tetmesh import TetMesh
 from .assembly import add_bt_d_b, mirror_upper, scatter_elements, shape_gradients, strain_matrix
 from .factorise import factorise_spd
 from .linear import _check_rigid_modes, _fixed_mask
+from .springs import check_springs, spring_stiffness
 from .material import Material
 
 #: Local edges (a, b) of a tet, in the order of its six midside nodes 4..9.
@@ -111,6 +112,8 @@ class QuadraticFEM:
         fixed: a callable ``points (N, 3) -> (k,) int`` (or an ``(N,)`` bool mask) choosing the fixed nodes among
             all N = n + e nodes (e.g. ``lambda p: nodes_below(p, height)``), so that midside nodes on the support are
             fixed with it. The rigid-mode check looks at the corner nodes: fix corners, not midsides alone.
+        springs: None, or isotropic springs to fixed anchors over all N nodes, as :class:`~.linear.LinearFEM` takes
+            them ``(nodes (p, r) int, weights (p, r), stiffness (p,) [N/m])``; their stiffness is added to K.
 
     Attributes:
         points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
@@ -118,7 +121,7 @@ class QuadraticFEM:
         elements: ``(m, 10) int64`` corners and midsides of each tet.
     """
 
-    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed):
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed, springs=None):
         material = Material(youngs_modulus, poisson_ratio)
         n = mesh.node_count
         self.elements, self.edges = quadratic_elements(mesh.tets, n)
@@ -127,12 +130,17 @@ class QuadraticFEM:
         if not callable(fixed):
             raise SolverError("fixed must be a callable points (N, 3) -> fixed node indices or (N,) mask, e.g. "
                               "lambda points: nodes_below(points, height)")
-        mask = _fixed_mask(np.asarray(fixed(self.points)), len(self.points))
-        _check_rigid_modes(mesh, mask[:n])
+        springs = check_springs(springs, len(self.points))
+        mask = _fixed_mask(np.asarray(fixed(self.points)), len(self.points), sprung=springs is not None)
+        _check_rigid_modes(mesh, mask[:n], None if springs is None else _on_corners(springs, self.edges, n))
         self._edge_of = {(int(a), int(b)): n + k for k, (a, b) in enumerate(self.edges.tolist())}
         self.free_dofs = np.flatnonzero(~mask.ravel())
         # K itself is not kept: at the reference's largest level it is ~1 GB, and the factor needs the memory.
         stiffness = quadratic_stiffness(mesh, material, self.elements, len(self.points))
+        #: the springs' ``(3N, 3N)`` CSR part of K [N/m], or None.
+        self.spring_stiffness = None if springs is None else spring_stiffness(len(self.points), *springs)
+        if springs is not None:
+            stiffness = stiffness + self.spring_stiffness
         reduced = stiffness[self.free_dofs][:, self.free_dofs].tocsc()
         del stiffness
         self._factor = factorise_spd(reduced, self.free_dofs // 3)
@@ -200,6 +208,17 @@ class QuadraticFEM:
         u = np.zeros((3 * self.node_count, forces.shape[1]))
         u[self.free_dofs] = self._factor.solve(np.ascontiguousarray(forces[self.free_dofs]))
         return u
+
+
+def _on_corners(springs, edges: np.ndarray, n: int):
+    """``springs`` over all nodes as springs over the corner nodes alone, holding the same points: a midside is
+    its edge's midpoint, so its weight goes half to each end (what the rigid-mode check needs)."""
+    nodes, weights, stiffness = springs
+    mid = nodes >= n
+    ends = np.where(mid[..., None], edges[np.where(mid, nodes - n, 0)], nodes[..., None])      # (p, r, 2)
+    halves = np.where(mid, 0.5, 1.0) * weights
+    return (np.concatenate([ends[..., 0], ends[..., 1]], axis=1),
+            np.concatenate([halves, np.where(mid, halves, 0.0)], axis=1), stiffness)
 
 
 def _check_triangles(triangles) -> np.ndarray:

@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..fem.assembly import body_force
+from ..fem.quadratic import quadratic_body_force
 
 
 def volume_springs(solver, nodes_of: np.ndarray, weights_of: np.ndarray):
@@ -39,18 +40,25 @@ def volume_springs(solver, nodes_of: np.ndarray, weights_of: np.ndarray):
             np.asarray(weights_of, dtype=np.float64)[nodes].reshape(nodes.size, -1), solver.attached_stiffness)
 
 
-def volume_constant_load(solver, mesh, springs) -> np.ndarray | None:
+def volume_constant_load(solver, mesh, springs, *, quadratic=None) -> np.ndarray | None:
     """``(N, 3) float64`` [N] the volume ``mesh``'s loads that never change: the weight, plus the attachments' pull
     toward anchors away from the nodes' rest positions through ``springs`` (:func:`volume_springs`); None when there
-    are none (the paper's model, bit-identical)."""
-    load = None if solver.gravity is None else body_force(mesh, solver.density, solver.gravity)
+    are none (the paper's model, bit-identical). ``quadratic``: ``(elements (m, 10), N)`` of the mesh's quadratic
+    tets (:func:`~tissuesim.fem.quadratic.quadratic_elements`), whose consistent weight differs."""
+    count = mesh.node_count if quadratic is None else quadratic[1]
+    if solver.gravity is None:
+        load = None
+    elif quadratic is None:
+        load = body_force(mesh, solver.density, solver.gravity)
+    else:
+        load = quadratic_body_force(mesh, *quadratic, solver.density, solver.gravity)
     if springs is None:
         return load
     nodes, weights, stiffness = springs
     pull = stiffness[:, None] * (solver.attached_anchors - solver.rest_positions[solver.attached_nodes])
     if not np.any(pull):
         return load
-    load = np.zeros((mesh.node_count, 3)) if load is None else load
+    load = np.zeros((count, 3)) if load is None else load
     np.add.at(load, nodes.ravel(), (weights[:, :, None] * pull[:, None, :]).reshape(-1, 3))
     return load
 

@@ -37,8 +37,8 @@ nodes, without a weight of its own (its masses are the same body's).
 Option ``element`` (beyond the paper, :mod:`.quadratic_field`): ``"linear"`` (default, the paper's M_V) or
 ``"quadratic"``: M_V's tets get a midside node on each edge, and every M_S vertex follows M_V's quadratic field
 through its embedding (as accurate as the fine FEM on the contact references); the layer then has no free vertex.
-It takes the loads, the probe, gravity and the finite-strain materials; attachments, a moving base, the near field
-and cuts are refused with the reason.
+It takes the loads, the probe, gravity, attachments and the finite-strain materials; a moving base and cuts are
+refused with the reason (the near field is what it replaces).
 
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
@@ -99,7 +99,7 @@ class HybridSolver(SurfaceLayerSolver):
 
         h = hybrid_mesh
         self.warm_start = flag("warm_start", warm_start)
-        self.element = check_element(element, self, near_field)
+        self.element = check_element(element, near_field)
         volume = h.volume
         control = np.asarray(h.control, dtype=np.int64)
         control_volume = np.asarray(h.control_volume, dtype=np.int64)
@@ -194,12 +194,17 @@ class HybridSolver(SurfaceLayerSolver):
     def _init_quadratic(self) -> None:
         """``element="quadratic"``: M_V's quadratic field (:mod:`.quadratic_field`) prescribes every M_S vertex; it
         carries the weight and the finite strain in place of the linear M_V's."""
-        from .quadratic_field import QuadraticField, quadratic_supports
+        from ..fem.quadratic import quadratic_elements
+        from .quadratic_field import QuadraticField, quadratic_supports, surface_embedding
 
-        fixed = quadratic_supports(self)
-        weight = None if self.gravity is None else self.density * self.gravity
+        volume = self.hybrid.volume
+        elements = quadratic_elements(volume.tets, volume.node_count)
+        count = volume.node_count + len(elements[1])
+        springs = volume_springs(self, *surface_embedding(self.hybrid, elements[0]))
         self._field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                                     fixed=fixed, material=self.material, weight=weight)
+                                     fixed=quadratic_supports(self), material=self.material, springs=springs,
+                                     constant_load=volume_constant_load(self, volume, springs,
+                                                                        quadratic=(elements[0], count)))
         self.finite = self._field.finite
         self._constant_load = None
         self.volume_displacement = np.zeros((self._field.node_count, 3))
@@ -352,8 +357,11 @@ class HybridSolver(SurfaceLayerSolver):
         return values
 
     def _attached_positions(self) -> np.ndarray:
-        """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle."""
+        """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle (the
+        quadratic M_V: its field at the vertex)."""
         nodes = self.attached_nodes
+        if self._field is not None:       # every vertex is prescribed to the quadratic field, in order
+            return self.targets[nodes]
         u = self._u[self._slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
         return self.rest_positions[nodes] + np.einsum("pj,pjk->pk", self.load_weights[nodes], u)
 

@@ -30,7 +30,7 @@ from collections import OrderedDict
 import numpy as np
 
 from ..errors import SolverError
-from ..fem.quadratic import QuadraticFEM, quadratic_body_force, quadratic_elements, shape_values
+from ..fem.quadratic import QuadraticFEM, quadratic_elements, shape_values
 
 #: Contact patches whose responses are kept (pin-heads grabbed in turn).
 KEPT_RESPONSES = 16
@@ -50,31 +50,31 @@ class QuadraticField:
         fixed: ``(N,) bool`` the fixed nodes among M_V's corner and midside nodes
             (:func:`~tissuesim.solvers.near_field.fixed_corners`).
         material: ``"linear"``, ``"corotated"`` or ``"neo-hookean"``.
-        weight: ``(3,)`` ρ g [N/m³] or None: the body force M_V carries.
+        springs: the attachments' springs over M_V's quadratic nodes (:func:`~.gravity.volume_springs` of
+            :func:`surface_embedding`), or None.
+        constant_load: ``(N, 3) float64`` [N] the loads that never change (the weight, the attachments' pull:
+            :func:`~.gravity.volume_constant_load`), or None.
 
     Attributes:
         fem: the :class:`~tissuesim.fem.quadratic.QuadraticFEM` of M_V.
         finite: its :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` (finite strain) or None.
         nodes: ``(n, 10) int64`` the ten M_V nodes each M_S vertex moves with; ``values`` ``(n, 10) float64`` [-]
             their shape functions there.
-        constant_load: ``(N, 3) float64`` [N] the weight's nodal load, or None.
     """
 
     def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
-                 material: str = "linear", weight=None):
+                 material: str = "linear", springs=None, constant_load: np.ndarray | None = None):
         volume = hybrid_mesh.volume
         self.fem = QuadraticFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
-                                fixed=lambda points: fixed)
+                                fixed=lambda points: fixed, springs=springs)
         self.finite = None
         if material != "linear":
             from ..fem.nonlinear import QuadraticNonlinearFEM
 
             self.finite = QuadraticNonlinearFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                                                 fixed=lambda points: fixed, material=material, linear=self.fem)
-        self.nodes = self.fem.elements[np.asarray(hybrid_mesh.embedding_tet, dtype=np.int64)]
-        self.values = shape_values(hybrid_mesh.embedding_barycentric)
-        self.constant_load = None if weight is None else quadratic_body_force(
-            volume, self.fem.elements, self.fem.node_count, 1.0, weight)
+        self.nodes, self.values = surface_embedding(hybrid_mesh, self.fem.elements)
+        self.constant_load = constant_load
         self._constant_u = None
         self._responses: OrderedDict = OrderedDict()
         self._points: OrderedDict = OrderedDict()
@@ -164,6 +164,14 @@ class QuadraticField:
         return np.stack([self._points[int(i)] for i in nodes.tolist()])
 
 
+def surface_embedding(hybrid_mesh, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(nodes (n, 10) int64, values (n, 10) float64)``: the ten quadratic nodes of each M_S vertex's embedding tet
+    (``elements`` ``(m, 10)`` of :func:`~tissuesim.fem.quadratic.quadratic_elements`) and their shape functions
+    there."""
+    return (elements[np.asarray(hybrid_mesh.embedding_tet, dtype=np.int64)],
+            shape_values(hybrid_mesh.embedding_barycentric))
+
+
 def quadratic_supports(solver) -> np.ndarray:
     """``(N,) bool`` the fixed nodes of ``solver``'s quadratic M_V: with the default bottom, every corner and
     midside node at or below its height (as every volume's); else the fixed corners and the midsides between them."""
@@ -190,15 +198,11 @@ def midside_points(volume) -> np.ndarray:
 ELEMENTS = ("linear", "quadratic")
 
 
-def check_element(element, solver, near_field) -> str:
-    """``element`` checked against :data:`ELEMENTS` and what the quadratic M_V does not take yet (SolverError with
-    the fix)."""
+def check_element(element, near_field) -> str:
+    """``element`` checked against :data:`ELEMENTS`, and against the near field, which the quadratic M_V replaces
+    (SolverError with the fix)."""
     if not isinstance(element, str) or element not in ELEMENTS:
         raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
-    if element == "quadratic":
-        if near_field is not None:
-            raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
-        if solver.attachments:
-            raise SolverError("element='quadratic' does not take attachments yet: drop the attachments, or make the "
-                              "solver with element='linear'")
+    if element == "quadratic" and near_field is not None:
+        raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
     return element
