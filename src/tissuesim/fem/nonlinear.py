@@ -114,6 +114,13 @@ class _HyperelasticStatics:
     def node_count(self) -> int:
         return len(self.rest)
 
+    @property
+    def fixed_dofs(self) -> np.ndarray:
+        """``(n, 3) bool`` the fixed dofs (read-only view)."""
+        view = self._fixed_mask.view()
+        view.flags.writeable = False
+        return view
+
     # ------------------------------------------------------------------------------------------ energy and forces
     def energy(self, u: np.ndarray) -> float:
         """Stored energy W [J] at displacement ``u`` ``(n, 3)`` [m]."""

@@ -112,19 +112,27 @@ def affine_fit(rest: np.ndarray, moved: np.ndarray):
 
 
 def support_displacement(solver, positions: np.ndarray) -> np.ndarray:
-    """``(N, 3)`` displacement [m] of ``solver``'s volume at its ``fixed_volume`` nodes (zero elsewhere) when its
+    """``(N, 3)`` displacement [m] of ``solver``'s finite-strain volume at its fixed nodes (zero elsewhere) when its
     fixed M_S vertices move to ``positions`` ``(k, 3)``: exactly where a volume node is one of those vertices (the
     mesh as it is now: a cut adds fixed vertices that are none), by the affine map that best fits the motion
-    elsewhere."""
+    elsewhere; a quadratic volume's midside node between two such vertices goes with their mean (straight edges)."""
     rest_surface, fixed_surface = solver.rest_positions, solver.fixed
     matrix, shift = affine_fit(rest_surface[fixed_surface], positions)
-    volume_points = solver.fem.mesh.points
+    volume_points = solver.finite.rest
+    fixed = np.flatnonzero(np.any(solver.finite.fixed_dofs, axis=1))
     displacement = np.zeros_like(volume_points)
-    points = volume_points[solver.fixed_volume]
-    displacement[solver.fixed_volume] = points @ matrix.T + shift - points
+    points = volume_points[fixed]
+    displacement[fixed] = points @ matrix.T + shift - points
     mapped = solver.surface_to_volume()[fixed_surface]
     on_surface = mapped >= 0
     displacement[mapped[on_surface]] = positions[on_surface] - rest_surface[fixed_surface[on_surface]]
+    edges = getattr(solver.finite.linear, "edges", None)       # the midside nodes' edges (quadratic tets)
+    if edges is not None:
+        exact = np.zeros(len(volume_points), dtype=bool)
+        exact[mapped[on_surface]] = True
+        both = np.flatnonzero(exact[edges[:, 0]] & exact[edges[:, 1]])
+        corners = len(volume_points) - len(edges)
+        displacement[corners + both] = 0.5 * (displacement[edges[both, 0]] + displacement[edges[both, 1]])
     return displacement
 
 
@@ -139,7 +147,7 @@ def move_supports(solver, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray
     solver.volume_displacement[:] = (points + solver.volume_displacement) @ matrix.T + shift - points
     finite = solver.finite
     finite.set_fixed_displacement(support_displacement(solver, positions))
-    fixed = solver.fem.fixed_dofs
+    fixed = solver.finite.fixed_dofs
     solver.volume_displacement[fixed] = finite.fixed_displacement[fixed]
     return matrix, shift
 
@@ -153,7 +161,7 @@ def carried_rest(solver) -> np.ndarray:
     matrix, shift = affine_fit(rest, solver.fixed_positions)
     points = solver.finite.rest
     carried = points @ matrix.T + shift - points
-    fixed = solver.fem.fixed_dofs
+    fixed = solver.finite.fixed_dofs
     carried[fixed] = solver.finite.fixed_displacement[fixed]
     return carried
 

@@ -37,7 +37,7 @@ nodes, without a weight of its own (its masses are the same body's).
 Option ``element`` (beyond the paper, :mod:`.quadratic_field`): ``"linear"`` (default, the paper's M_V) or
 ``"quadratic"``: M_V's tets get a midside node on each edge, and every M_S vertex follows M_V's quadratic field
 through its embedding (as accurate as the fine FEM on the contact references); the layer then has no free vertex.
-It takes the loads, the probe, gravity, attachments and the finite-strain materials; a moving base and cuts are
+It takes the loads, the probe, gravity, attachments, the finite-strain materials and a moving base; cuts are
 refused with the reason (the near field is what it replaces).
 
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
@@ -240,9 +240,6 @@ class HybridSolver(SurfaceLayerSolver):
         self._update_fem()
 
     def _move_fixed(self, positions: np.ndarray) -> None:
-        if self._field is not None:
-            raise BoundaryConditionError("the hybrid with element='quadratic' keeps its supports at rest: make the "
-                                         "solver with element='linear' to move the fixed set")
         if self._near is not None:
             raise BoundaryConditionError("the near field's fine volume keeps its supports at rest: drop near_field "
                                          "to move the fixed set")
