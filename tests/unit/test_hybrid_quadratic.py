@@ -121,7 +121,7 @@ def test_gravity_is_the_weight_of_the_body(cube):
     different meshes of the same body)."""
     gravity = (0.0, 0.0, -9.81)
     solver = tissuesim.make_solver("hybrid", cube, element="quadratic", gravity=gravity)
-    load = solver._field.constant_load
+    load = solver.quadratic_field.constant_load
     assert np.isclose(load[:, 2].sum(), solver.density * -9.81 * cube.volume.volumes.sum(), rtol=1e-12)
     x = solver.solve_static() - solver.rest_positions
     assert np.all(x[solver.fixed] == 0.0)
@@ -153,18 +153,6 @@ def test_finite_strain_converges_and_agrees_with_linear_at_small_load(cube, node
 def test_bad_options_are_refused(cube, options, error):
     with pytest.raises(error, match="element"):
         tissuesim.make_solver("hybrid", cube, **options)
-
-
-def test_what_it_does_not_take_yet_is_refused_and_changes_nothing(cube, node, solver):
-    before = np.array(solver.positions)
-    scalpel = tissuesim.Scalpel(solver)
-    start = solver.rest_positions[node]
-    scalpel.press(start)
-    with pytest.raises(SolverError, match="does not cut yet"):
-        scalpel.move(start + [0.02, 0.0, 0.0])
-    scalpel.release()
-    assert len(solver.positions) == len(before)
-    assert np.array_equal(solver.positions, before)
 
 
 def test_the_contact_compliance_is_the_solvers_own_response(cube, node, solver):
@@ -214,3 +202,34 @@ def test_a_base_moved_rigidly_carries_the_body_rigidly(cube):
     assert np.abs(x - (rest @ turn.T + shift)).max() < 1e-9 * size
     solver.reset()
     assert np.abs(solver.positions - rest).max() < 1e-12
+
+
+def test_a_cut_frees_its_lips_and_the_rest_follows_m_v(cube, node):
+    """After a cut the vertices of the changed triangles are the layer's; every other vertex is still M_V's
+    quadratic field; the lips part under a pull, and a refused move changes nothing."""
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic")
+    rest = solver.rest_positions
+    top = rest[:, 2].max()
+    start = np.array([rest[:, 0].min() + 0.015, 0.0, top])
+    scalpel = tissuesim.Scalpel(solver)
+    scalpel.press(start)
+    scalpel.move(start + [0.03, 0.0, 0.0])
+    scalpel.release()
+    n = len(solver.positions)
+    assert n > len(rest)
+    free = np.setdiff1d(np.arange(n), solver.prescribed)
+    assert free.size > 0 and np.all(free >= 0)
+    copies = np.arange(len(rest), n)
+    twins = [(int(np.flatnonzero(np.all(solver.rest_positions[:len(rest)] == solver.rest_positions[c], axis=1))[0]),
+              int(c)) for c in copies if np.any(np.all(solver.rest_positions[:len(rest)] == solver.rest_positions[c],
+                                                       axis=1))]
+    assert twins, "the cut duplicated no vertex"
+    lip, other = max(twins, key=lambda pair: solver.rest_positions[pair[0], 2])
+    assert lip in free and other in free
+    moved = solver.solve_static(lip, [0.0, 0.0, 0.05]) - solver.rest_positions
+    held = solver.prescribed[~np.isin(solver.prescribed, solver.fixed)]
+    field = solver.quadratic_field.linear_displacement(solver.loads)
+    assert np.allclose(moved[held], field[held], atol=1e-12, rtol=0)
+    assert moved[lip, 2] > 0.0 and np.linalg.norm(moved[lip] - moved[other]) > 0.1 * moved[lip, 2]  # lips part
+    solver.reset()
+    assert np.abs(solver.positions - solver.rest_positions).max() < 1e-12

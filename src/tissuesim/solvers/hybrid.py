@@ -86,6 +86,7 @@ class HybridSolver(SurfaceLayerSolver):
         fixed_volume: ``(k,) int32`` fixed M_V nodes.
         control_displacement: ``(c,) (c, 3) float64`` M_V displacement of the control nodes [m], in the order of
             ``hybrid.control``.
+        quadratic_field: the :class:`~.quadratic_field.QuadraticField` of ``element="quadratic"``, else None.
     """
 
     materials = ("linear", "corotated", "neo-hookean")
@@ -126,7 +127,7 @@ class HybridSolver(SurfaceLayerSolver):
         self._volume_forces = np.zeros((volume.node_count, 3))
         self._volume_settled = True
         self._init_near_field(near_field)
-        self._field = None
+        self.quadratic_field = None
         if self.element == "quadratic":
             self._init_quadratic()
         self.control = control
@@ -148,8 +149,8 @@ class HybridSolver(SurfaceLayerSolver):
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
         self._dirty = self._constant_load is not None    # the first step moves M_V under its weight
-        if self._field is not None:
-            self._dirty = self._field.constant_load is not None
+        if self.quadratic_field is not None:
+            self._dirty = self.quadratic_field.constant_load is not None
 
     def _pieces(self) -> np.ndarray:
         """M_V's pieces: the volume holds the surface together where a cut splits it."""
@@ -201,23 +202,20 @@ class HybridSolver(SurfaceLayerSolver):
         elements = quadratic_elements(volume.tets, volume.node_count)
         count = volume.node_count + len(elements[1])
         springs = volume_springs(self, *surface_embedding(self.hybrid, elements[0]))
-        self._field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+        self.quadratic_field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
                                      fixed=quadratic_supports(self), material=self.material, springs=springs,
                                      constant_load=volume_constant_load(self, volume, springs,
                                                                         quadratic=(elements[0], count)))
-        self.finite = self._field.finite
+        self.finite = self.quadratic_field.finite
         self._constant_load = None
-        self.volume_displacement = np.zeros((self._field.node_count, 3))
-        self._volume_forces = np.zeros((self._field.node_count, 3))
+        self.volume_displacement = np.zeros((self.quadratic_field.node_count, 3))
+        self._volume_forces = np.zeros((self.quadratic_field.node_count, 3))
         self._held = np.arange(self.node_count, dtype=np.int64)
         self._set_prescribed(self._held)
         self.static = self.finite is None       # a step is then the static answer under the loads acting
 
     def _before_first_cut(self) -> None:
         """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
-        if self._field is not None:
-            raise SolverError("the hybrid with element='quadratic' does not cut yet: every M_S vertex follows M_V, "
-                              "which a cut does not separate; make the solver with element='linear' to cut")
         if self.near_field is None:
             return
         warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
@@ -281,7 +279,7 @@ class HybridSolver(SurfaceLayerSolver):
                 (self.load_weights[load.nodes] * load.shares[:, None]).ravel())
 
     def _update_fem(self, *, exact: bool = False) -> None:
-        if self._field is not None:
+        if self.quadratic_field is not None:
             self._quadratic_update(exact)
             return
         if self.finite is not None:
@@ -305,10 +303,10 @@ class HybridSolver(SurfaceLayerSolver):
         self._dirty = False
 
     def _quadratic_update(self, exact: bool) -> None:
-        """``element="quadratic"``: every vertex's target is M_V's quadratic field under the loads and the weight
-        (finite strain: converged when ``exact``, else :data:`VOLUME_ITERATIONS` iterations toward it); the fixed
-        vertices stay where the support holds them."""
-        field = self._field
+        """``element="quadratic"``: the prescribed vertices' targets are M_V's quadratic field under the loads and
+        the weight (finite strain: converged when ``exact``, else :data:`VOLUME_ITERATIONS` iterations toward it),
+        the fixed ones where the support holds them; the free ones (at a cut) move with the field's change."""
+        field = self.quadratic_field
         if self.finite is None:
             u = field.linear_displacement(self._loads)
         else:
@@ -320,8 +318,11 @@ class HybridSolver(SurfaceLayerSolver):
                 self._volume_settled = self.finite.relax(forces, self.volume_displacement,
                                                          iterations=VOLUME_ITERATIONS)
             u = field.surface(self.volume_displacement)
-        np.add(self.rest_positions, u, out=self.targets)        # every vertex is prescribed, in order
-        self.targets[self.fixed] = self.fixed_positions
+        carried = np.add(self.rest_positions, u, out=self._embedded_new)
+        carried[self.fixed] = self.fixed_positions
+        self.state.positions += carried - self._embedded
+        self._embedded[:] = carried
+        self.targets[:] = carried[self.prescribed]
         self._u[: self.control_count] = u[self.control]
         self._dirty = False
 
@@ -329,9 +330,9 @@ class HybridSolver(SurfaceLayerSolver):
         """``(k, k)`` [m/N] the exact normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)``
         (what the probe's Newton step uses): with ``element="quadratic"`` and the linear material; None otherwise
         (the probe then models it)."""
-        if self._field is None or self.finite is not None:
+        if self.quadratic_field is None or self.finite is not None:
             return None
-        return self._field.compliance(nodes, normals)
+        return self.quadratic_field.compliance(nodes, normals)
 
     def _linear_response(self) -> None:
         """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
@@ -357,8 +358,8 @@ class HybridSolver(SurfaceLayerSolver):
         """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle (the
         quadratic M_V: its field at the vertex)."""
         nodes = self.attached_nodes
-        if self._field is not None:       # every vertex is prescribed to the quadratic field, in order
-            return self.targets[nodes]
+        if self.quadratic_field is not None:       # the quadratic field at the vertex
+            return self._embedded[nodes]
         u = self._u[self._slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
         return self.rest_positions[nodes] + np.einsum("pj,pjk->pk", self.load_weights[nodes], u)
 

@@ -25,6 +25,7 @@ vertex follows it:
 
 from __future__ import annotations
 
+import copy
 from collections import OrderedDict
 
 import numpy as np
@@ -78,6 +79,19 @@ class QuadraticField:
         self._constant_u = None
         self._responses: OrderedDict = OrderedDict()
         self._points: OrderedDict = OrderedDict()
+
+    def extended(self, hybrid_mesh) -> "QuadraticField":
+        """This field for ``hybrid_mesh`` after a cut appended vertices (M_V is not cut): the same volume and
+        factor, the new vertices' embedding rows added, no response kept (each was of the vertices before). A new
+        object, so that a cut taken back keeps the old one."""
+        field = copy.copy(self)
+        new = slice(len(self.nodes), None)
+        elements = self.fem.elements
+        field.nodes = np.concatenate([self.nodes, elements[np.asarray(hybrid_mesh.embedding_tet[new], dtype=np.int64)]])
+        field.values = np.concatenate([self.values, shape_values(hybrid_mesh.embedding_barycentric[new])])
+        field._constant_u = None
+        field._responses, field._points = OrderedDict(), OrderedDict()
+        return field
 
     @property
     def node_count(self) -> int:

@@ -143,10 +143,10 @@ class SurfaceLayerCut(SolverCut):
         added = len(result.parents)
         s._predicted = self.spare.extend("predicted", s._predicted, np.zeros((added, 3)))
         statics, s._statics = s._statics, None
-        self.prescribe(result, n, released)
+        self.prescribe(result, n, released, touched)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
-        if removed is not None and statics is not None:
+        if removed is not None and statics is not None and s.prescribed.size < len(s.rest_positions):
             # the linear layer's step goes on with its factor and a correction (layer/cut_statics.py); where that
             # does not apply, the layer is factorised again when next needed
             from ..layer.cut_statics import after_cut
@@ -219,7 +219,7 @@ class SurfaceLayerCut(SolverCut):
             s.targets = self.spare.extend("targets", s.targets, s.rest_positions[nodes])
             self.is_prescribed[nodes] = True
 
-    def prescribe(self, result, n, released) -> None:
+    def prescribe(self, result, n, released, touched) -> None:
         """pbd: the fixed nodes (the new vertices that are fixed are appended); the hybrid overrides this."""
         s = self.solver
         self.prescribe_more(_new_of(s.fixed, n))
@@ -233,9 +233,12 @@ class HybridCut(SurfaceLayerCut):
         control = np.unique(self.solver.hybrid.control)
         return np.concatenate([super().held_nodes(), control.astype(np.int64)])
 
-    def prescribe(self, result, n, released) -> None:
+    def prescribe(self, result, n, released, touched) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare
-        if released.size:
+        if s.element == "quadratic":
+            self._free_cut(touched)
+            s.quadratic_field = s.quadratic_field.extended(h)
+        elif released.size:
             self._release(released, n)
         else:
             self.prescribe_more(_new_of(s.fixed, n))
@@ -252,6 +255,16 @@ class HybridCut(SurfaceLayerCut):
         s._embedded_new = spare.extend("embedded_new", s._embedded_new, embedded)
         s._delta = spare.extend("delta", s._delta, np.zeros_like(embedded))
         s._dirty = True
+
+    def _free_cut(self, touched) -> None:
+        """The quadratic M_V prescribes every vertex but those of the triangles a cut changed (M_V is not cut, so
+        only the layer lets the lips part) and where the support holds them."""
+        s = self.solver
+        mask = self.is_prescribed
+        mask[touched] = False
+        mask[s.fixed] = True
+        s.prescribed = np.flatnonzero(mask)
+        s.targets = np.array(s.rest_positions[s.prescribed])
 
     def _release(self, released, n) -> None:
         """Control nodes ``released`` (and their copies) are no longer prescribed. The lists keep their order (the
