@@ -135,12 +135,11 @@ class QuadraticField:
             return found
         weights = np.zeros(self.node_count)
         np.add.at(weights, self.nodes[nodes].ravel(), (self.values[nodes] * shares[:, None]).ravel())
-        response = np.empty((len(self.nodes), 3, 3))
-        forces = np.zeros((self.node_count, 3))
+        columns = np.zeros((self.node_count, 3, 3))                 # (node, dof axis, force axis)
         for axis in range(3):
-            forces[:] = 0.0
-            forces[:, axis] = weights
-            response[:, :, axis] = self.surface(self.fem.solve(forces))
+            columns[:, axis, axis] = weights
+        solved = self.fem.solve_columns(columns.reshape(-1, 3)).reshape(self.node_count, 3, 3)
+        response = np.einsum("ik,ikab->iab", self.values, solved[self.nodes])
         if len(self._responses) >= KEPT_RESPONSES:
             self._responses.popitem(last=False)
         self._responses[key] = response
