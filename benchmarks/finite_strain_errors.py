@@ -25,7 +25,8 @@ from tissuesim.fem.hyperelastic import MATERIALS
 from tissuesim.solvers.near_field import NEAR_FIELD_WINDOW
 from tissuesim.solvers.registry import solver_class
 
-METHODS = {"hybrid": ("hybrid", {}), "hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW}),
+METHODS = {"hybrid": ("hybrid", {}), "hybrid-quadratic": ("hybrid", {"element": "quadratic"}),
+           "hybrid-near": ("hybrid", {"near_field": NEAR_FIELD_WINDOW}),
            "fem": ("fem", {}), "embedded": ("embedded", {}), "pbd": ("pbd", {})}
 
 
