@@ -120,18 +120,21 @@ def _words(error: BaseException, count: int = 6) -> str:
 class Episode:
     """One seeded episode (see the module docstring); :meth:`run` plays it into a :class:`Tally`."""
 
-    def __init__(self, seed: int, meshes: Path, *, log=None):
+    def __init__(self, seed: int, meshes: Path, *, log=None, method: tuple | None = None):
         self.seed, self.meshes, self.log = seed, meshes, log
         rng = self.rng = np.random.default_rng(seed)
         self.model = MODELS[rng.integers(len(MODELS))]
         choices = [m for m in METHODS if not (m[0] == "fem" and self.model in NO_FINE_VOLUME)]
         self.method, self.options = choices[rng.integers(len(choices))]
+        if method is not None:       # this method instead of the drawn one, the rest of the draws unchanged
+            self.method, self.options = method
         # the xpbd integrator takes neither a finite-strain layer nor (pbd) attachments: refused, as documented; on
         # the 3,001-vertex liver a finite-strain probe press takes minutes (a Newton solve per contact iteration)
-        materials = ("linear",) if self.options or self.model in LINEAR_ONLY else solver_class(self.method).materials
+        linear_only = "integrator" in self.options or self.model in LINEAR_ONLY
+        materials = ("linear",) if linear_only else solver_class(self.method).materials
         self.material = materials[rng.integers(len(materials))]
         self.gravity = rng.random() < 0.4
-        self.ligament = rng.random() < 0.4 and not (self.method == "pbd" and self.options)
+        self.ligament = rng.random() < 0.4 and not (self.method == "pbd" and "integrator" in self.options)
         self.cut = False        # whether any move cut (a run-away only counts as a flap after one)
         self.moved_base = False
 
@@ -178,7 +181,8 @@ class Episode:
     def run(self, tally: Tally, *, moves: int) -> None:
         """Play ``moves`` actions (fewer where a traceback ends the episode) into ``tally``."""
         tally.episodes += 1
-        tally.configs[f"{self.method}{'-xpbd' if self.options else ''}/{self.material}"] += 1
+        variant = "".join(f"-{value}" for value in self.options.values())       # -xpbd, -quadratic
+        tally.configs[f"{self.method}{variant}/{self.material}"] += 1
         try:
             self._build(hybrid(self.model, self.meshes))
         except TissuesimError as error:
@@ -437,13 +441,13 @@ def _rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
 
 
-def fuzz(seeds, meshes: Path, *, moves: int, progress=None) -> Tally:
+def fuzz(seeds, meshes: Path, *, moves: int, progress=None, method: tuple | None = None) -> Tally:
     """Episodes of ``moves`` actions from each of ``seeds``, into one :class:`Tally`; ``progress`` (e.g. print) is
-    given a line after each episode."""
+    given a line after each episode; ``method`` ``(name, options)`` plays every episode with that method."""
     tally = Tally()
     for seed in seeds:
         start, failures = time.perf_counter(), len(tally.failures)
-        episode = Episode(int(seed), meshes)
+        episode = Episode(int(seed), meshes, method=method)
         episode.run(tally, moves=moves)
         if progress:
             progress(f"seed {seed} ({episode.name}): {time.perf_counter() - start:.1f} s; {tally.moves} moves so far")

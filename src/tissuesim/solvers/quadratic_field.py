@@ -152,6 +152,8 @@ class QuadraticField:
         its normal. Each vertex's M_V response to a unit force along each axis is kept (:meth:`point_response`)."""
         nodes = np.asarray(nodes, dtype=np.int64)
         normals = np.asarray(normals, dtype=np.float64)
+        if nodes.size == 0:
+            return np.zeros((0, 0))
         columns = self.point_responses(nodes)                                    # (k, N, 3, 3)
         at = columns[:, self.nodes[nodes]]                                       # (k, j, 10, 3, 3)
         motion = np.einsum("ja,ijadb->ijdb", self.values[nodes], at)             # (i, j, 3, 3)
