@@ -212,9 +212,11 @@ def test_a_cut_frees_its_lips_and_the_rest_follows_m_v(cube, node):
     top = rest[:, 2].max()
     start = np.array([rest[:, 0].min() + 0.015, 0.0, top])
     scalpel = tissuesim.Scalpel(solver)
+    assert solver.static                     # every vertex on M_V's field: a step is the static answer
     scalpel.press(start)
     scalpel.move(start + [0.03, 0.0, 0.0])
     scalpel.release()
+    assert not solver.static                 # the freed lips are the layer's: a step relaxes them
     n = len(solver.positions)
     assert n > len(rest)
     free = np.setdiff1d(np.arange(n), solver.prescribed)

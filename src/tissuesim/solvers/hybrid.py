@@ -37,8 +37,8 @@ nodes, without a weight of its own (its masses are the same body's).
 Option ``element`` (beyond the paper, :mod:`.quadratic_field`): ``"linear"`` (default, the paper's M_V) or
 ``"quadratic"``: M_V's tets get a midside node on each edge, and every M_S vertex follows M_V's quadratic field
 through its embedding (as accurate as the fine FEM on the contact references); the layer then has no free vertex.
-It takes the loads, the probe, gravity, attachments, the finite-strain materials and a moving base; cuts are
-refused with the reason (the near field is what it replaces).
+It takes the loads, the probe, gravity, attachments, the finite-strain materials, a moving base and cuts (a cut
+frees the vertices of the triangles it changes to the layer); the near field, which it replaces, is refused.
 
 Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
 node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
@@ -202,17 +202,23 @@ class HybridSolver(SurfaceLayerSolver):
         elements = quadratic_elements(volume.tets, volume.node_count)
         count = volume.node_count + len(elements[1])
         springs = volume_springs(self, *surface_embedding(self.hybrid, elements[0]))
-        self.quadratic_field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                                     fixed=quadratic_supports(self), material=self.material, springs=springs,
-                                     constant_load=volume_constant_load(self, volume, springs,
-                                                                        quadratic=(elements[0], count)))
+        constant = volume_constant_load(self, volume, springs, quadratic=(elements[0], count))
+        self.quadratic_field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus,
+                                              poisson_ratio=self.poisson_ratio, fixed=quadratic_supports(self),
+                                              material=self.material, springs=springs, constant_load=constant)
         self.finite = self.quadratic_field.finite
         self._constant_load = None
         self.volume_displacement = np.zeros((self.quadratic_field.node_count, 3))
         self._volume_forces = np.zeros((self.quadratic_field.node_count, 3))
         self._held = np.arange(self.node_count, dtype=np.int64)
         self._set_prescribed(self._held)
-        self.static = self.finite is None       # a step is then the static answer under the loads acting
+
+    @property
+    def static(self) -> bool:
+        """Whether a step is the static answer under the loads acting: with ``element="quadratic"``, the linear
+        material and every vertex on M_V's field (none freed by a cut)."""
+        return (self.quadratic_field is not None and self.finite is None
+                and self.prescribed.size == len(self.rest_positions))
 
     def _before_first_cut(self) -> None:
         """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
@@ -416,4 +422,3 @@ class HybridSolver(SurfaceLayerSolver):
     def _step(self, dt: float) -> None:
         self._prepare_static()
         super()._step(dt)
-
