@@ -303,3 +303,18 @@ def test_picking_up_the_scalpel_starts_building_the_first_cut_factor(hybrid):
     assert getattr(statics, "_cut_base", None) is None
     c.set_mode("scalpel")
     assert statics._cut_base.result() is not None    # built while the user aims, before any press
+
+
+def test_the_quadratic_m_v_is_a_setting_that_replaces_the_near_field(hybrid):
+    c = Controller(hybrid, settings=Settings(near_field=0.015))
+    c.configure(element="quadratic", near_field=None)
+    assert c.solver.element == "quadratic" and c.solver.near_field is None and not c.near_field_available()
+    with pytest.raises(SolverError, match="drop near_field"):
+        c.configure(near_field=0.015)
+    assert c.solver.element == "quadratic" and c.settings.near_field is None      # refused: nothing changed
+    with pytest.raises(SolverError, match="element must be one of"):
+        c.configure(element="cubic")
+    c.configure(method="pbd")
+    assert not c.element_available() and c.solver.name == "pbd"       # pbd has no M_V: the setting waits
+    c.configure(method="hybrid")
+    assert c.solver.element == "quadratic"

@@ -15,6 +15,7 @@ from dataclasses import replace
 from functools import partial
 from pathlib import Path
 
+from ..solvers.checks import ELEMENTS
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
 
 HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
@@ -38,6 +39,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--near-field", type=float, default=None, metavar="MM",
                         help="the hybrid's near field: M_S nodes within MM millimetres of the contact follow quadratic "
                              "tets on the fine volume (e.g. 15; default off)")
+    parser.add_argument("--element", default="linear", choices=ELEMENTS,
+                        help="the hybrid's M_V elements: linear (the paper's, default) or quadratic (as accurate as "
+                             "the fine FEM; slower to build)")
     add_fix_argument(parser)
     parser.add_argument("--record", type=Path, default=None, metavar="FILE.pvd",
                         help="record the session as a ParaView series (FILE.pvd + FILE_frames/; a frame whenever "
@@ -111,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
     stiffness = DEFAULT_STIFFNESS if args.stiffness is None else positive_number("--stiffness", args.stiffness, "N/m")
     near_field = None if args.near_field is None else 1e-3 * positive_number("--near-field", args.near_field, "mm")
     settings = checked_settings(Settings(method=args.method, stiffness=stiffness, prestrain=args.prestrain,
-                                         near_field=near_field))
+                                         near_field=near_field, element=args.element))
     check_fix(args.fix)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
@@ -139,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
 
 #: Options of this command that a scene file sets itself, with their defaults (a changed one is refused).
 SCENE_SETS = {"method": "hybrid", "scale": 1.0, "repair": False, "resolution": None, "stiffness": None,
-              "prestrain": 0.0, "near_field": None, "fix": DEFAULT_FIX}
+              "prestrain": 0.0, "near_field": None, "element": "linear", "fix": DEFAULT_FIX}
 
 
 def _run_scene(args: argparse.Namespace) -> int:
@@ -178,7 +182,8 @@ def _run_scene(args: argparse.Namespace) -> int:
 
 #: The solver options the viewer's Settings hold (the panel changes them live); a scene's others go to the
 #: controller's solver_options.
-SETTINGS_FIELDS = ("youngs_modulus", "poisson_ratio", "material", "dt", "iterations", "prestrain", "near_field")
+SETTINGS_FIELDS = ("youngs_modulus", "poisson_ratio", "material", "dt", "iterations", "prestrain", "near_field",
+                   "element")
 
 
 def _scene_settings(loaded, options: dict):

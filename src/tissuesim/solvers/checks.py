@@ -181,3 +181,17 @@ def finite_triple(value) -> np.ndarray | None:
     vector = vector.copy()
     vector.flags.writeable = False
     return vector
+
+
+#: M_V's elements (option ``element``): the paper's linear tets, or quadratic ones (:mod:`.quadratic_field`).
+ELEMENTS = ("linear", "quadratic")
+
+
+def check_element(element, near_field) -> str:
+    """``element`` checked against :data:`ELEMENTS`, and against the near field, which the quadratic M_V replaces
+    (SolverError with the fix)."""
+    if not isinstance(element, str) or element not in ELEMENTS:
+        raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
+    if element == "quadratic" and near_field is not None:
+        raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
+    return element

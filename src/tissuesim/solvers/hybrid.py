@@ -53,13 +53,12 @@ from functools import partial
 import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, warn
-from .checks import flag
+from .checks import check_element, flag
 from .registry import register
 from .embedded import map_embedded
 from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
-from .quadratic_field import check_element
 from .surface_layer import SurfaceLayerSolver
 
 DEFAULT_WARM_START = True

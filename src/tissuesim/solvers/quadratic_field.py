@@ -32,7 +32,6 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ..errors import SolverError
 from ..fem.quadratic import QuadraticFEM, quadratic_elements, shape_values
 
 #: Contact patches whose responses are kept (pin-heads grabbed in turn).
@@ -210,16 +209,3 @@ def midside_points(volume) -> np.ndarray:
     edges = quadratic_elements(volume.tets, volume.node_count)[1]
     return 0.5 * (volume.points[edges[:, 0]] + volume.points[edges[:, 1]])
 
-
-#: M_V's elements (option ``element``): the paper's linear tets, or quadratic ones (:mod:`.quadratic_field`).
-ELEMENTS = ("linear", "quadratic")
-
-
-def check_element(element, near_field) -> str:
-    """``element`` checked against :data:`ELEMENTS`, and against the near field, which the quadratic M_V replaces
-    (SolverError with the fix)."""
-    if not isinstance(element, str) or element not in ELEMENTS:
-        raise SolverError(f"element must be one of {', '.join(map(repr, ELEMENTS))}, got {element!r}")
-    if element == "quadratic" and near_field is not None:
-        raise SolverError("element='quadratic' already drives every M_S vertex from M_V: drop near_field")
-    return element

@@ -14,9 +14,11 @@ from ..solvers.registry import make_solver, solver_class, solver_options
 from .settings import Settings, checked_settings
 
 # settings whose change needs a new solver (the others are set on the live objects)
-_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material")
+_REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material",
+            "element")
 # solver options the settings own: a scene or a script gives them through Settings, not solver_options
-_SETTINGS_OPTIONS = ("youngs_modulus", "poisson_ratio", "dt", "iterations", "prestrain", "near_field", "material")
+_SETTINGS_OPTIONS = ("youngs_modulus", "poisson_ratio", "dt", "iterations", "prestrain", "near_field", "material",
+                     "element")
 
 
 class SolverBuilding:
@@ -104,6 +106,8 @@ class SolverBuilding:
             options["prestrain"] = float(s.prestrain)
         if s.near_field is not None and self.near_field_available(hybrid):
             options["near_field"] = float(s.near_field)
+        if s.element != "linear" and self.element_available():
+            options["element"] = s.element
         if self.finite_strain_available():
             options["material"] = s.material
         options.update(self.solver_options)
@@ -117,10 +121,14 @@ class SolverBuilding:
 
     def near_field_available(self, hybrid=None) -> bool:
         """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
-        volume."""
+        volume, and M_V's linear elements (the quadratic M_V replaces it)."""
         mesh = self.solver.hybrid if hybrid is None else hybrid
         return ("near_field" in solver_options(self.settings.method) and mesh.fine_volume is not None
-                and not mesh.info.get("cuts"))
+                and not mesh.info.get("cuts") and self.settings.element == "linear")
+
+    def element_available(self) -> bool:
+        """Whether the current method takes the ``element`` setting (the hybrid's M_V)."""
+        return "element" in solver_options(self.settings.method)
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
         """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is

@@ -196,11 +196,16 @@ class PanelWidgets:
                                                             1, 50)
             self._apply_on_release(psim, "iterations")
         self._finite_strain(psim, s)
+        if self.controller.element_available():
+            changed, on = psim.Checkbox("quadratic M_V (as accurate as the fine FEM)", s.element == "quadratic")
+            if changed:
+                self._configure(element="quadratic" if on else "linear", near_field=None)
         if "near_field" in solver_options(s.method):
             available = self.controller.near_field_available()
             psim.BeginDisabled(not available)       # one row either way: a cut greys it out
+            why = "the quadratic M_V replaces it" if s.element == "quadratic" else "cut, or no fine volume"
             label = (f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)" if available else
-                     "near field: off (cut, or no fine volume)")
+                     f"near field: off ({why})")
             changed, on = psim.Checkbox(label, available and s.near_field is not None)
             psim.EndDisabled()
             if changed and available:

@@ -11,6 +11,7 @@ from ..errors import SolverError
 from ..fem.hyperelastic import check_material
 from ..layer.prestress import check_prestrain
 from ..solvers.checks import positive_number, time_step, whole_count
+from ..solvers.checks import check_element
 from ..solvers.registry import available_solvers
 
 DEFAULT_STIFFNESS = 50.0  # N/m: 2 cm of drag = 1 N
@@ -33,6 +34,9 @@ class Settings:
             hybrid); not on a cut mesh (its fine volume is not cut).
         material: ``"linear"`` or a finite-strain material (:data:`tissuesim.fem.hyperelastic.MATERIALS`), on the
             methods that have it (the others keep their own model).
+        element: the hybrid's M_V elements, ``"linear"`` (the paper's) or ``"quadratic"``
+            (:mod:`tissuesim.solvers.quadratic_field`: as accurate as the fine FEM, slower to build); the other
+            methods keep their own.
     """
 
     method: str = "hybrid"
@@ -45,6 +49,7 @@ class Settings:
     prestrain: float = 0.0
     near_field: float | None = None
     material: str = "linear"
+    element: str = "linear"
 
 
 def _setting_number(name: str, value, unit: str, check=positive_number) -> float:
@@ -90,7 +95,8 @@ def checked_settings(settings: Settings) -> Settings:
         prestrain=_setting_number("prestrain (in-plane strain)", settings.prestrain, "1", lambda name, value, unit:
                                   check_prestrain(value)),
         near_field=None if near_field is None else _setting_number("near_field (near field W)", near_field, "m"),
-        material=check_material(settings.material))
+        material=check_material(settings.material),
+        element=check_element(settings.element, near_field))
 
 
 #: The cursor's travel, as a fraction of the model's size, that loads the pin-head with the sized default force.
