@@ -139,6 +139,56 @@ class HybridMesh:
                    control_volume=control_volume.astype(np.int32), **maps, fine_volume=fine,
                    fine_surface_nodes=fine_nodes, info=info)
 
+    @classmethod
+    def from_volume(cls, surface: SurfaceMesh, volume: TetMesh, *, fine_volume: bool = False,
+                    progress: bool = False) -> "HybridMesh":
+        """The hybrid mesh of M_S with a coarse volume M_V from a mesher of your choice, so that no TetGen runs
+        (it is AGPL-3.0): M'_S is ``volume``'s boundary, and its nodes are the control nodes
+        (:mod:`.given_volume`).
+
+        Args:
+            surface: M_S, closed, manifold, outward-oriented, free of self-intersections (validated here).
+            volume: M_V as a :class:`~.tetmesh.TetMesh` in metres, positively oriented tets, whose every boundary
+                node is a vertex of ``surface`` (no Steiner point on the boundary; interior nodes are free).
+            fine_volume: also tetrahedralize M_S with TetGen (the ``fem`` method's mesh); default False.
+            progress: show the steps with a tqdm bar on stderr.
+
+        Raises:
+            MeshError: ``surface`` is invalid, a boundary node of ``volume`` is no vertex of ``surface`` (or two
+                share one), or the boundary is not a valid closed surface (each names the first offenders).
+        """
+        _check_is_surface(surface)
+        from .given_volume import coarse_from_volume
+        from .validate import validate_surface
+
+        steps = ["validate M_S", "check M_V against M_S", "map M_S onto M'_S and M_V"]
+        if fine_volume:
+            steps.append("tetrahedralize M_S -> fine volume")
+        timings = {}
+        with _progress(len(steps), progress) as bar:
+            with _step(bar, steps[0], timings, "validate_s"):
+                validate_surface(surface)
+            with _step(bar, steps[1], timings, "coarse_check_s"):
+                coarse, control, control_volume = coarse_from_volume(surface, volume)
+                try:
+                    validate_surface(coarse)
+                except MeshError as error:
+                    raise MeshError(f"the volume's boundary is no valid M'_S: {error}") from None
+            with _step(bar, steps[2], timings, "maps_s"):
+                maps = _map_surface(surface, coarse, control, volume)
+            fine, fine_nodes = None, None
+            if fine_volume:
+                from .tetrahedralize import FINE_SWITCHES, tetrahedralize
+
+                with _step(bar, steps[3], timings, "fine_tetgen_s"):
+                    fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
+        timings["total_s"] = sum(timings.values())
+        info = {"simplify": None, "coarse_switches": None, "coarse_volume": "given", "timings": timings,
+                "fine_switches": FINE_SWITCHES if fine_volume else None,
+                SURFACE_EDGE_KEY: surface.mean_edge_length, SURFACE_VERTICES_KEY: surface.vertex_count}
+        return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
+                   control_volume=control_volume, **maps, fine_volume=fine, fine_surface_nodes=fine_nodes, info=info)
+
     # -- bundle ------------------------------------------------------------------------------------------------
 
     def save(self, path) -> Path:
