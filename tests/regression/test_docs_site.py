@@ -29,11 +29,22 @@ def test_the_site_builds_strict_without_a_warning(tmp_path):
                           cwd=ROOT, env=env, capture_output=True, text=True, timeout=600)
     warnings = [line for line in done.stderr.splitlines() + done.stdout.splitlines() if line.startswith("WARNING")]
     assert done.returncode == 0 and not warnings, done.stderr[-4000:]
-    for page in ("index.html", "getting-started/index.html", "api/public/index.html", "changelog/index.html"):
+    for page in ("index.html", "getting-started.html", "api/public.html", "changelog.html"):
         assert (site / page).is_file(), page
     # the changelog is the repository's own, included, not a copy that could drift
     first_entry = next(line for line in (ROOT / "CHANGELOG.md").read_text().splitlines() if line.startswith("### "))
-    assert first_entry[4:].split(" (")[0] in (site / "changelog" / "index.html").read_text()
+    assert first_entry[4:].split(" (")[0] in (site / "changelog.html").read_text()
+    # opened from disk (file://): every link between pages names a file that is there (a link to a folder shows a
+    # folder listing there), and the search index is a script, which a page loads without a server
+    broken = []
+    for page in site.rglob("*.html"):
+        if page.name == "404.html":      # what a server answers for a missing page: its links are absolute
+            continue
+        for target in re.findall(r'href="([^"#?:]+)(?:#[^"]*)?"', page.read_text()):
+            if not (page.parent / target).is_file():
+                broken.append(f"{page.relative_to(site)} -> {target}")
+    assert not broken, broken[:10]
+    assert (site / "search" / "search_index.js").is_file()
 
 
 def _defined_in(name: str) -> str:
