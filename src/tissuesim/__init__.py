@@ -12,12 +12,15 @@ Public API (imported lazily, so ``import tissuesim`` stays fast and Numba kernel
 
 from importlib import import_module
 
+from . import compile_notice as _compile_notice
 from . import numba_cache as _numba_cache
 
 __version__ = "0.1.0"
 
-# Before any kernel is compiled or loaded: processes started together share one on-disk cache.
+# Before any kernel is compiled or loaded: processes started together share one on-disk cache, and a first run
+# says that it compiles (about 20 s) rather than sit silent.
 _numba_cache.install()
+_compile_notice.install()
 
 # public name -> module that defines it
 _EXPORTS = {

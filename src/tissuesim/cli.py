@@ -7,23 +7,22 @@ number.
 
 Numba compiles each kernel the first time it runs and caches it on disk beside its source (``cache=True``), so a
 fresh install, or a changed source, spends about 20 s compiling (the first build measured 22 s, later ones 0.4 s).
-A command says so on stderr when the first kernel starts compiling (:class:`CompileNotice`, which listens to Numba's
-own compile events: a kernel loaded from the cache fires none, so a warm run prints nothing), and at its end how
-many kernels it compiled and how long that took.
+A command says so on stderr when the first kernel starts compiling (:func:`~tissuesim.compile_notice.announce_compilation`,
+which listens to Numba's own compile events: a kernel loaded from the cache fires none, so a warm run prints
+nothing), and at its end how many kernels it compiled and how long that took.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import signal
 import sys
 import threading
-import time
 import warnings
 from importlib import import_module
 
 from . import __version__
+from .compile_notice import announce_compilation
 from .errors import TissuesimError, TissuesimWarning
 
 DESCRIPTION = ("Soft-tissue surface deformation with the hybrid FEM + PBD method: build hybrid meshes, run the "
@@ -78,72 +77,6 @@ def _one_line_warning(name: str, default):
             return default(message, category, filename, lineno, file, line)
         print(f"{name}: warning: {message}", file=sys.stderr if file is None else file)
     return show
-
-
-#: What the first compilation is said to cost: the first build measured 22 s on 2 cores.
-COMPILE_ESTIMATE = "about 20 s"
-
-
-class CompileNotice:
-    """Counts Numba's compilations of this run (``numba:compile`` events; nested ones, a kernel compiling the
-    functions it calls, count once); says on ``stream`` when the first starts and (:meth:`finish`) how many were
-    compiled in how long."""
-
-    def __init__(self, name: str, stream):
-        self.name, self.stream = name, stream
-        self.compiled, self.depth, self.started, self.seconds = 0, 0, 0.0, 0.0
-
-    def on_start(self, event) -> None:
-        if self.depth == 0:
-            if self.compiled == 0:
-                _say(f"{self.name}: compiling the numerical kernels, first run only ({COMPILE_ESTIMATE}; cached for "
-                     "later runs)", self.stream)
-            self.started = time.perf_counter()
-        self.depth += 1
-
-    def on_end(self, event) -> None:
-        self.depth -= 1
-        if self.depth == 0:
-            self.compiled += 1
-            self.seconds += time.perf_counter() - self.started
-
-    def finish(self) -> None:
-        """The closing line, if anything was compiled."""
-        if self.compiled:
-            _say(f"{self.name}: compiled {self.compiled} kernels in {self.seconds:.0f} s; the next run loads them "
-                 "from the cache", self.stream)
-
-
-def _say(line: str, stream) -> None:
-    """``line`` on ``stream`` above any progress bar drawn there (tqdm's write clears and redraws it)."""
-    from tqdm import tqdm
-
-    tqdm.write(line, file=stream)
-    stream.flush()
-
-
-@contextlib.contextmanager
-def announce_compilation(name: str, stream=None):
-    """Within the block, Numba's compilations are announced on ``stream`` (default stderr) by a
-    :class:`CompileNotice`."""
-    from numba.core import event
-
-    notice = CompileNotice(name, sys.stderr if stream is None else stream)
-
-    class Forward(event.Listener):  # Numba's listener interface, imported only when a command runs
-        def on_start(self, ev):
-            notice.on_start(ev)
-
-        def on_end(self, ev):
-            notice.on_end(ev)
-
-    listener = Forward()
-    event.register("numba:compile", listener)
-    try:
-        yield notice
-    finally:
-        event.unregister("numba:compile", listener)
-        notice.finish()
 
 
 def main(argv: list[str] | None = None) -> int:

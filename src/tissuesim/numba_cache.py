@@ -69,9 +69,12 @@ def _patch(caching) -> None:
     cache_file._tissuesim_locked = True
 
 
-class _PatchOnImport(importlib.abc.MetaPathFinder):
+_after_import = []       # what runs once Numba's caching module is imported (see after_numba_import)
+
+
+class _RunOnImport(importlib.abc.MetaPathFinder):
     """Finds nothing itself: when Numba's caching module is first imported, lets the other finders find it and
-    patches it once it has run."""
+    runs the callbacks of :func:`after_numba_import` on it once it has run."""
 
     def find_spec(self, name, path, target=None):
         if name != _MODULE:
@@ -84,18 +87,26 @@ class _PatchOnImport(importlib.abc.MetaPathFinder):
 
         def exec_module(module):
             run(module)
-            _patch(module)
+            for callback in _after_import:
+                callback(module)
 
         spec.loader.exec_module = exec_module
         return spec
 
 
+def after_numba_import(callback) -> None:
+    """Call ``callback(caching_module)`` now if Numba's caching module is loaded, else when it is (so that
+    ``import tissuesim`` imports no Numba)."""
+    if _MODULE in sys.modules:
+        callback(sys.modules[_MODULE])
+        return
+    _after_import.append(callback)
+    if not any(isinstance(finder, _RunOnImport) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _RunOnImport())
+
+
 def install() -> None:
     """Lock Numba's cache saves and loads in this process: now if Numba's caching module is loaded, else when it
     is."""
-    if fcntl is None:
-        return
-    if _MODULE in sys.modules:
-        _patch(sys.modules[_MODULE])
-    elif not any(isinstance(finder, _PatchOnImport) for finder in sys.meta_path):
-        sys.meta_path.insert(0, _PatchOnImport())
+    if fcntl is not None:
+        after_numba_import(_patch)

@@ -56,7 +56,7 @@ def test_the_iterations_act_only_where_the_step_iterates():
 def test_the_first_compilation_is_announced_once_and_a_cached_run_says_nothing():
     import numba
 
-    from tissuesim.cli import announce_compilation
+    from tissuesim.compile_notice import announce_compilation
 
     @numba.njit
     def twice(x):
