@@ -157,12 +157,16 @@ def test_bad_options_are_refused(cube, options, error):
 
 def test_the_contact_compliance_is_the_solvers_own_response(cube, node, solver):
     """The probe's Newton step uses this matrix: vertex j's normal motion under a unit normal force on vertex i,
-    as a solve of the same loads gives it (1e-10), and symmetric."""
+    as a solve of the same loads gives it (1e-10, with the floor of 1e-9 of the largest entry on the diagonal),
+    and symmetric."""
+    from tissuesim.solvers.quadratic_field import COMPLIANCE_FLOOR
+
     rest = solver.rest_positions
     nodes = np.array([node, *np.argsort(np.linalg.norm(rest - rest[node], axis=1))[1:4]])
     normals = np.array([[0.0, 0.0, 1.0], [0.0, 0.6, 0.8], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]])
     compliance = solver.contact_compliance(nodes, normals)
     assert np.allclose(compliance, compliance.T, atol=1e-10 * np.abs(compliance).max(), rtol=0)
+    compliance[np.diag_indices(len(nodes))] -= COMPLIANCE_FLOOR * np.diagonal(compliance).max() / (1 + COMPLIANCE_FLOOR)
     for i, vertex in enumerate(nodes):
         u = solver.solve_static(int(vertex), normals[i]) - rest
         solver.reset()
@@ -235,3 +239,52 @@ def test_a_cut_frees_its_lips_and_the_rest_follows_m_v(cube, node):
     assert moved[lip, 2] > 0.0 and np.linalg.norm(moved[lip] - moved[other]) > 0.1 * moved[lip, 2]  # lips part
     solver.reset()
     assert np.abs(solver.positions - solver.rest_positions).max() < 1e-12
+
+
+def test_a_probe_presses_over_a_cut_and_on_a_coarse_volume(cube, node):
+    """Where the exact compliance is singular (a cut's copy shares its original's embedding; more contact vertices
+    than the coarse field's dofs under them) the probe still converges: freed vertices get the probe's model, and
+    the field's compliance has a floor."""
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic")
+    rest = solver.rest_positions
+    top = rest[:, 2].max()
+    scalpel = tissuesim.Scalpel(solver)
+    start = np.array([rest[node, 0] - 0.015, rest[node, 1], top])
+    scalpel.press(start)
+    scalpel.move(start + [0.03, 0.0, 0.0])
+    scalpel.release()
+    probe = tissuesim.Probe(solver, radius=0.03)
+    probe.press_static(rest[node] + [0.0, 0.0, 0.028])          # 2 mm deep
+    assert probe.residual <= probe.tolerance and probe.force[2] > 0.0
+    coarse = tissuesim.HybridMesh.build(models.cube(1000), target_vertices=30, fine_volume=False)
+    wide = tissuesim.Probe(tissuesim.make_solver("hybrid", coarse, element="quadratic"), radius=0.06)
+    wide.press_static([0.0, 0.0, coarse.surface.vertices[:, 2].max() + 0.06 - 0.004])
+    assert wide.residual <= wide.tolerance and wide.force[2] > 0.0
+
+
+def test_the_kept_point_responses_never_drop_those_asked_for(cube, monkeypatch):
+    import tissuesim.solvers.quadratic_field as quadratic_field
+
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic")
+    field = solver.quadratic_field
+    monkeypatch.setattr(quadratic_field, "KEPT_BYTES", 5 * 9 * 8 * field.node_count)    # five vertices' worth
+    top = np.flatnonzero(solver.rest_positions[:, 2] > solver.rest_positions[:, 2].max() - 1e-9)[:8]
+    all_at_once = field.point_responses(top)                # more than are kept
+    field.point_responses(top[:4])
+    again = field.point_responses(top[[0, 5, 6]])           # the oldest kept one, and two new ones
+    assert np.array_equal(again, all_at_once[[0, 5, 6]])
+    assert len(field._points) == 5
+
+
+def test_vertices_a_cut_moves_get_their_new_embedding(cube):
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic")
+    rest = solver.rest_positions
+    top = rest[:, 2].max()
+    scalpel = tissuesim.Scalpel(solver)
+    start = np.array([rest[:, 0].min() + 0.013, 0.0031, top])       # beside a row of vertices: they snap onto it
+    scalpel.press(start)
+    scalpel.move(start + [0.05, 0.0, 0.0])
+    scalpel.release()
+    field, mesh = solver.quadratic_field, solver.hybrid
+    assert np.array_equal(field.nodes, field.fem.elements[np.asarray(mesh.embedding_tet)])
+    assert np.allclose(field.values, shape_values(mesh.embedding_barycentric), atol=1e-15, rtol=0)

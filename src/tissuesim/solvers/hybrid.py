@@ -332,10 +332,16 @@ class HybridSolver(SurfaceLayerSolver):
         self._dirty = False
 
     def contact_compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray | None:
-        """``(k, k)`` [m/N] the exact normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)``
-        (what the probe's Newton step uses): with ``element="quadratic"`` and the linear material; None otherwise
-        (the probe then models it)."""
+        """``(k, k)`` [m/N] the normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)`` (what the
+        probe's Newton step uses): M_V's own (:meth:`QuadraticField.compliance
+        <tissuesim.solvers.quadratic_field.QuadraticField.compliance>`) with ``element="quadratic"``, the linear
+        material and every one of ``nodes`` on the field; None otherwise (a vertex freed by a cut is the layer's:
+        the probe then models it)."""
         if self.quadratic_field is None or self.finite is not None:
+            return None
+        on_field = np.zeros(self.node_count, dtype=bool)
+        on_field[self.prescribed] = True
+        if not np.all(on_field[np.asarray(nodes, dtype=np.int64)]):
             return None
         return self.quadratic_field.compliance(nodes, normals)
 

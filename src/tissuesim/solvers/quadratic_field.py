@@ -41,6 +41,8 @@ KEPT_RESPONSES = 16
 KEPT_LOADS = 4
 #: Memory [bytes] for the kept responses of single vertices (the probe's exact contact compliance).
 KEPT_BYTES = 256 * 2 ** 20
+#: The contact compliance's diagonal floor, as a fraction of its largest diagonal entry (:meth:`QuadraticField.compliance`).
+COMPLIANCE_FLOOR = 1e-9
 
 
 class QuadraticField:
@@ -81,15 +83,20 @@ class QuadraticField:
         self._responses: OrderedDict = OrderedDict()
         self._points: OrderedDict = OrderedDict()
 
-    def extended(self, hybrid_mesh) -> "QuadraticField":
-        """This field for ``hybrid_mesh`` after a cut appended vertices (M_V is not cut): the same volume and
-        factor, the new vertices' embedding rows added, no response kept (each was of the vertices before). A new
-        object, so that a cut taken back keeps the old one."""
+    def extended(self, hybrid_mesh, moved: np.ndarray) -> "QuadraticField":
+        """This field for ``hybrid_mesh`` after a cut (M_V is not cut): the same volume and factor, the embedding
+        rows of the vertices it appended and of those it ``moved`` ``(k,) int`` onto the cut read anew, no
+        response kept (each was of the vertices before). A new object, so that a cut taken back keeps the old
+        one."""
         field = copy.copy(self)
-        new = slice(len(self.nodes), None)
-        elements = self.fem.elements
-        field.nodes = np.concatenate([self.nodes, elements[np.asarray(hybrid_mesh.embedding_tet[new], dtype=np.int64)]])
-        field.values = np.concatenate([self.values, shape_values(hybrid_mesh.embedding_barycentric[new])])
+        rows = np.concatenate([np.asarray(moved, dtype=np.int64),
+                               np.arange(len(self.nodes), len(hybrid_mesh.embedding_tet))])
+        tets = np.asarray(hybrid_mesh.embedding_tet, dtype=np.int64)[rows]
+        field.nodes = np.concatenate([self.nodes, np.zeros((len(hybrid_mesh.embedding_tet) - len(self.nodes), 10),
+                                                           dtype=np.int64)])
+        field.values = np.concatenate([self.values, np.zeros((len(field.nodes) - len(self.values), 10))])
+        field.nodes[rows] = self.fem.elements[tets]
+        field.values[rows] = shape_values(np.asarray(hybrid_mesh.embedding_barycentric)[rows])
         field._constant_u = None
         field._responses, field._points = OrderedDict(), OrderedDict()
         return field
@@ -150,7 +157,11 @@ class QuadraticField:
     def compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """``(k, k) float64`` [m/N] the small-strain normal compliance of M_S vertices ``nodes`` ``(k,)`` along
         ``normals`` ``(k, 3)``: ``[j, i]`` is vertex j's motion along its normal under a unit force on vertex i along
-        its normal. Each vertex's M_V response to a unit force along each axis is kept (:meth:`point_response`)."""
+        its normal, plus :data:`COMPLIANCE_FLOOR` of its largest diagonal entry on the diagonal. The field has a
+        finite number of dofs under a contact: more contact vertices than that (a wide probe on a coarse M_V) make
+        the exact matrix singular, and the floor keeps it positive definite for the probe's Newton step (whose
+        answer is the solver's own). Each vertex's M_V response to a unit force along each axis is kept
+        (:meth:`point_responses`)."""
         nodes = np.asarray(nodes, dtype=np.int64)
         normals = np.asarray(normals, dtype=np.float64)
         if nodes.size == 0:
@@ -158,26 +169,32 @@ class QuadraticField:
         columns = self.point_responses(nodes)                                    # (k, N, 3, 3)
         at = columns[:, self.nodes[nodes]]                                       # (k, j, 10, 3, 3)
         motion = np.einsum("ja,ijadb->ijdb", self.values[nodes], at)             # (i, j, 3, 3)
-        return np.einsum("jd,ijdb,ib->ji", normals, motion, normals)
+        compliance = np.einsum("jd,ijdb,ib->ji", normals, motion, normals)
+        compliance[np.diag_indices(nodes.size)] += COMPLIANCE_FLOOR * np.abs(np.diagonal(compliance)).max()
+        return compliance
 
     def point_responses(self, nodes: np.ndarray) -> np.ndarray:
         """``(k, N, 3, 3) float64`` [m/N]: M_V's displacement (node, axis) under a unit force along each axis on
-        each M_S vertex of ``nodes``; those not kept yet are solved together in one factor call."""
-        missing = [int(i) for i in dict.fromkeys(nodes.tolist()) if int(i) not in self._points]
+        each M_S vertex of ``nodes``; those not kept yet are solved together in one factor call. At most
+        :data:`KEPT_BYTES` of them are kept, the least recently asked for dropped first (never those of this
+        call)."""
+        asked = [int(i) for i in nodes.tolist()]
+        missing = [i for i in dict.fromkeys(asked) if i not in self._points]
         if missing:
             columns = np.zeros((3 * self.node_count, 3 * len(missing)))
             for slot, node in enumerate(missing):
                 for axis in range(3):
                     columns[3 * self.nodes[node] + axis, 3 * slot + axis] += self.values[node]
             solved = self.fem.solve_columns(columns).reshape(self.node_count, 3, len(missing), 3)
-            kept = max(1, KEPT_BYTES // solved[:, :, 0].nbytes)
             for slot, node in enumerate(missing):
                 self._points[node] = np.ascontiguousarray(solved[:, :, slot])
-                if len(self._points) > kept:
-                    self._points.popitem(last=False)
-        for node in nodes.tolist():
-            self._points.move_to_end(int(node))
-        return np.stack([self._points[int(i)] for i in nodes.tolist()])
+        for node in asked:
+            self._points.move_to_end(node)
+        result = np.stack([self._points[i] for i in asked])
+        kept = max(len(set(asked)), KEPT_BYTES // (9 * 8 * self.node_count))
+        while len(self._points) > kept:
+            self._points.popitem(last=False)
+        return result
 
 
 def surface_embedding(hybrid_mesh, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -236,8 +236,8 @@ class HybridCut(SurfaceLayerCut):
     def prescribe(self, result, n, released, touched) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare
         if s.element == "quadratic":
-            self._free_cut(touched)
-            s.quadratic_field = s.quadratic_field.extended(h)
+            self._free_cut(touched, released)
+            s.quadratic_field = s.quadratic_field.extended(h, result.moved)
         elif released.size:
             self._release(released, n)
         else:
@@ -256,10 +256,15 @@ class HybridCut(SurfaceLayerCut):
         s._delta = spare.extend("delta", s._delta, np.zeros_like(embedded))
         s._dirty = True
 
-    def _free_cut(self, touched) -> None:
+    def _free_cut(self, touched, released) -> None:
         """The quadratic M_V prescribes every vertex but those of the triangles a cut changed (M_V is not cut, so
-        only the layer lets the lips part) and where the support holds them."""
+        only the layer lets the lips part) and where the support holds them; the control nodes on the cut leave
+        the control list, as the paper's M_V's do."""
         s = self.solver
+        if released.size:
+            s.control = s.control[np.isin(s.control, released, invert=True)]
+            s.control_count = s.control.size
+            s.control_displacement = s._u[: s.control_count]
         mask = self.is_prescribed
         mask[touched] = False
         mask[s.fixed] = True
