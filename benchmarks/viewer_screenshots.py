@@ -2,7 +2,7 @@
 for looking at what users see:
 
     python benchmarks/viewer_screenshots.py [--output docs/figures] [--model liver] [--only two-tools support]
-        [--element quadratic]
+        [--element quadratic] [--method pbd]
 
 * ``window``: the whole window as ``tissuesim view liver`` opens it, the pin-head pulling the top up, the
   displacement colours off (``viewer_window.png``);
@@ -230,6 +230,7 @@ def main() -> None:
     parser.add_argument("--model", default="liver")
     parser.add_argument("--only", nargs="*", default=list(SCENARIOS), choices=list(SCENARIOS))
     parser.add_argument("--element", default="linear", help="the hybrid's M_V elements (linear or quadratic)")
+    parser.add_argument("--method", default="hybrid", help="the method at start (default hybrid)")
     args = parser.parse_args()
     from tissuesim.commands.view import load_hybrid
 
@@ -239,8 +240,8 @@ def main() -> None:
         script, filename = SCENARIOS[scenario]
         # the tools sized as tissuesim view sizes them
         sized = sized_defaults(hybrid.surface.vertices, edge_length=hybrid.surface.mean_edge_length)
-        controller = Controller(hybrid, settings=Settings(stiffness=sized.stiffness, radius=sized.radius,
-                                                          element=args.element),
+        controller = Controller(hybrid, settings=Settings(method=args.method, stiffness=sized.stiffness,
+                                                          radius=sized.radius, element=args.element),
                                 scalpel_factory=partial(Scalpel, depth=sized.depth))
         app = ViewerApp(controller, title=f"{name}: {scenario}", headless=True)
         frames(app, 3)

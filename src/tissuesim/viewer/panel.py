@@ -161,7 +161,7 @@ class PanelWidgets:
             psim.TextUnformatted(f"probe force {np.linalg.norm(tool.force):.3f} N on {tool.probe.contacts.size} "
                                  "vertices")
         else:
-            psim.TextUnformatted("press on the surface; Shift + release keeps it pressing")
+            psim.TextWrapped("press on the surface; Shift + release keeps it pressing")
 
     def _finite_strain(self, psim, s) -> None:
         """The material selector where the method has finite strain; a line saying so where it has not."""
@@ -169,8 +169,10 @@ class PanelWidgets:
             changed, index = psim.Combo("strain", MATERIALS.index(s.material), list(MATERIALS))
             if changed:
                 self._configure(material=MATERIALS[index])
-        elif s.material != "linear":
-            psim.TextUnformatted(f"{s.method}: no finite strain, its own model")
+        else:                         # one row either way: greyed, and saying why
+            psim.BeginDisabled(True)
+            psim.Combo(f"strain ({s.method}: its own model)", 0, ["linear"])
+            psim.EndDisabled()
 
     def _material(self, psim, s) -> None:
         enter = psim.ImGuiInputTextFlags_EnterReturnsTrue
@@ -190,34 +192,48 @@ class PanelWidgets:
         changed, radius_mm = psim.SliderFloat("contact radius [mm]", radius_mm, 0.0, 20.0, "%.1f")
         if changed:
             self._configure(radius=radius_mm * 1e-3 if radius_mm > 0 else None)
-        if "iterations" in solver_options(s.method) and iterations_act(self.controller.solver):
-            current = s.iterations or solver_options(s.method)["iterations"]
-            _, self._pending["iterations"] = psim.SliderInt("iterations", self._pending.get("iterations", current),
-                                                            1, 50)
+        # each row below is drawn for every method, greyed where it does not apply, so that switching the method
+        # moves no row and a click lands on the widget it was aimed at
+        iterating = "iterations" in solver_options(s.method) and iterations_act(self.controller.solver)
+        current = s.iterations or solver_options(s.method).get("iterations") or 1
+        psim.BeginDisabled(not iterating)
+        _, pending = psim.SliderInt("iterations" if iterating else "iterations (unused)",
+                                    self._pending.get("iterations", current), 1, 50)
+        psim.EndDisabled()
+        if iterating:
+            self._pending["iterations"] = pending
             self._apply_on_release(psim, "iterations")
         self._finite_strain(psim, s)
-        if self.controller.element_available():
-            changed, on = psim.Checkbox("quadratic M_V (as accurate as the fine FEM)", s.element == "quadratic")
-            if changed:
-                self._configure(element="quadratic" if on else "linear", near_field=None)
-        if "near_field" in solver_options(s.method):
-            available = self.controller.near_field_available()
-            psim.BeginDisabled(not available)       # one row either way: a cut greys it out
+        hybrid = self.controller.element_available()
+        psim.BeginDisabled(not hybrid)
+        changed, on = psim.Checkbox("quadratic M_V (as accurate as the fine FEM)" if hybrid else
+                                    "quadratic M_V (the hybrid's)", hybrid and s.element == "quadratic")
+        psim.EndDisabled()
+        if changed and hybrid:
+            self._configure(element="quadratic" if on else "linear", near_field=None)
+        available = self.controller.near_field_available()
+        psim.BeginDisabled(not available)
+        if "near_field" not in solver_options(s.method):
+            why = "the hybrid's"
+        else:
             why = "the quadratic M_V replaces it" if s.element == "quadratic" else "cut, or no fine volume"
-            label = (f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)" if available else
-                     f"near field: off ({why})")
-            changed, on = psim.Checkbox(label, available and s.near_field is not None)
-            psim.EndDisabled()
-            if changed and available:
-                self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
+        label = (f"near field ({1e3 * NEAR_FIELD_WINDOW:g} mm, quadratic fine volume)" if available else
+                 f"near field: off ({why})")
+        changed, on = psim.Checkbox(label, available and s.near_field is not None)
+        psim.EndDisabled()
+        if changed and available:
+            self._configure(near_field=NEAR_FIELD_WINDOW if on else None)
         psim.PushItemWidth(PAIR_ITEM_WIDTH)
         changed, dt_ms = psim.InputFloat("dt [ms]", 1e3 * s.dt, 0.0, 0.0, "%.2f", enter)
         if changed:
             self._configure(dt=dt_ms * 1e-3)
-        if "prestrain" in solver_options(s.method):
-            psim.SameLine()
-            _, self._pending["prestrain"] = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain),
-                                                             0.0, 0.3, "%.3f")
+        psim.SameLine()
+        prestressed = "prestrain" in solver_options(s.method)
+        psim.BeginDisabled(not prestressed)
+        _, pending = psim.SliderFloat("prestrain", self._pending.get("prestrain", s.prestrain), 0.0, 0.3, "%.3f")
+        psim.EndDisabled()
+        if prestressed:
+            self._pending["prestrain"] = pending
             self._apply_on_release(psim, "prestrain")
         psim.PopItemWidth()
 
@@ -226,8 +242,11 @@ class PanelWidgets:
         step_ms = 1e3 * st.step_seconds if st else 0.0
         fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
         psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
-        psim.TextUnformatted(f"t = {self.sim_time:.2f} s   force {c.force_newtons:.3f} N" +
-                             (f" on node {c.pin.node}" if c.pin.grabbed else ""))
+        if c.probe.pressing:          # the tool that acts: the probe's push, else the pin-head's pull
+            acting = f"probe {np.linalg.norm(c.probe.force):.3f} N"
+        else:
+            acting = f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else "")
+        psim.TextUnformatted(f"t = {self.sim_time:.2f} s   {acting}")
         pace = ""                                    # two status rows, blank when all is well
         if c.paused:
             pace = "paused (space)"
