@@ -17,8 +17,9 @@ README = ROOT / "README.md"
 GETTING_STARTED = ROOT / "docs" / "getting-started.md"
 PUBLIC_API = ROOT / "docs" / "api" / "public.md"
 EXAMPLE_HEADING = "## The library in 20 lines"
-# The README's sections a newcomer reads first, in this order (what it is comes before the first of them).
-README_ORDER = ["## Install", "## See it", EXAMPLE_HEADING, "## Reproducing the paper", "## Results"]
+# The README's sections a newcomer reads first, in this order (what it is comes before the first of them): a
+# simulator builder's job first, the paper's reproduction after.
+README_ORDER = ["## Install", "## See it", EXAMPLE_HEADING, "## Accuracy and cost", "## Reproducing the paper"]
 
 
 def test_the_site_builds_strict_without_a_warning(tmp_path):
