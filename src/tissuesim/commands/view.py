@@ -69,6 +69,15 @@ def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool 
     return load_model(spec, config, progress=progress), model_name(spec)
 
 
+def prepare_kernels() -> None:
+    """Before the window opens, compile every kernel a session can use (:func:`tissuesim.warmup.ensure_warm`: once
+    per install), so that no grab, switch, press or cut waits on compilation later."""
+    from ..warmup import ensure_warm
+
+    if ensure_warm(progress=True):
+        print("the kernels are ready: no interaction will wait on compilation", file=sys.stderr)
+
+
 def is_bundle(spec: str) -> bool:
     """Whether ``spec`` names a saved hybrid bundle (loaded as it is) rather than a model to build. A built-in name
     wins over a file of that name, as in every command (``./cube`` names the file)."""
@@ -119,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     check_fix(args.fix)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
+    prepare_kernels()
     announce_mesh(args.model)
     hybrid, name = load_hybrid(args.model, resolution=args.resolution, scale=args.scale, repair=args.repair)
     fixed, held = fixed_option(args.fix, hybrid.surface.vertices)
@@ -164,6 +174,7 @@ def _run_scene(args: argparse.Namespace) -> int:
     material_options(loaded)
     record = None if args.record is None else check_target(args.record)
     polyscope(headless=False)  # no display, no driver: say so before minutes of mesh building
+    prepare_kernels()
     hybrid, name = scene_hybrid(loaded, progress=True)
     options = solver_options(loaded, hybrid)
     settings = _scene_settings(loaded, options)
