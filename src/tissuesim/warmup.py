@@ -4,8 +4,8 @@ model, so that no grab, material switch, probe press or cut waits on Numba later
 Numba compiles a kernel the first time it is called with a new type signature and caches it on disk; a fresh
 install therefore stalls the first grab under a finite-strain material, the first probe press and the first cut for
 seconds to minutes each. :func:`warm_up` plays a short session on a 200-vertex cube instead: every method with
-every material it has (and the hybrid's quadratic M_V), a pin-head grab and drag, a probe press, and a scalpel
-stroke with the step after it, gravity and a ligament on, with a progress bar. Where the kernels are cached already
+every material it has (and the hybrid's quadratic M_V), a pin-head grab and drag, a probe press, and two scalpel
+strokes with the step after each, gravity and a ligament on, with a progress bar. Where the kernels are cached already
 it only loads them: about 5 s on 2 cores, which :func:`ensure_warm` (what the simulator calls before its window
 opens) spares: it plays the session only where no stamp says it was played for these sources and this Numba.
 """
@@ -79,11 +79,14 @@ def _play(hybrid, method: str, options: dict) -> None:
     solver.reset()
     if method != "fem":                       # the fine FEM reference does not cut
         scalpel = Scalpel(solver)
-        start = np.array([-0.25 * size, 0.0, top])
-        scalpel.press(start)
-        scalpel.move(start + [0.5 * size, 0.0, 0.0])
-        scalpel.release()
-        solver.step()
+        # a stroke across triangles, askew to the mesh's rows, and one that starts and ends inside one (each
+        # topology case has kernels of its own)
+        for start, travel in (((-0.23, 0.07), (0.5, 0.13)), ((0.11, 0.23), (0.03, 0.0))):
+            point = np.array([start[0] * size, start[1] * size, top])
+            scalpel.press(point)
+            scalpel.move(point + [travel[0] * size, travel[1] * size, 0.0])
+            scalpel.release()
+            solver.step()
 
 
 def ensure_warm(*, progress: bool = True) -> bool:
