@@ -27,7 +27,7 @@ _blocks = []        # the announce_compilation blocks open now: the library's no
 
 class CompileNotice:
     """Counts Numba's compilations (``numba:compile`` events; nested ones, a kernel compiling the functions it
-    calls, count once); says on ``stream`` when the first starts, how far it has got every ``progress`` seconds
+    calls, count once); says on ``stream`` (None: stderr as it is when it speaks) when the first starts, how far it has got every ``progress`` seconds
     (None: never) and (:meth:`finish`) how many were compiled in how long."""
 
     def __init__(self, name: str, stream, *, progress: float | None = None):
@@ -57,12 +57,17 @@ class CompileNotice:
                      "cache")
 
     def say(self, text: str) -> None:
-        """``text`` after the notice's name on its stream, above any progress bar drawn there (tqdm's write clears
-        and redraws it)."""
+        """``text`` after the notice's name on its stream (None: stderr as it is now), above any progress bar drawn
+        there (tqdm's write clears and redraws it). A stream closed by now (at exit, under a test runner's capture)
+        takes nothing: a notice never fails its caller."""
         from tqdm import tqdm
 
-        tqdm.write(f"{self.name}: {text}", file=self.stream)
-        self.stream.flush()
+        stream = sys.stderr if self.stream is None else self.stream
+        try:
+            tqdm.write(f"{self.name}: {text}", file=stream)
+            stream.flush()
+        except (ValueError, OSError):
+            pass
         self.said = time.perf_counter()
 
 
@@ -103,7 +108,7 @@ def _library_notice() -> None:
     block, closing at exit."""
     from numba.core import event
 
-    notice = CompileNotice("tissuesim", sys.stderr, progress=PROGRESS_SECONDS)
+    notice = CompileNotice("tissuesim", None, progress=PROGRESS_SECONDS)
 
     def start(ev):
         if not _blocks and _ours(ev):
