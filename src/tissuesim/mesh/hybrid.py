@@ -32,6 +32,10 @@ from .maps import closest_on_surface, embed_in_volume, own_corner
 from .table1 import table1_row
 from .tetmesh import TetMesh
 
+# the progress bar's last steps, the same for every construction
+MAP_STEP = "map M_S onto M'_S and M_V"
+FINE_STEP = "tetrahedralize M_S -> fine volume"
+
 
 @dataclass(frozen=True, eq=False)
 class HybridMesh:
@@ -109,13 +113,10 @@ class HybridMesh:
         _check_is_surface(surface)
         _check_target_vertices(target_vertices)
         from .simplify import simplify
-        from .tetrahedralize import COARSE_SWITCHES, FINE_SWITCHES, tetrahedralize
+        from .tetrahedralize import COARSE_SWITCHES, tetrahedralize
         from .validate import validate_surface
 
-        steps = ["validate M_S", "simplify M_S -> M'_S", "tetrahedralize M'_S -> M_V", "map M_S onto M'_S and M_V"]
-        if fine_volume:
-            steps.append("tetrahedralize M_S -> fine volume")
-        timings = {}
+        steps, timings = _plan(["simplify M_S -> M'_S", "tetrahedralize M'_S -> M_V"], fine_volume), {}
         # A bar left open on an error would run into the error line on stderr: close it on every exit.
         with _progress(len(steps), progress) as bar:
             with _step(bar, steps[0], timings, "validate_s"):
@@ -125,19 +126,8 @@ class HybridMesh:
                 coarse, control = simplified.surface, simplified.kept
             with _step(bar, steps[2], timings, "coarse_tetgen_s"):
                 volume, control_volume = tetrahedralize(coarse, switches=COARSE_SWITCHES)
-            with _step(bar, steps[3], timings, "maps_s"):
-                maps = _map_surface(surface, coarse, control, volume)
-            fine, fine_nodes = None, None
-            if fine_volume:
-                with _step(bar, steps[4], timings, "fine_tetgen_s"):
-                    fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
-        timings["total_s"] = sum(timings.values())
-        info = {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES,
-                "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings,
-                SURFACE_EDGE_KEY: surface.mean_edge_length, SURFACE_VERTICES_KEY: surface.vertex_count}
-        return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
-                   control_volume=control_volume.astype(np.int32), **maps, fine_volume=fine,
-                   fine_surface_nodes=fine_nodes, info=info)
+            return cls._completed(surface, coarse, control, volume, control_volume, fine_volume, bar, timings,
+                                  {"simplify": simplified.report.as_dict(), "coarse_switches": COARSE_SWITCHES})
 
     @classmethod
     def from_volume(cls, surface: SurfaceMesh, volume: TetMesh, *, fine_volume: bool = False,
@@ -161,10 +151,7 @@ class HybridMesh:
         from .given_volume import coarse_from_volume
         from .validate import validate_surface
 
-        steps = ["validate M_S", "check M_V against M_S", "map M_S onto M'_S and M_V"]
-        if fine_volume:
-            steps.append("tetrahedralize M_S -> fine volume")
-        timings = {}
+        steps, timings = _plan(["check M_V against M_S"], fine_volume), {}
         with _progress(len(steps), progress) as bar:
             with _step(bar, steps[0], timings, "validate_s"):
                 validate_surface(surface)
@@ -174,20 +161,28 @@ class HybridMesh:
                     validate_surface(coarse)
                 except MeshError as error:
                     raise MeshError(f"the volume's boundary is no valid M'_S: {error}") from None
-            with _step(bar, steps[2], timings, "maps_s"):
-                maps = _map_surface(surface, coarse, control, volume)
-            fine, fine_nodes = None, None
-            if fine_volume:
-                from .tetrahedralize import FINE_SWITCHES, tetrahedralize
+            return cls._completed(surface, coarse, control, volume, control_volume, fine_volume, bar, timings,
+                                  {"simplify": None, "coarse_switches": None, "coarse_volume": "given"})
 
-                with _step(bar, steps[3], timings, "fine_tetgen_s"):
-                    fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
+    @classmethod
+    def _completed(cls, surface, coarse, control, volume, control_volume, fine_volume: bool, bar, timings: dict,
+                   info: dict) -> "HybridMesh":
+        """The steps every construction ends with, once M'_S and M_V are known: the maps, the fine volume if
+        asked for, the build report (``info`` with the timings and M_S's size)."""
+        from .tetrahedralize import FINE_SWITCHES, tetrahedralize
+
+        with _step(bar, MAP_STEP, timings, "maps_s"):
+            maps = _map_surface(surface, coarse, control, volume)
+        fine, fine_nodes = None, None
+        if fine_volume:
+            with _step(bar, FINE_STEP, timings, "fine_tetgen_s"):
+                fine, fine_nodes = tetrahedralize(surface, switches=FINE_SWITCHES)
         timings["total_s"] = sum(timings.values())
-        info = {"simplify": None, "coarse_switches": None, "coarse_volume": "given", "timings": timings,
-                "fine_switches": FINE_SWITCHES if fine_volume else None,
+        info = {**info, "fine_switches": FINE_SWITCHES if fine_volume else None, "timings": timings,
                 SURFACE_EDGE_KEY: surface.mean_edge_length, SURFACE_VERTICES_KEY: surface.vertex_count}
         return cls(surface=surface, coarse_surface=coarse, volume=volume, control=control,
-                   control_volume=control_volume, **maps, fine_volume=fine, fine_surface_nodes=fine_nodes, info=info)
+                   control_volume=np.asarray(control_volume, dtype=np.int32), **maps, fine_volume=fine,
+                   fine_surface_nodes=fine_nodes, info=info)
 
     # -- bundle ------------------------------------------------------------------------------------------------
 
@@ -216,6 +211,11 @@ class HybridMesh:
     def table1_row(self) -> dict:
         """Table 1's figures for this mesh: see :func:`.table1.table1_row`."""
         return table1_row(self)
+
+
+def _plan(middle: list[str], fine_volume: bool) -> list[str]:
+    """The progress bar's steps of a construction: validate M_S, ``middle``, the maps, the fine volume if asked."""
+    return ["validate M_S", *middle, MAP_STEP, *([FINE_STEP] if fine_volume else [])]
 
 
 def _check_target_vertices(target_vertices) -> None:
