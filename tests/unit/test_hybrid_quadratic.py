@@ -288,3 +288,13 @@ def test_vertices_a_cut_moves_get_their_new_embedding(cube):
     field, mesh = solver.quadratic_field, solver.hybrid
     assert np.array_equal(field.nodes, field.fem.elements[np.asarray(mesh.embedding_tet)])
     assert np.allclose(field.values, shape_values(mesh.embedding_barycentric), atol=1e-15, rtol=0)
+
+
+def test_contacts_whose_responses_would_not_fit_get_the_probes_model(cube, monkeypatch):
+    import tissuesim.solvers.quadratic_field as quadratic_field
+
+    solver = tissuesim.make_solver("hybrid", cube, element="quadratic")
+    nodes, normals = np.arange(6), np.tile([0.0, 0.0, 1.0], (6, 1))
+    assert solver.contact_compliance(nodes, normals) is not None
+    monkeypatch.setattr(quadratic_field, "KEPT_BYTES", 5 * 9 * 8 * solver.quadratic_field.node_count)
+    assert solver.contact_compliance(nodes, normals) is None

@@ -335,9 +335,10 @@ class HybridSolver(SurfaceLayerSolver):
         """``(k, k)`` [m/N] the normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)`` (what the
         probe's Newton step uses): M_V's own (:meth:`QuadraticField.compliance
         <tissuesim.solvers.quadratic_field.QuadraticField.compliance>`) with ``element="quadratic"``, the linear
-        material and every one of ``nodes`` on the field; None otherwise (a vertex freed by a cut is the layer's:
-        the probe then models it)."""
-        if self.quadratic_field is None or self.finite is not None:
+        material and every one of ``nodes`` on the field, where their responses fit in memory; None otherwise (a
+        vertex freed by a cut is the layer's: the probe then models it)."""
+        if self.quadratic_field is None or self.finite is not None or not self.quadratic_field.compliance_fits(
+                len(nodes)):
             return None
         on_field = np.zeros(self.node_count, dtype=bool)
         on_field[self.prescribed] = True

@@ -64,6 +64,7 @@ class QuadraticField:
         finite: its :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` (finite strain) or None.
         nodes: ``(n, 10) int64`` the ten M_V nodes each M_S vertex moves with; ``values`` ``(n, 10) float64`` [-]
             their shape functions there.
+        constant_load: ``(N, 3) float64`` [N] the loads that never change, or None.
     """
 
     def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
@@ -172,6 +173,11 @@ class QuadraticField:
         compliance = np.einsum("jd,ijdb,ib->ji", normals, motion, normals)
         compliance[np.diag_indices(nodes.size)] += COMPLIANCE_FLOOR * np.abs(np.diagonal(compliance)).max()
         return compliance
+
+    def compliance_fits(self, count: int) -> bool:
+        """Whether the responses of ``count`` vertices (what :meth:`compliance` keeps) fit :data:`KEPT_BYTES`: on a
+        large M_V a wide probe's contacts would take gigabytes, and the probe then models the compliance."""
+        return count * 9 * 8 * self.node_count <= KEPT_BYTES
 
     def point_responses(self, nodes: np.ndarray) -> np.ndarray:
         """``(k, N, 3, 3) float64`` [m/N]: M_V's displacement (node, axis) under a unit force along each axis on
