@@ -18,7 +18,9 @@ for looking at what users see:
 * ``wound``: a straight stroke across the top, opened by a pin-head left holding beside it: its walls go down to the
   blade's depth (``viewer_wound.png``);
 * ``support``: the support brush paints a patch on one end (blue); a pull on the front then swings the model about
-  it (``viewer_support.png``).
+  it (``viewer_support.png``);
+* ``scene``: ``tissuesim view examples/liver_retraction.toml`` playing its script: the grasper pulls the right
+  edge while the scalpel cuts across the top (``viewer_scene.png``).
 
 Draws in polyscope's offscreen EGL context (Mesa's software renderer where there is no GPU). Asserts nothing.
 """
@@ -188,6 +190,32 @@ def replay(app, output: Path) -> Path:
     return image
 
 
+def scene(output: Path) -> Path:
+    """``tissuesim view examples/liver_retraction.toml`` as it plays: the scripted grasper pulls the right edge,
+    the scalpel has cut across the top (0.3 s of the script); returns the image's path."""
+    from tissuesim.commands.view import SETTINGS_FIELDS, scene_hybrid
+    from tissuesim.scene import read_scene, solver_options
+    from tissuesim.viewer.playback import ScenePlayback
+
+    loaded = read_scene(Path(__file__).resolve().parents[1] / "examples" / "liver_retraction.toml")
+    hybrid, _ = scene_hybrid(loaded, progress=False)
+    options = solver_options(loaded, hybrid)
+    settings = Settings(method=loaded.scene.method.name, dt=loaded.scene.run.dt,
+                        **{key: options[key] for key in SETTINGS_FIELDS if key in options and key != "dt"})
+    controller = Controller(hybrid, settings=settings, playback=ScenePlayback(loaded),
+                            solver_options={key: value for key, value in options.items()
+                                            if key not in SETTINGS_FIELDS})
+    app = ViewerApp(controller, title=loaded.scene.title, headless=True)
+    while controller.playback.time < 0.3:
+        controller.advance(controller.settings.dt)
+        app.tick()
+    frames(app, 3)
+    image = output / "viewer_scene.png"
+    app.ps.screenshot(str(image), transparent_bg=False, include_UI=True)
+    app.close()
+    return image
+
+
 def creases(output: Path) -> Path:
     """The cube at rest, shaded smooth over every vertex and then split along its creases, side by side."""
     from PIL import Image
@@ -221,7 +249,8 @@ def creases(output: Path) -> Path:
 SCENARIOS = {"window": (window, "viewer_window.png"), "colours": (colours, "viewer_colours.png"),
              "probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
              "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png"),
-             "replay": (None, "viewer_replay.png"), "creases": (None, "viewer_creases.png")}
+             "replay": (None, "viewer_replay.png"), "creases": (None, "viewer_creases.png"),
+             "scene": (None, "viewer_scene.png")}
 
 
 def main() -> None:
@@ -248,9 +277,9 @@ def main() -> None:
         if scenario == "replay":
             print(f"replay: {replay(app, args.output)}")
             continue
-        if scenario == "creases":
+        if scenario in ("creases", "scene"):
             app.close()
-            print(f"creases: {creases(args.output)}")
+            print(f"{scenario}: {(creases if scenario == 'creases' else scene)(args.output)}")
             continue
         script(app)
         app.ps.screenshot(str(args.output / filename), transparent_bg=False, include_UI=True)

@@ -2,7 +2,8 @@
 
 MODEL is a built-in model (default: liver), a surface file, a saved hybrid bundle or a scene file (``.toml``, see
 ``docs/scenes.md``): a scene sets the model, material, method, supports and gravity, and its first pin-head's
-stiffness and radius, its first probe's radius and its first scalpel's depth. ``--fix REGION`` holds another region
+stiffness and radius, its first probe's radius and its first scalpel's depth, and its scripted tools play in the
+window until the user's own press takes over (:mod:`tissuesim.viewer.playback`). ``--fix REGION`` holds another region
 than the bottom tenth (:mod:`.fixing`). ``--record FILE.pvd`` records the session for ParaView (a frame whenever
 something moved); ``--replay FILE.pvd`` plays a recording back instead of simulating.
 """
@@ -179,7 +180,10 @@ def _run_scene(args: argparse.Namespace) -> int:
     options = solver_options(loaded, hybrid)
     settings = _scene_settings(loaded, options)
     extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
-    controller = Controller(hybrid, settings=settings, solver_options=extra, scalpel_factory=_scene_scalpel(loaded))
+    from ..viewer.playback import ScenePlayback
+
+    controller = Controller(hybrid, settings=settings, solver_options=extra, scalpel_factory=_scene_scalpel(loaded),
+                            playback=ScenePlayback(loaded))
     _scene_probe(loaded, controller)
     title = loaded.scene.title or f"{name}: {hybrid.surface.vertex_count} M_S nodes"
     app = ViewerApp(controller, title=title, record=record)

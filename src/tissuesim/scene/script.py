@@ -85,6 +85,11 @@ class ScriptedTool:
             self.tool.settle(position, None if self._shaft is None else position + self._shaft)
 
     @property
+    def position(self) -> np.ndarray | None:
+        """``(3,) float64`` where the tool was last put [m], or None before its first keyframe."""
+        return self._position
+
+    @property
     def force(self) -> np.ndarray | None:
         """``(3,) float64`` the force [N] the tool puts on the tissue now, or None (a scalpel, or not pressed)."""
         if not self.pressed or self.kind == "scalpel":

@@ -187,6 +187,7 @@ class ViewerApp(PanelWidgets):
                     lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
                                                         radius=0.002))
         self._held_layers(x)
+        self._scripted_layers(x)
         probe = c.probe.probe
         self._layer("probe", probe is not None, None if probe is None else probe.center[None],
                     lambda p: ps.register_point_cloud("probe", p, color=(0.7, 0.72, 0.78), material="wax"))
@@ -220,6 +221,29 @@ class ViewerApp(PanelWidgets):
         self._layer("held springs", True, ends,
                     lambda p: ps.register_curve_network("held springs", p, pairs, color=(0.95, 0.55, 0.1),
                                                         radius=0.002))
+
+    def _scripted_layers(self, x) -> None:
+        """A scene's scripted pin-heads (each cursor and its spring) and probes, where they are now."""
+        ps, playback = self.ps, self.controller.playback
+        nodes, cursors = (np.zeros(0, dtype=np.int64), np.zeros((0, 3))) if playback is None else playback.pin_heads()
+        probes = [] if playback is None else playback.probes()
+        for name, count in (("scene pin-heads", len(nodes)), ("scene springs", len(nodes)), ("scene probes",
+                                                                                             len(probes))):
+            layer = self._shown.get(name)
+            if layer is not None and (layer.n_nodes() if hasattr(layer, "n_nodes") else layer.n_points()) != (
+                    2 * count if name == "scene springs" else count):
+                self._shown.pop(name).remove()      # another number of tools acts: register anew
+        self._layer("scene pin-heads", len(nodes) > 0, cursors,
+                    lambda p: ps.register_point_cloud("scene pin-heads", p, color=(0.85, 0.1, 0.1), radius=0.01))
+        pairs = np.stack([np.arange(len(nodes)), len(nodes) + np.arange(len(nodes))], axis=1)
+        self._layer("scene springs", len(nodes) > 0, np.concatenate([x[nodes], cursors]),
+                    lambda p: ps.register_curve_network("scene springs", p, pairs, color=(0.85, 0.1, 0.1),
+                                                        radius=0.002))
+        centres = np.array([probe.center for probe in probes]).reshape(-1, 3)
+        self._layer("scene probes", len(probes) > 0, centres,
+                    lambda p: ps.register_point_cloud("scene probes", p, color=(0.7, 0.72, 0.78), material="wax"))
+        if probes:
+            self._shown["scene probes"].set_radius(probes[0].radius, relative=False)
 
     def _layer(self, name: str, shown: bool, points, register) -> None:
         layer = self._shown.get(name)

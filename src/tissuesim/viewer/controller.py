@@ -92,6 +92,8 @@ class Controller(SolverBuilding):
         scalpel_factory: ``solver -> scalpel`` with press / move / release (and, optionally, prepare: called when
             the scalpel is picked up); default: ``tissuesim.Scalpel`` where
             installed, else scalpel mode is unavailable.
+        playback: a scene's scripted tools (:class:`~.playback.ScenePlayback`), played before each step until the
+            user's own press takes over; None (default) for none.
         clock: seconds, monotonic (injectable for tests).
 
     Attributes:
@@ -103,8 +105,9 @@ class Controller(SolverBuilding):
     """
 
     def __init__(self, hybrid, *, settings: Settings = Settings(), solver_options=None, scalpel_factory=None,
-                 clock=time.perf_counter):
+                 clock=time.perf_counter, playback=None):
         self.hybrid = hybrid
+        self.playback = playback
         self.solver_options = extra_options(solver_options)
         self.held = HeldPins()
         self.brush = SupportBrush(hybrid.surface)
@@ -144,6 +147,7 @@ class Controller(SolverBuilding):
         self.notice = ""
         if hit is None:
             return
+        took_over = self.playback is not None and self.playback.take_over()
         try:
             hit = checked_point(hit).copy()
             if self.mode == "pin":
@@ -160,6 +164,8 @@ class Controller(SolverBuilding):
                 self._cutting, self._blade = True, tip
         except TissuesimError as error:
             self.notice = str(error)
+        if took_over and not self.notice:
+            self.notice = "you took over from the scene's script (R plays it again from the start)"
 
     def pointer_move(self, hit, ray_origin, ray_direction) -> None:
         """Cursor moved: drag the held pin-head in the camera plane, or move the blade.
@@ -259,7 +265,9 @@ class Controller(SolverBuilding):
         self.probe.release()
 
     def reset(self) -> None:
-        """Back to the uncut mesh at rest, without load."""
+        """Back to the uncut mesh at rest, without load; a scene's script plays again from its start."""
+        if self.playback is not None:
+            self.playback.restart()
         self._build(self.hybrid)
 
     def advance(self, elapsed: float) -> FrameStats:
@@ -277,8 +285,13 @@ class Controller(SolverBuilding):
             start = self.clock()
             try:
                 self.probe.before_step()
+                if self.playback is not None:
+                    self.playback.before_step(self.solver, dt)
                 self.solver.step(dt)
-            except SolverError as error:  # a blow-up, or a mass-spring surface turned inside out: say so, restart
+            except TissuesimError as error:  # a blow-up, a mass-spring surface turned inside out, a scripted tool
+                # refused: say so, restart
+                if self.playback is not None:
+                    self.playback.take_over()
                 self.notice = str(error)
                 self.pin.release()
                 self.held.forget()

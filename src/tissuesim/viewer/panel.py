@@ -247,6 +247,8 @@ class PanelWidgets:
         else:
             acting = f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else "")
         psim.TextUnformatted(f"t = {self.sim_time:.2f} s   {acting}")
+        if c.playback is not None:             # a scene's script: one row for the whole session
+            psim.TextWrapped(c.playback.status())
         pace = ""                                    # two status rows, blank when all is well
         if c.paused:
             pace = "paused (space)"

@@ -1,0 +1,82 @@
+"""A scene's scripted tools played in the simulator (``tissuesim view scene.toml``), until the user takes over.
+
+The scene's pin-heads, probes and scalpel follow their keyframed paths (:mod:`tissuesim.scene.script`) in
+simulated time, one update before each step, exactly as ``tissuesim run`` plays them. The window's space key pauses
+the simulation, and with it the script; :meth:`ScenePlayback.restart` plays it again from the start on the body at
+rest. A press of the user's own tool on the tissue takes over: the scripted tools let go and the scene stops playing
+(the body stays as the script left it). A change of method or material builds a new solver: the script's tools are
+made anew on it and go on from the time reached.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ScenePlayback:
+    """The script of a scene file in the simulator (see the module docstring).
+
+    Args:
+        loaded: the :class:`~tissuesim.scene.load.SceneFile`.
+
+    Attributes:
+        time: the script's simulated time [s]. end: its last keyframe [s]. playing: whether its tools act.
+        tools: the :class:`~tissuesim.scene.script.ScriptedTool` list on the solver they were made for.
+    """
+
+    def __init__(self, loaded):
+        self.loaded = loaded
+        keys = [key.time for tool in loaded.scene.tools for key in tool.path]
+        self.end = float(max(keys)) if keys else 0.0
+        self.time = 0.0
+        self.playing = bool(keys)
+        self.tools = []
+        self._solver = None
+
+    def before_step(self, solver, dt: float) -> None:
+        """Put the tools where the script has them now on ``solver`` (made anew on a new solver), then count
+        ``dt`` [s] of script time."""
+        if not self.playing:
+            return
+        if solver is not self._solver:
+            from ..scene.script import make_tools
+
+            self.tools, self._solver = make_tools(self.loaded, solver), solver
+        for tool in self.tools:
+            tool.update(self.time)
+        self.time += dt
+
+    def take_over(self) -> bool:
+        """The user's tool takes over: the scripted tools let go, the script stops; whether it was playing."""
+        was = self.playing
+        for tool in self.tools:
+            if tool.pressed:
+                tool.tool.release()
+        self.tools, self._solver, self.playing = [], None, False
+        return was
+
+    def restart(self) -> None:
+        """Play the script again from its start (the caller resets the body to rest)."""
+        self.take_over()
+        self.time, self.playing = 0.0, self.end > 0.0 or bool(self.loaded.scene.tools)
+
+    def pin_heads(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(nodes (h,) int64, cursors (h, 3) float64 [m])`` of the scripted pin-heads pulling now, to draw."""
+        pulling = [tool for tool in self.tools if tool.kind == "pin-head" and tool.pressed and tool.tool.grabbed]
+        return (np.array([tool.tool.node for tool in pulling], dtype=np.int64),
+                np.array([tool.position for tool in pulling]).reshape(-1, 3))
+
+    def probes(self) -> list:
+        """The scripted probes pressing now (each a :class:`~tissuesim.probe.Probe`), to draw."""
+        return [tool.tool for tool in self.tools if tool.kind == "probe" and tool.pressed
+                and tool.tool.center is not None]
+
+    def status(self) -> str:
+        """A line for the panel."""
+        if not self.playing:
+            return "scene: stopped (you took over); R plays it again"
+        state = (f"playing, t = {self.time:.2f} of {self.end:.2f} s" if self.time <= self.end else
+                 f"played to its end ({self.end:.2f} s)")
+        forces = "".join(f", {tool.name} {np.linalg.norm(tool.force):.2f} N" for tool in self.tools
+                         if tool.force is not None)
+        return f"scene: {state}{forces}; a press on the tissue takes over"

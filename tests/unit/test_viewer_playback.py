@@ -1,0 +1,58 @@
+"""A scene's scripted tools play in the simulator (tissuesim view scene.toml) until the user takes over."""
+
+from pathlib import Path
+
+import numpy as np
+
+from tissuesim.commands.view import SETTINGS_FIELDS, scene_hybrid
+from tissuesim.scene import read_scene, solver_options
+from tissuesim.viewer.controller import Controller
+from tissuesim.viewer.playback import ScenePlayback
+from tissuesim.viewer.settings import Settings
+
+EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
+
+
+def _controller(name: str) -> Controller:
+    loaded = read_scene(EXAMPLES / name)
+    hybrid, _ = scene_hybrid(loaded, progress=False)
+    options = solver_options(loaded, hybrid)
+    extra = {key: value for key, value in options.items() if key not in SETTINGS_FIELDS}
+    settings = Settings(method=loaded.scene.method.name, dt=loaded.scene.run.dt,
+                        **{key: options[key] for key in SETTINGS_FIELDS if key in options and key != "dt"})
+    return Controller(hybrid, settings=settings, solver_options=extra, playback=ScenePlayback(loaded))
+
+
+def test_the_scripted_probe_presses_as_the_script_says_and_a_press_takes_over():
+    c = _controller("probe_block.toml")
+    assert c.playback.playing and c.playback.end == 0.3
+    for _ in range(20):
+        c.advance(c.settings.dt)
+    assert c.playback.time > 0.15 and len(c.playback.probes()) == 1
+    top = c.solver.rest_positions[:, 2].max()
+    pressed = top - c.solver.positions[:, 2].min()
+    assert pressed > 0.001                                   # the block is pressed in
+    assert "playing" in c.playback.status()
+    # the user's own press on the tissue: the script lets go and stops
+    hit = c.solver.positions[np.argmax(c.solver.positions[:, 0])]
+    c.pointer_down(hit, hit + [0.1, 0.0, 0.0], [-1.0, 0.0, 0.0])
+    assert not c.playback.playing and c.playback.probes() == [] and "took over" in c.notice
+    assert len(c.solver.loads) == 0                          # the probe's loads went with it (a grab loads none)
+    c.pointer_up()
+    c.reset()                                                # R: at rest, and the script plays again
+    assert c.playback.playing and c.playback.time == 0.0
+
+
+def test_the_scripted_scalpel_cuts_and_a_new_solver_keeps_playing():
+    c = _controller("liver_retraction.toml")
+    start = c.solver.node_count
+    for _ in range(12):
+        c.advance(c.settings.dt)
+    c.configure(material="neo-hookean")                      # a new solver: the script's tools are made anew on it
+    for _ in range(int(np.ceil(c.playback.end / c.settings.dt)) + 2):
+        c.advance(c.settings.dt)
+    assert c.solver.node_count > start                       # the scalpel cut
+    nodes, cursors = c.playback.pin_heads()
+    assert len(nodes) == 1 and cursors.shape == (1, 3)       # the grasper still pulls
+    status = c.playback.status()
+    assert "played to its end" in status and "grasper " in status and " 0.00 N" not in status
