@@ -9,7 +9,7 @@ for looking at what users see:
 * ``colours``: the same with the displacement colours switched on, their legend at the top left
   (``viewer_colours.png``);
 * ``replay``: a recording of the ``wound`` session played back (``tissuesim view --replay``), its cut's edges in
-  yellow and the colours on (``viewer_replay.png``);
+  yellow, the wound's walls, the pin-head left holding and the colours on (``viewer_replay.png``);
 * ``creases``: the cube at rest, smooth-shaded as polyscope does it (left: its edges drawn as a ragged band) and
   split along its creases as the simulator draws it (right) (``viewer_creases.png``);
 * ``two-tools``: a pin-head pulls a fold up and is let go with the hold modifier, so it keeps holding; then the
@@ -171,9 +171,9 @@ def replay(app, output: Path) -> Path:
 
     recording = output / "viewer_replay_session.pvd"
     with Recorder(recording) as recorder:
-        recorder.add(solver_frame(app.controller.solver, 0.0))
+        recorder.add(solver_frame(app.controller.solver, 0.0, tools=app.recorded_tools()))
         wound(app)
-        recorder.add(solver_frame(app.controller.solver, app.sim_time))
+        recorder.add(solver_frame(app.controller.solver, app.sim_time, tools=app.recorded_tools()))
     app.close()
     played = ReplayApp(read_recording(recording), title=recording.name, headless=True)
     played.show_colours = True

@@ -6,7 +6,10 @@ folder ``NAME_frames/`` beside it, each with its simulation time. Every VTU hold
 * points: the current positions ``(n, 3)`` [m]; cells: the triangles, then the *cut edges* as line cells;
 * point data ``displacement`` ``(n, 3)`` [m] (position − rest position) and ``force`` ``(n, 3)`` [N] (the external
   load, zero but at the loaded node);
-* cell data ``cut`` (1 on the cut-edge lines, 0 on triangles), so ParaView's Threshold shows the incision alone.
+* cell data ``cut`` (1 on the cut-edge lines, 0 on triangles), so ParaView's Threshold shows the incision alone;
+* beside it, where tools act, ``frame_N.tools.json``: each pin-head's held vertex and cursor, each probe's centre and
+  radius, the scalpel's depth (:class:`Tools`), so a replay draws them where they were (meshio's VTU writer keeps no
+  field data; ParaView ignores the file).
 
 The cut edges are the surface's *border* edges (edges of one triangle only): the input surface is closed, so every
 border edge was opened by an incision. The topology may change between frames (a cut adds vertices), which a
@@ -22,8 +25,9 @@ a killed session stays until a new recording of that name starts, which removes 
 
 from __future__ import annotations
 
+import json
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -44,6 +48,29 @@ MIN_EXTENT = 1e-9  # m: a frame whose points span less (all in one place) is ref
 # across, and a viewer cannot frame a single point (polyscope blocks in a modal dialog)
 
 
+#: A frame's tools file holds at most this many tools (a larger one is no recording of a session).
+MAX_TOOLS = 10000
+
+
+@dataclass(frozen=True)
+class Tools:
+    """The tools acting in a frame, for a replay to draw them where they were.
+
+    Attributes:
+        pin_heads: ``(k, 2, 3) float64`` [m] each pin-head's held vertex and its cursor (eq 24's spring).
+        probes: ``(p, 4) float64`` [m] each probe's centre and radius.
+        blade_depth: the scalpel's depth [m] (a wound's walls reach it), 0 without a scalpel.
+    """
+
+    pin_heads: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
+    probes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    blade_depth: float = 0.0
+
+    @property
+    def empty(self) -> bool:
+        return len(self.pin_heads) == 0 and len(self.probes) == 0 and self.blade_depth == 0.0
+
+
 @dataclass(frozen=True)
 class Frame:
     """One recorded frame.
@@ -51,6 +78,7 @@ class Frame:
     Attributes:
         time: simulation time [s]. positions: ``(n, 3) float64`` [m]. triangles: ``(m, 3) int32``.
         displacement: ``(n, 3) float64`` [m]. force: ``(n, 3) float64`` [N]. cut_edges: ``(k, 2) int32``.
+        tools: the :class:`Tools` acting (none by default).
     """
 
     time: float
@@ -59,6 +87,7 @@ class Frame:
     displacement: np.ndarray
     force: np.ndarray
     cut_edges: np.ndarray
+    tools: Tools = field(default_factory=Tools)
 
 
 def border_edges(triangles: np.ndarray) -> np.ndarray:
@@ -68,11 +97,19 @@ def border_edges(triangles: np.ndarray) -> np.ndarray:
     return edges[counts == 1].astype(np.int32)
 
 
-def solver_frame(solver, time: float) -> Frame:
-    """The :class:`Frame` of a solver's current state at simulation ``time`` [s]."""
+def solver_frame(solver, time: float, *, tools: Tools | None = None) -> Frame:
+    """The :class:`Frame` of a solver's current state at simulation ``time`` [s], with the ``tools`` acting."""
     triangles = solver.hybrid.surface.triangles
     return Frame(float(time), solver.positions.copy(), triangles, solver.displacements, solver.forces.copy(),
-                 border_edges(triangles))
+                 border_edges(triangles), Tools() if tools is None else tools)
+
+
+def tools_of(pin_heads=(), probes=(), blade_depth: float = 0.0) -> Tools:
+    """:class:`Tools` from ``pin_heads`` ``[(vertex position (3,), cursor (3,))]`` [m], ``probes``
+    ``[(centre (3,), radius)]`` [m] and ``blade_depth`` [m]."""
+    pins = np.array([np.concatenate([held, cursor]) for held, cursor in pin_heads], dtype=np.float64)
+    probes = np.array([[*centre, radius] for centre, radius in probes], dtype=np.float64)
+    return Tools(pins.reshape(-1, 2, 3), probes.reshape(-1, 4), float(blade_depth))
 
 
 class Recorder:
@@ -118,6 +155,10 @@ class Recorder:
                                                                "force": frame.force}, cell_data={"cut": cut})
         try:
             mesh.write(self._partial / name, binary=True)
+            if not frame.tools.empty:
+                (self._partial / _tools_name(name)).write_text(json.dumps(
+                    {"pin_heads": frame.tools.pin_heads.reshape(-1, 6).tolist(),
+                     "probes": frame.tools.probes.tolist(), "blade_depth": frame.tools.blade_depth}))
             if len(self._entries) == 0 or (len(self._entries) + 1) % FLUSH_EVERY == 0:
                 _write_index(self._partial / self.path.name, self._entries + [(frame.time, name)], "")
         except OSError as error:  # e.g. a full disk
@@ -280,7 +321,33 @@ def _read_frame(file: Path, time: float) -> Frame:
             raise RecordingError(f"frame file {str(file)!r}: {bad.size} {kind} cells name points outside 0.."
                                  f"{len(points) - 1} (first cells {first_indices(bad)})")
     return Frame(time, points, triangles.astype(np.int32), data["displacement"], data["force"],
-                 lines.reshape(-1, 2).astype(np.int32))
+                 lines.reshape(-1, 2).astype(np.int32), _read_tools(file.with_name(_tools_name(file.name))))
+
+
+def _tools_name(frame_name: str) -> str:
+    """The tools file of the VTU ``frame_name``."""
+    return frame_name[: -len(".vtu")] + ".tools.json"
+
+
+def _read_tools(file: Path) -> Tools:
+    """The frame's :class:`Tools` from its tools file (none where there is no file: a frame without tools, or a
+    recording older than tools), checked."""
+    if not file.is_file():
+        return Tools()
+    if file.stat().st_size > 64 * MAX_TOOLS:
+        raise RecordingError(f"tools file {str(file)!r} is {file.stat().st_size} bytes, more than a session's "
+                             "tools take; it was not written by tissuesim")
+    try:
+        data = json.loads(file.read_text())
+        pins = np.array(data.get("pin_heads", []), dtype=np.float64).reshape(-1, 6)
+        probes = np.array(data.get("probes", []), dtype=np.float64).reshape(-1, 4)
+        depth = float(data.get("blade_depth", 0.0))
+    except (ValueError, TypeError, AttributeError, OSError, UnicodeDecodeError) as error:
+        raise RecordingError(f"cannot read tools file {str(file)!r}: {error}") from None
+    if not (np.all(np.isfinite(pins)) and np.all(np.isfinite(probes)) and np.isfinite(depth) and depth >= 0.0
+            and np.all(probes[:, 3] > 0.0)):
+        raise RecordingError(f"tools file {str(file)!r} holds non-finite values or a radius or depth below 0")
+    return Tools(pins.reshape(-1, 2, 3), probes, depth)
 
 
 def _point_data(file: Path, mesh, name: str, count: int) -> np.ndarray:

@@ -28,7 +28,7 @@ def test_the_scripted_probe_presses_as_the_script_says_and_a_press_takes_over():
     assert c.playback.playing and c.playback.end == 0.3
     for _ in range(20):
         c.advance(c.settings.dt)
-    assert c.playback.time > 0.15 and len(c.playback.probes()) == 1
+    assert c.playback.time > 0.15 and len(c.playback.acting(c.solver.positions)[1]) == 1
     top = c.solver.rest_positions[:, 2].max()
     pressed = top - c.solver.positions[:, 2].min()
     assert pressed > 0.001                                   # the block is pressed in
@@ -36,7 +36,8 @@ def test_the_scripted_probe_presses_as_the_script_says_and_a_press_takes_over():
     # the user's own press on the tissue: the script lets go and stops
     hit = c.solver.positions[np.argmax(c.solver.positions[:, 0])]
     c.pointer_down(hit, hit + [0.1, 0.0, 0.0], [-1.0, 0.0, 0.0])
-    assert not c.playback.playing and c.playback.probes() == [] and "took over" in c.notice
+    assert not c.playback.playing and c.playback.acting(c.solver.positions) == ([], [], 0.0)
+    assert "took over" in c.notice
     assert len(c.solver.loads) == 0                          # the probe's loads went with it (a grab loads none)
     c.pointer_up()
     c.reset()                                                # R: at rest, and the script plays again
@@ -52,7 +53,7 @@ def test_the_scripted_scalpel_cuts_and_a_new_solver_keeps_playing():
     for _ in range(int(np.ceil(c.playback.end / c.settings.dt)) + 2):
         c.advance(c.settings.dt)
     assert c.solver.node_count > start                       # the scalpel cut
-    nodes, cursors = c.playback.pin_heads()
-    assert len(nodes) == 1 and cursors.shape == (1, 3)       # the grasper still pulls
+    pins, _, depth = c.playback.acting(c.solver.positions)
+    assert len(pins) == 1 and depth > 0.0                    # the grasper still pulls; the blade has its depth
     status = c.playback.status()
     assert "played to its end" in status and "grasper " in status and " 0.00 N" not in status

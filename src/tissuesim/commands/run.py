@@ -27,8 +27,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..recording import Recorder, check_target, solver_frame
+    from ..recording import Recorder, check_target, solver_frame, tools_of
     from ..scene import Simulation, read_scene
+    from ..scene.script import acting
     from ..scene.build import check_method, material_options
     from .view import scene_hybrid
 
@@ -45,10 +46,13 @@ def run(args: argparse.Namespace) -> int:
     if record is None:
         summary = simulation.run(progress=not args.quiet)
     else:
+        def frame(now: float):       # the surface, and the scripted tools where they act (a replay draws them)
+            solver = simulation.solver
+            return solver_frame(solver, now, tools=tools_of(*acting(simulation.tools, solver.positions)))
+
         with Recorder(record) as recorder:
-            recorder.add(solver_frame(simulation.solver, 0.0))
-            summary = simulation.run(progress=not args.quiet,
-                                     on_step=lambda now: recorder.add(solver_frame(simulation.solver, now)))
+            recorder.add(frame(0.0))
+            summary = simulation.run(progress=not args.quiet, on_step=lambda now: recorder.add(frame(now)))
     for line in summary.lines():
         print(line)
     if record is not None:

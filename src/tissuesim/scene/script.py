@@ -99,6 +99,18 @@ class ScriptedTool:
         return -np.asarray(self.tool.force, dtype=np.float64)     # the probe reports the force on itself
 
 
+def acting(tools: list[ScriptedTool], positions: np.ndarray) -> tuple[list, list, float]:
+    """What ``tools`` do now, to draw or record: ``(pin_heads, probes, blade_depth)``, each pulling pin-head as
+    (its vertex's position (3,), its cursor (3,)) [m] over the surface ``positions`` ``(n, 3)`` [m], each pressing
+    probe as (centre (3,), radius) [m], and the scalpel's depth [m] (0 without one)."""
+    pins = [(positions[tool.tool.node], tool.position) for tool in tools
+            if tool.kind == "pin-head" and tool.pressed and tool.tool.grabbed]
+    probes = [(tool.tool.center, tool.tool.radius) for tool in tools
+              if tool.kind == "probe" and tool.pressed and tool.tool.center is not None]
+    depth = max((tool.tool.depth for tool in tools if tool.kind == "scalpel"), default=0.0)
+    return pins, probes, float(depth)
+
+
 def make_tools(loaded: SceneFile, solver) -> list[ScriptedTool]:
     """The scene's tools on ``solver``, in the scene's order; SceneError where the library refuses one (a
     blade longer than the model, a method that cannot be cut) or where a kind is not in this version."""

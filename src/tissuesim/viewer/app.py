@@ -24,13 +24,14 @@ import numpy as np
 from ..cutting.walls import wound_walls
 from ..errors import TissuesimError
 from ..mesh.coincident import coincident_pairs
-from ..recording import Recorder, border_edges, solver_frame
+from ..recording import Recorder, Tools, border_edges, solver_frame, tools_of
 from ..recording_place import session_path
 from .controller import Controller
 from .figures import WALL_COLOR
 from .gl import look_at_oblique, polyscope
 from .look import SURFACE, TissueSurface  # noqa: F401  (SURFACE: the name scripts look the model up by)
 from .panel import PanelWidgets
+from .tool_layers import ToolLayers
 
 VIEW_SIZE = (940, 780)  # pixels: the model's part of the window
 PANEL_WIDTH = 340  # pixels: the panel, beside the view
@@ -71,6 +72,7 @@ class ViewerApp(PanelWidgets):
         self._shown = {}  # optional layer name -> its polyscope structure
         self._dragging = False
         self._held_count = 0
+        self._scene_tools = None      # a scene's scripted tools, drawn (ToolLayers)
         self._mouse = None
         self._last = None
         self.headless = headless
@@ -136,6 +138,7 @@ class ViewerApp(PanelWidgets):
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
             self.mesh, self.surface, self.cut, self.walls, self._shown = None, None, None, None, {}  # wrappers first
+            self._scene_tools = None
             ps.remove_all_structures()
             self.surface = TissueSurface(ps, x, triangles, solver.rest_positions)
             self.mesh = self.surface.mesh
@@ -223,27 +226,28 @@ class ViewerApp(PanelWidgets):
                                                         radius=0.002))
 
     def _scripted_layers(self, x) -> None:
-        """A scene's scripted pin-heads (each cursor and its spring) and probes, where they are now."""
-        ps, playback = self.ps, self.controller.playback
-        nodes, cursors = (np.zeros(0, dtype=np.int64), np.zeros((0, 3))) if playback is None else playback.pin_heads()
-        probes = [] if playback is None else playback.probes()
-        for name, count in (("scene pin-heads", len(nodes)), ("scene springs", len(nodes)), ("scene probes",
-                                                                                             len(probes))):
-            layer = self._shown.get(name)
-            if layer is not None and (layer.n_nodes() if hasattr(layer, "n_nodes") else layer.n_points()) != (
-                    2 * count if name == "scene springs" else count):
-                self._shown.pop(name).remove()      # another number of tools acts: register anew
-        self._layer("scene pin-heads", len(nodes) > 0, cursors,
-                    lambda p: ps.register_point_cloud("scene pin-heads", p, color=(0.85, 0.1, 0.1), radius=0.01))
-        pairs = np.stack([np.arange(len(nodes)), len(nodes) + np.arange(len(nodes))], axis=1)
-        self._layer("scene springs", len(nodes) > 0, np.concatenate([x[nodes], cursors]),
-                    lambda p: ps.register_curve_network("scene springs", p, pairs, color=(0.85, 0.1, 0.1),
-                                                        radius=0.002))
-        centres = np.array([probe.center for probe in probes]).reshape(-1, 3)
-        self._layer("scene probes", len(probes) > 0, centres,
-                    lambda p: ps.register_point_cloud("scene probes", p, color=(0.7, 0.72, 0.78), material="wax"))
-        if probes:
-            self._shown["scene probes"].set_radius(probes[0].radius, relative=False)
+        """A scene's scripted pin-heads and probes, where they are now (:class:`~.tool_layers.ToolLayers`)."""
+        playback = self.controller.playback
+        if playback is None:
+            return
+        if self._scene_tools is None:       # first frame, or a cut registered the surface anew
+            self._scene_tools = ToolLayers(self.ps, "scene")
+        tools = tools_of(*playback.acting(x)[:2])
+        self._scene_tools.update(tools.pin_heads, tools.probes)
+
+    def recorded_tools(self) -> Tools:
+        """Every tool acting now, for a recording: the pin-head held, those left holding, the scene's scripted ones,
+        the probes, and the scalpel's depth."""
+        c = self.controller
+        x = c.solver.positions
+        pins = [(x[c.pin.node], c.cursor)] if c.pin.grabbed and c.cursor is not None else []
+        pins += [(x[node], cursor) for node, cursor in zip(c.held.nodes, c.held.cursors)]
+        probes = [] if c.probe.probe is None else [(c.probe.probe.center, c.probe.radius)]
+        depth = 0.0 if c.scalpel is None else float(c.scalpel.depth)
+        if c.playback is not None:
+            scene_pins, scene_probes, scene_depth = c.playback.acting(x)
+            pins, probes, depth = pins + scene_pins, probes + scene_probes, max(depth, scene_depth)
+        return tools_of(pins, probes, depth)
 
     def _layer(self, name: str, shown: bool, points, register) -> None:
         layer = self._shown.get(name)
@@ -318,7 +322,7 @@ class ViewerApp(PanelWidgets):
         """Add the current frame; a frame that cannot be written (a full disk) ends the recording, discarded, and
         the session goes on."""
         try:
-            self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+            self.recorder.add(solver_frame(self.controller.solver, self.sim_time, tools=self.recorded_tools()))
         except TissuesimError as error:
             self.recorder.abort()
             self.recorder = None
@@ -331,7 +335,7 @@ class ViewerApp(PanelWidgets):
             if self.recorder is None:
                 self.record_path = session_path(self.record_folder)
                 self.recorder = Recorder(self.record_path)
-                self.recorder.add(solver_frame(self.controller.solver, self.sim_time))
+                self.recorder.add(solver_frame(self.controller.solver, self.sim_time, tools=self.recorded_tools()))
                 self.controller.notice = f"recording to {self.record_path}"
             else:
                 self.controller.notice = f"recorded to {self.stop_recording()}"

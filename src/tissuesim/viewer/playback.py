@@ -60,16 +60,12 @@ class ScenePlayback:
         self.take_over()
         self.time, self.playing = 0.0, self.end > 0.0 or bool(self.loaded.scene.tools)
 
-    def pin_heads(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(nodes (h,) int64, cursors (h, 3) float64 [m])`` of the scripted pin-heads pulling now, to draw."""
-        pulling = [tool for tool in self.tools if tool.kind == "pin-head" and tool.pressed and tool.tool.grabbed]
-        return (np.array([tool.tool.node for tool in pulling], dtype=np.int64),
-                np.array([tool.position for tool in pulling]).reshape(-1, 3))
+    def acting(self, positions: np.ndarray) -> tuple[list, list, float]:
+        """The scripted tools acting now over the surface ``positions`` ``(n, 3)`` [m], to draw and record
+        (:func:`tissuesim.scene.script.acting`: pin-heads, probes, the scalpel's depth)."""
+        from ..scene.script import acting
 
-    def probes(self) -> list:
-        """The scripted probes pressing now (each a :class:`~tissuesim.probe.Probe`), to draw."""
-        return [tool.tool for tool in self.tools if tool.kind == "probe" and tool.pressed
-                and tool.tool.center is not None]
+        return acting(self.tools, positions)
 
     def status(self) -> str:
         """A line for the panel."""
