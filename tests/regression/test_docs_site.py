@@ -46,6 +46,13 @@ def test_the_site_builds_strict_without_a_warning(tmp_path):
                 broken.append(f"{page.relative_to(site)} -> {target}")
     assert not broken, broken[:10]
     assert (site / "search" / "search_index.js").is_file()
+    # every registered method has its options table, built from the registry
+    methods = (site / "api" / "methods.html").read_text()
+    from tissuesim.solvers.registry import available_solvers, solver_options
+
+    for method in available_solvers():
+        assert f'id="{method}"' in methods, method
+        assert all(f"<code>{option}</code>" in methods for option in solver_options(method)), method
 
 
 def _defined_in(name: str) -> str:
