@@ -219,6 +219,17 @@ class _HyperelasticStatics:
                     return True       # Π cannot fall any further within its round-off
         return False
 
+    def relax_memory(self) -> tuple:
+        """What :meth:`relax` has learnt so far (its curvature pairs and last iterate), for
+        :meth:`set_relax_memory`: put back, the next iterations are those of a twin that never did the work
+        between."""
+        return list(self._memory), self._last
+
+    def set_relax_memory(self, memory: tuple) -> None:
+        """Put back what :meth:`relax_memory` returned."""
+        pairs, self._last = memory
+        self._memory = list(pairs)
+
     def _learn(self, u_free: np.ndarray, g_free: np.ndarray) -> None:
         """Add the curvature pair from relax's last iterate to this one (skipped where yᵀs ≤ 0: not convex
         along s), keeping the newest :data:`LBFGS_MEMORY`."""

@@ -16,8 +16,8 @@ _REPORTS = ("largest_displacement", "last_solve")
 
 
 class Snapshot:
-    """A solver's state (positions, velocities, loads, the hybrid's warm start and finite-strain volume, what it
-    reports of them), taken when made and put back by :meth:`restore`."""
+    """A solver's state (positions, velocities, loads, the hybrid's warm start and finite-strain volume with what
+    its iterations have learnt, what it reports of them), taken when made and put back by :meth:`restore`."""
 
     def __init__(self, solver):
         self.positions = solver.positions.copy()
@@ -25,6 +25,8 @@ class Snapshot:
         self.loads = solver.kept_loads()
         volume = getattr(solver, "volume_displacement", None)
         self.volume = None if volume is None else volume.copy()
+        finite = getattr(solver, "finite", None)      # the finite-strain volume's quasi-Newton memory
+        self.relax = None if finite is None else finite.relax_memory()
         self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy())
                        for name in _WARM_ARRAYS if hasattr(solver, name)}
         self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW + _REPORTS
@@ -34,6 +36,8 @@ class Snapshot:
         solver.put_back_loads(self.loads)
         if self.volume is not None:
             solver.volume_displacement = self.volume
+        if self.relax is not None:
+            solver.finite.set_relax_memory(self.relax)
         for name, (array, values) in self.arrays.items():
             setattr(solver, name, array)    # the very array (others are views of it), which a window may have replaced
             array[...] = values
