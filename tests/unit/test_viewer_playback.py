@@ -57,3 +57,11 @@ def test_the_scripted_scalpel_cuts_and_a_new_solver_keeps_playing():
     assert len(pins) == 1 and depth > 0.0                    # the grasper still pulls; the blade has its depth
     status = c.playback.status()
     assert "played to its end" in status and "grasper " in status and " 0.00 N" not in status
+
+
+def test_a_scene_without_tools_says_so_and_plays_nothing():
+    c = _controller("hanging_sphere.toml")
+    assert not c.playback.playing and c.playback.status() == "scene: no scripted tools"
+    c.advance(c.settings.dt)
+    c.reset()
+    assert not c.playback.playing

@@ -69,6 +69,8 @@ class ScenePlayback:
 
     def status(self) -> str:
         """A line for the panel."""
+        if not self.loaded.scene.tools:
+            return "scene: no scripted tools"
         if not self.playing:
             return "scene: stopped (you took over); R plays it again"
         state = (f"playing, t = {self.time:.2f} of {self.end:.2f} s" if self.time <= self.end else
