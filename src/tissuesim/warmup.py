@@ -20,6 +20,8 @@ import numpy as np
 
 #: The session's model: the built-in cube at this many vertices (small, so a warm run is quick).
 VERTICES = 200
+#: The stamp's file name (:func:`stamp_path`).
+STAMP = "tissuesim-warm.stamp"
 
 
 def sessions() -> list[tuple[str, dict]]:
@@ -110,9 +112,19 @@ def ensure_warm(*, progress: bool = True) -> bool:
 
 def stamp_path() -> Path:
     """Where the warm-up leaves its stamp: beside Numba's cache of the package (``NUMBA_CACHE_DIR`` if set, else
-    the package's ``__pycache__``, where Numba puts its files)."""
+    the package's ``__pycache__``, where Numba puts its files; where the package's folder cannot be written, as in
+    a system-wide install, Numba caches under the user's cache folder, and so does the stamp)."""
     folder = os.environ.get("NUMBA_CACHE_DIR")
-    return (Path(folder) if folder else Path(__file__).with_name("__pycache__")) / "tissuesim-warm.stamp"
+    if folder:
+        return Path(folder) / STAMP
+    package = Path(__file__).parent
+    if _writable(package):
+        return package / "__pycache__" / STAMP
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "tissuesim" / STAMP
+
+
+def _writable(folder: Path) -> bool:
+    return os.access(folder, os.W_OK)
 
 
 def fingerprint() -> str:

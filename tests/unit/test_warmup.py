@@ -31,6 +31,14 @@ def test_it_plays_once_per_build(tmp_path, monkeypatch):
     assert played == [False, False]
 
 
+def test_a_read_only_install_keeps_its_stamp_in_the_users_cache(tmp_path, monkeypatch):
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert warmup.stamp_path().parent.name == "__pycache__"              # a writable package: beside its kernels
+    monkeypatch.setattr(warmup, "_writable", lambda folder: False)
+    assert warmup.stamp_path() == tmp_path / "tissuesim" / warmup.STAMP
+
+
 SESSION = """
 import numpy as np
 from numba.core import event
