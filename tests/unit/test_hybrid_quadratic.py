@@ -61,7 +61,8 @@ def test_the_surface_follows_the_quadratic_fem_of_m_v(cube, node, solver):
     the embedding's transpose gives it, to 1e-12 of the largest displacement."""
     x = solver.solve_static(node, FORCE, radius=RADIUS)
     volume = cube.volume
-    points = np.concatenate([volume.points, midside_points(volume)])
+    points = np.concatenate([volume.points, midside_points(volume, quadratic_elements(volume.tets,
+                                                                                      volume.node_count)[1])])
     fixed = np.zeros(len(points), dtype=bool)
     fixed[nodes_below(points, solver.fixed_height)] = True
     fem = QuadraticFEM(volume, youngs_modulus=solver.youngs_modulus, poisson_ratio=solver.poisson_ratio,

@@ -114,6 +114,7 @@ class QuadraticFEM:
             fixed with it. The rigid-mode check looks at the corner nodes: fix corners, not midsides alone.
         springs: None, or isotropic springs to fixed anchors over all N nodes, as :class:`~.linear.LinearFEM` takes
             them ``(nodes (p, r) int, weights (p, r), stiffness (p,) [N/m])``; their stiffness is added to K.
+        topology: ``(elements, edges)`` of :func:`quadratic_elements` for ``mesh``, where already known.
 
     Attributes:
         points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
@@ -121,10 +122,11 @@ class QuadraticFEM:
         elements: ``(m, 10) int64`` corners and midsides of each tet.
     """
 
-    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed, springs=None):
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed, springs=None,
+                 topology: tuple[np.ndarray, np.ndarray] | None = None):
         material = Material(youngs_modulus, poisson_ratio)
         n = mesh.node_count
-        self.elements, self.edges = quadratic_elements(mesh.tets, n)
+        self.elements, self.edges = quadratic_elements(mesh.tets, n) if topology is None else topology
         midpoints = 0.5 * (mesh.points[self.edges[:, 0]] + mesh.points[self.edges[:, 1]])
         self.points = np.concatenate([mesh.points, midpoints])
         if not callable(fixed):
@@ -197,10 +199,7 @@ class QuadraticFEM:
             raise SolverError(f"forces must have shape ({self.node_count}, 3) [N], got {forces.shape}")
         if not np.all(np.isfinite(forces)):
             raise SolverError("forces contain non-finite values; give finite nodal forces [N]")
-        u = np.zeros(3 * self.node_count)
-        u[self.free_dofs] = self._factor.solve(forces.ravel()[self.free_dofs])
-        return u.reshape(-1, 3)
-
+        return self.solve_columns(forces.reshape(-1, 1)).reshape(-1, 3)
 
     def solve_columns(self, forces: np.ndarray) -> np.ndarray:
         """``(3N, k) float64`` displacements [m] of all dofs (node-major) under ``k`` load cases ``(3N, k)`` [N]: one

@@ -147,9 +147,8 @@ class HybridSolver(SurfaceLayerSolver):
         self._delta = np.zeros_like(self._embedded)
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
-        self._dirty = self._constant_load is not None    # the first step moves M_V under its weight
-        if self.quadratic_field is not None:
-            self._dirty = self.quadratic_field.constant_load is not None
+        constant = self._constant_load if self.quadratic_field is None else self.quadratic_field.constant_load
+        self._dirty = constant is not None    # the first step moves M_V under its weight
 
     def _pieces(self) -> np.ndarray:
         """M_V's pieces: the volume holds the surface together where a cut splits it."""
@@ -198,13 +197,13 @@ class HybridSolver(SurfaceLayerSolver):
         from .quadratic_field import QuadraticField, quadratic_supports, surface_embedding
 
         volume = self.hybrid.volume
-        elements = quadratic_elements(volume.tets, volume.node_count)
-        count = volume.node_count + len(elements[1])
-        springs = volume_springs(self, *surface_embedding(self.hybrid, elements[0]))
-        constant = volume_constant_load(self, volume, springs, quadratic=(elements[0], count))
+        elements, edges = quadratic_elements(volume.tets, volume.node_count)     # once: every part below reads it
+        springs = volume_springs(self, *surface_embedding(self.hybrid, elements))
+        constant = volume_constant_load(self, volume, springs, quadratic=(elements, volume.node_count + len(edges)))
         self.quadratic_field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus,
-                                              poisson_ratio=self.poisson_ratio, fixed=quadratic_supports(self),
-                                              material=self.material, springs=springs, constant_load=constant)
+                                              poisson_ratio=self.poisson_ratio, fixed=quadratic_supports(self, edges),
+                                              material=self.material, springs=springs, constant_load=constant,
+                                              topology=(elements, edges))
         self.finite = self.quadratic_field.finite
         self._constant_load = None
         self.volume_displacement = np.zeros((self.quadratic_field.node_count, 3))
@@ -370,7 +369,7 @@ class HybridSolver(SurfaceLayerSolver):
         """Where the attachments hold M_V: rest + the displacement interpolated on each node's coarse triangle (the
         quadratic M_V: its field at the vertex)."""
         nodes = self.attached_nodes
-        if self.quadratic_field is not None:       # the quadratic field at the vertex
+        if self.quadratic_field is not None:
             return self._embedded[nodes]
         u = self._u[self._slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
         return self.rest_positions[nodes] + np.einsum("pj,pjk->pk", self.load_weights[nodes], u)

@@ -145,13 +145,15 @@ class NearField:
         return self.fem.linear_traction_weights(self.surface_nodes[triangles], density[triangles])
 
 
-def fixed_corners(volume, fixed_volume: np.ndarray):
+def fixed_corners(volume, fixed_volume: np.ndarray, *, edges: np.ndarray | None = None):
     """The ``fixed`` of the quadratic elements on ``volume`` (a :class:`~tissuesim.mesh.tetmesh.TetMesh`) whose fixed
     corner nodes are ``fixed_volume`` ``(k,) int``: those corners, and every midside node whose edge has both ends
-    fixed."""
+    fixed. ``edges``: the midside nodes' edges, ``(e, 2) int64`` of
+    :func:`~tissuesim.fem.quadratic.quadratic_elements`, where already known."""
     from ..fem.quadratic import quadratic_elements
 
-    edges = quadratic_elements(volume.tets, volume.node_count)[1]
+    if edges is None:
+        edges = quadratic_elements(volume.tets, volume.node_count)[1]
     corners = np.zeros(volume.node_count, dtype=bool)
     corners[np.asarray(fixed_volume, dtype=np.int64)] = True
     mask = np.concatenate([corners, corners[edges[:, 0]] & corners[edges[:, 1]]])

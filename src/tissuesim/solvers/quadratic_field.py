@@ -32,7 +32,7 @@ from collections import OrderedDict
 
 import numpy as np
 
-from ..fem.quadratic import QuadraticFEM, quadratic_elements, shape_values
+from ..fem.quadratic import QuadraticFEM, shape_values
 
 #: Contact patches whose responses are kept (pin-heads grabbed in turn).
 KEPT_RESPONSES = 16
@@ -41,7 +41,8 @@ KEPT_RESPONSES = 16
 KEPT_LOADS = 4
 #: Memory [bytes] for the kept responses of single vertices (the probe's exact contact compliance).
 KEPT_BYTES = 256 * 2 ** 20
-#: The contact compliance's diagonal floor, as a fraction of its largest diagonal entry (:meth:`QuadraticField.compliance`).
+#: The contact compliance's diagonal floor, as a fraction of its largest diagonal entry
+#: (:meth:`QuadraticField.compliance`).
 COMPLIANCE_FLOOR = 1e-9
 
 
@@ -58,6 +59,8 @@ class QuadraticField:
             :func:`surface_embedding`), or None.
         constant_load: ``(N, 3) float64`` [N] the loads that never change (the weight, the attachments' pull:
             :func:`~.gravity.volume_constant_load`), or None.
+        topology: ``(elements, edges)`` of :func:`~tissuesim.fem.quadratic.quadratic_elements` for M_V, where
+            already known.
 
     Attributes:
         fem: the :class:`~tissuesim.fem.quadratic.QuadraticFEM` of M_V.
@@ -68,10 +71,10 @@ class QuadraticField:
     """
 
     def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
-                 material: str = "linear", springs=None, constant_load: np.ndarray | None = None):
+                 material: str = "linear", springs=None, constant_load: np.ndarray | None = None, topology=None):
         volume = hybrid_mesh.volume
         self.fem = QuadraticFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
-                                fixed=lambda points: fixed, springs=springs)
+                                fixed=lambda points: fixed, springs=springs, topology=topology)
         self.finite = None
         if material != "linear":
             from ..fem.nonlinear import QuadraticNonlinearFEM
@@ -154,7 +157,6 @@ class QuadraticField:
         self._responses[key] = response
         return response
 
-
     def compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray:
         """``(k, k) float64`` [m/N] the small-strain normal compliance of M_S vertices ``nodes`` ``(k,)`` along
         ``normals`` ``(k, 3)``: ``[j, i]`` is vertex j's motion along its normal under a unit force on vertex i along
@@ -211,24 +213,23 @@ def surface_embedding(hybrid_mesh, elements: np.ndarray) -> tuple[np.ndarray, np
             shape_values(hybrid_mesh.embedding_barycentric))
 
 
-def quadratic_supports(solver) -> np.ndarray:
-    """``(N,) bool`` the fixed nodes of ``solver``'s quadratic M_V: with the default bottom, every corner and
-    midside node at or below its height (as every volume's); else the fixed corners and the midsides between them."""
+def quadratic_supports(solver, edges: np.ndarray) -> np.ndarray:
+    """``(N,) bool`` the fixed nodes of ``solver``'s quadratic M_V, whose midside nodes sit on ``edges`` ``(e, 2)``:
+    with the default bottom, every corner and midside node at or below its height (as every volume's); else the
+    fixed corners and the midsides between them."""
     from ..mesh.regions import nodes_below
     from .near_field import fixed_corners
 
     volume = solver.hybrid.volume
     if not solver.fixed_from_height:
-        return fixed_corners(volume, solver.fixed_volume)(None)
-    points = np.concatenate([volume.points, midside_points(volume)])
+        return fixed_corners(volume, solver.fixed_volume, edges=edges)(None)
+    points = np.concatenate([volume.points, midside_points(volume, edges)])
     fixed = np.zeros(len(points), dtype=bool)
     fixed[nodes_below(points, solver.fixed_height)] = True
     return fixed
 
 
-def midside_points(volume) -> np.ndarray:
-    """``(e, 3) float64`` [m] the midside nodes of ``volume``'s edges, in the order
-    :class:`~tissuesim.fem.quadratic.QuadraticFEM` numbers them (after the corners)."""
-    edges = quadratic_elements(volume.tets, volume.node_count)[1]
+def midside_points(volume, edges: np.ndarray) -> np.ndarray:
+    """``(e, 3) float64`` [m] the midside nodes of ``volume`` on ``edges`` ``(e, 2)`` (of
+    :func:`~tissuesim.fem.quadratic.quadratic_elements`, in its order: after the corners)."""
     return 0.5 * (volume.points[edges[:, 0]] + volume.points[edges[:, 1]])
-
