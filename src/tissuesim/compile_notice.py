@@ -27,8 +27,8 @@ _blocks = []        # the announce_compilation blocks open now: the library's no
 
 class CompileNotice:
     """Counts Numba's compilations (``numba:compile`` events; nested ones, a kernel compiling the functions it
-    calls, count once); says on ``stream`` (None: stderr as it is when it speaks) when the first starts, how far it has got every ``progress`` seconds
-    (None: never) and (:meth:`finish`) how many were compiled in how long."""
+    calls, count once); says on ``stream`` (None: stderr as it is when it speaks) when the first starts, how far it
+    has got every ``progress`` seconds (None: never) and (:meth:`finish`) how many were compiled in how long."""
 
     def __init__(self, name: str, stream, *, progress: float | None = None):
         self.name, self.stream, self.progress = name, stream, progress
@@ -91,7 +91,7 @@ def announce_compilation(name: str, stream=None):
     :class:`CompileNotice` named ``name``."""
     from numba.core import event
 
-    notice = CompileNotice(name, sys.stderr if stream is None else stream)
+    notice = CompileNotice(name, stream)
     listener = _listener(notice.on_start, notice.on_end)
     event.register("numba:compile", listener)
     _blocks.append(notice)

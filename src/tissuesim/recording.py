@@ -48,8 +48,8 @@ MIN_EXTENT = 1e-9  # m: a frame whose points span less (all in one place) is ref
 # across, and a viewer cannot frame a single point (polyscope blocks in a modal dialog)
 
 
-#: A frame's tools file holds at most this many tools (a larger one is no recording of a session).
-MAX_TOOLS = 10000
+#: A frame's tools file larger than this [bytes] is refused: about 10,000 tools, more than any session holds.
+MAX_TOOLS_BYTES = 640_000
 
 
 @dataclass(frozen=True)
@@ -334,7 +334,7 @@ def _read_tools(file: Path) -> Tools:
     recording older than tools), checked."""
     if not file.is_file():
         return Tools()
-    if file.stat().st_size > 64 * MAX_TOOLS:
+    if file.stat().st_size > MAX_TOOLS_BYTES:
         raise RecordingError(f"tools file {str(file)!r} is {file.stat().st_size} bytes, more than a session's "
                              "tools take; it was not written by tissuesim")
     try:

@@ -146,7 +146,7 @@ class SurfaceLayerCut(SolverCut):
         self.prescribe(result, n, released, touched)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
-        if removed is not None and statics is not None and s.prescribed.size < len(s.rest_positions):
+        if removed is not None and statics is not None:
             # the linear layer's step goes on with its factor and a correction (layer/cut_statics.py); where that
             # does not apply, the layer is factorised again when next needed
             from ..layer.cut_statics import after_cut

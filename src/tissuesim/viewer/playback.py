@@ -20,7 +20,8 @@ class ScenePlayback:
         loaded: the :class:`~tissuesim.scene.load.SceneFile`.
 
     Attributes:
-        time: the script's simulated time [s]. end: its last keyframe [s]. playing: whether its tools act.
+        time: the script's simulated time [s]. end: its last keyframe [s]. scripted: whether it has a tool with a
+        path. playing: whether its tools act.
         tools: the :class:`~tissuesim.scene.script.ScriptedTool` list on the solver they were made for.
     """
 
@@ -28,8 +29,9 @@ class ScenePlayback:
         self.loaded = loaded
         keys = [key.time for tool in loaded.scene.tools for key in tool.path]
         self.end = float(max(keys)) if keys else 0.0
+        self.scripted = bool(keys)
         self.time = 0.0
-        self.playing = bool(keys)
+        self.playing = self.scripted
         self.tools = []
         self._solver = None
 
@@ -58,7 +60,7 @@ class ScenePlayback:
     def restart(self) -> None:
         """Play the script again from its start (the caller resets the body to rest)."""
         self.take_over()
-        self.time, self.playing = 0.0, self.end > 0.0 or bool(self.loaded.scene.tools)
+        self.time, self.playing = 0.0, self.scripted
 
     def acting(self, positions: np.ndarray) -> tuple[list, list, float]:
         """The scripted tools acting now over the surface ``positions`` ``(n, 3)`` [m], to draw and record
@@ -69,7 +71,7 @@ class ScenePlayback:
 
     def status(self) -> str:
         """A line for the panel."""
-        if not self.loaded.scene.tools:
+        if not self.scripted:
             return "scene: no scripted tools"
         if not self.playing:
             return "scene: stopped (you took over); R plays it again"

@@ -46,11 +46,11 @@ class ReplayApp:
         import polyscope.imgui as psim
 
         frame = self.frames[self.index]
-        rest = frame.positions - frame.displacement
         if self._topology is not frame.triangles:
             self._topology, self.mesh, self.surface, self.cut, self.walls = frame.triangles, None, None, None, None
             self.ps.remove_all_structures()
             self.tools = ToolLayers(self.ps, "recorded")
+            rest = frame.positions - frame.displacement
             self.surface = TissueSurface(self.ps, frame.positions, frame.triangles, rest)
             self.mesh = self.surface.mesh
             cut = frame.cut_edges
