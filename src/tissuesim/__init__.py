@@ -7,6 +7,7 @@ Public API (imported lazily, so ``import tissuesim`` stays fast and Numba kernel
     solver = tissuesim.make_solver("hybrid", hybrid)                  # or "pbd", "mass-spring", "embedded", "fem"
     positions = solver.solve_static(node, [0.0, 0.0, 1.0])            # (n, 3) surface positions [m]
     probe = tissuesim.Probe(solver, radius=0.005); probe.press_static(centre)   # a rigid sphere pressing
+    grasper = tissuesim.Grasper(solver, radius=0.004); grasper.grab(point); grasper.move_to(point + lift)
     scene = tissuesim.read_scene("examples/hanging_sphere.toml")      # a whole scene from one TOML file
 """
 
@@ -39,6 +40,7 @@ _EXPORTS = {
     "Solver": "tissuesim.solvers",
     "PinHead": "tissuesim.interaction",
     "Probe": "tissuesim.probe",
+    "Grasper": "tissuesim.grasper",
     "Attachment": "tissuesim.solvers.attachments",
     "fixed_region": "tissuesim.mesh.regions",
     "preset": "tissuesim.fem.presets",

@@ -38,15 +38,14 @@ and the probe's own are put back as they were.
 
 from __future__ import annotations
 
-from contextlib import contextmanager
-
 import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
 from .probe_contact import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
                             undetected_depth, vertex_spans, winding_numbers)
 from .solvers.checks import checked_point, positive_number, whole_count
-from .solvers.snapshot import Snapshot
+from .solvers.load_set import VertexLoads
+from .solvers.snapshot import refusal_restores
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -96,7 +95,7 @@ class Probe:
         self.end: np.ndarray | None = None
         self.scale = 1.0
         self.iterations, self.steps, self.residual = 0, 0, np.inf
-        self._loads: dict[int, object] = {}     # vertex -> its Load handle on the solver
+        self._loads = VertexLoads(solver)       # a load per vertex it pushes
         self._surface = None                    # the surface the cached arrays below belong to
         self._spans = self._areas = None
         self._warned = False
@@ -105,17 +104,13 @@ class Probe:
     @property
     def force(self) -> np.ndarray:
         """``(3,) float64`` the contact force on the probe [N]: minus the sum of what it puts on the tissue."""
-        self._forget_withdrawn()
-        total = np.zeros(3)
-        for load in self._loads.values():
-            total -= load.force
-        return total
+        return -self._loads.total()
 
     @property
     def contacts(self) -> np.ndarray:
         """``(k,) int64`` sorted surface vertices the probe pushes now."""
-        self._forget_withdrawn()
-        return np.array(sorted(self._loads), dtype=np.int64)
+        self._loads.forget_withdrawn()
+        return np.array(sorted(self._loads.by_node), dtype=np.int64)
 
     def gaps(self) -> np.ndarray:
         """``(n,) float64`` each surface vertex's gap to the probe at the current positions [m] (negative: inside)."""
@@ -128,7 +123,7 @@ class Probe:
         ``center`` to ``end``; one contact update at the current positions (call ``solver.step()`` next). Returns
         :attr:`force`. Refused (SolverError, nothing changed) where the probe is no larger than the triangles
         under it, would reach the fixed region, encloses the body or has its core inside it."""
-        with self._refused_changes_nothing(solving=False):
+        with refusal_restores(self, solving=False):
             self._place(center, end)
             self._relaxed_update()
         return self.force
@@ -137,7 +132,7 @@ class Probe:
         """One contact update at the probe's place and the current positions: the vertices near it found again,
         their forces from one Newton step (see the module docstring). A held probe calls it each frame."""
         self._require_placed()
-        with self._refused_changes_nothing(solving=False):
+        with refusal_restores(self, solving=False):
             self._relaxed_update()
 
     def press_static(self, center, end=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
@@ -152,7 +147,7 @@ class Probe:
         refused press changes nothing (the solver's state and loads, and the probe, are as before the call)."""
         max_iterations = whole_count("max_iterations", max_iterations)
         max_steps = whole_count("max_steps", max_steps)
-        with self._refused_changes_nothing(solving=True):
+        with refusal_restores(self, solving=True):
             self._place(center, end)
             if not self._iterate(max_iterations, max_steps):
                 raise SolverError(
@@ -170,13 +165,13 @@ class Probe:
         :meth:`press_static` raises for a place it refuses or forces the solver cannot carry, and then changes
         nothing."""
         max_iterations = whole_count("max_iterations", max_iterations)
-        with self._refused_changes_nothing(solving=True):
+        with refusal_restores(self, solving=True):
             self._place(center, end)
             return self._iterate(max_iterations, DEFAULT_MAX_STEPS)
 
     def release(self) -> None:
         """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
-        self._set_forces(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
+        self._loads.set(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
         self.center = self.end = None
 
     # ------------------------------------------------------------------------------------------ contact update
@@ -199,37 +194,18 @@ class Probe:
         :data:`RELAXATION` of one."""
         self._newton_step(1.0 if getattr(self.solver, "static", False) else RELAXATION)
 
-    @contextmanager
-    def _refused_changes_nothing(self, *, solving: bool):
-        """Put everything back as it was when the body raises: the probe's own state and the solver's loads, and
-        with ``solving`` (the body steps or solves) the solver's whole state (:class:`~.solvers.snapshot.Snapshot`),
-        so a refused call leaves no load acting and no vertex moved."""
-        probe = dict(vars(self), _loads=dict(self._loads))
-        solver = Snapshot(self.solver) if solving else None
-        loads = None if solving else self.solver.kept_loads()
-        try:
-            yield
-        except BaseException:
-            if solving:
-                solver.restore(self.solver)
-            else:
-                self.solver.put_back_loads(loads)
-            vars(self).update(probe)
-            raise
-
     def _newton_step(self, relaxation: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """One contact update, moving the forces ``relaxation`` of the way to the Newton step's; returns
         ``(candidates (k,), their gaps before (k,) [m], predicted gaps (k,) [m])``."""
         solver = self.solver
-        self._forget_withdrawn()
         gaps, normals = gaps_and_normals(solver.positions, self.center, self.end, self.radius)
         nodes = np.flatnonzero(gaps < MARGIN_FRACTION * self.radius)
         nodes = nodes[~np.isin(nodes, solver.fixed)]
-        held = np.array([float(np.linalg.norm(self._loads[i].force)) if i in self._loads else 0.0 for i in nodes])
+        held = np.linalg.norm(self._loads.at(nodes), axis=1)
         compliance = self._compliance(nodes, normals[nodes])
         forces = held + relaxation * (complementary_forces(compliance, gaps[nodes], held) - held)
         pushed = forces > 0.0
-        self._set_forces(nodes[pushed], forces[pushed, None] * normals[nodes[pushed]])
+        self._loads.set(nodes[pushed], forces[pushed, None] * normals[nodes[pushed]])
         return nodes, gaps[nodes], gaps[nodes] + compliance @ (forces - held)
 
     def _compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray:
@@ -244,34 +220,15 @@ class Probe:
         return self.scale * half_space_compliance(solver.rest_positions[nodes], self._surface_arrays()[1][nodes],
                                                   solver.youngs_modulus, solver.poisson_ratio)
 
-    def _set_forces(self, nodes: np.ndarray, forces: np.ndarray) -> None:
-        """The probe's loads: ``forces`` ``(k, 3)`` [N] on ``nodes`` ``(k,)``, none elsewhere."""
-        solver = self.solver
-        self._forget_withdrawn()
-        keep = set(int(i) for i in nodes)
-        for node in [i for i in self._loads if i not in keep]:
-            solver.remove_load(self._loads.pop(node))
-        for node, force in zip(nodes, forces):
-            node = int(node)
-            if node in self._loads:
-                solver.move_load(self._loads[node], force=force)
-            else:
-                self._loads[node] = solver.add_load(node, force)
-
-    def _forget_withdrawn(self) -> None:
-        """Drop the handles of loads that no longer act (a reset or ``set_load`` elsewhere withdrew them)."""
-        acting = {id(load) for load in self.solver.loads}
-        self._loads = {node: load for node, load in self._loads.items() if id(load) in acting}
-
     def _residual(self) -> float:
         """max |min(λ_i w_ii, g_i)| [m] over the vertices near the probe: a gap where no force acts, the force's
         own dimple where a vertex is pushed but left the probe."""
         gaps, normals = gaps_and_normals(self.solver.positions, self.center, self.end, self.radius)
         residual = np.minimum(gaps, 0.0)
-        nodes = np.fromiter(self._loads, dtype=np.int64, count=len(self._loads))
+        nodes = self.contacts
         own = np.diagonal(self._compliance(nodes, normals[nodes])) if nodes.size else np.zeros(0)
-        for node, dimple in zip(nodes, own):
-            residual[node] = min(float(dimple) * float(np.linalg.norm(self._loads[node].force)), gaps[node])
+        pushes = np.linalg.norm(self._loads.at(nodes), axis=1)
+        residual[nodes] = np.minimum(own * pushes, gaps[nodes])
         return float(np.abs(residual).max())
 
     def _learn_scale(self, nodes: np.ndarray, before: np.ndarray, predicted: np.ndarray) -> None:

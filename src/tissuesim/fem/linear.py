@@ -150,21 +150,35 @@ class LinearFEM:
         nodes = np.array([i for i in nodes if int(i) not in self._columns], dtype=np.int64)
         if nodes.size == 0:
             return
+        n = self.node_count
+        solution = self._unit_load_solution(nodes)
+        for j, node in enumerate(nodes):
+            columns = np.ascontiguousarray(solution[:, 3 * j : 3 * j + 3].reshape(n, 3, 3))
+            columns.flags.writeable = False
+            self._columns[int(node)] = columns
+
+    def compliance_among(self, nodes) -> np.ndarray:
+        """``(3k, 3k) float64`` [m/N] K⁻¹ among the dofs of ``nodes`` ``(k,) int``, node-major: entry
+        ``[3a + d, 3b + c]`` is node a's displacement along d under a unit force on node b along c. One multi-RHS
+        solve; nothing is kept (a grasper asks for a new patch at each grab)."""
+        nodes = self._check_nodes(nodes, "nodes")
+        dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
+        return self._unit_load_solution(nodes)[dofs]
+
+    def _unit_load_solution(self, nodes: np.ndarray) -> np.ndarray:
+        """``(3n, 3k) float64`` [m/N] the displacement of every dof under a unit force along each axis on each of
+        ``nodes`` ``(k,)`` in turn: one back-substitution for them all (a load on a fixed dof moves nothing,
+        matching :meth:`solve`)."""
         n, f = self.node_count, self.free_dofs.size
-        # Position of each global dof among the free dofs (-1 when fixed).
-        position = np.full(3 * n, -1, dtype=np.int64)
+        position = np.full(3 * n, -1, dtype=np.int64)       # each global dof's place among the free dofs (-1: fixed)
         position[self.free_dofs] = np.arange(f)
-        load_dofs = (3 * nodes[:, None] + np.arange(3)).ravel()  # (3k,) one unit load per column
+        load_dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
         rhs = np.zeros((f, load_dofs.size))
         free_load = position[load_dofs] >= 0
         rhs[position[load_dofs[free_load]], np.flatnonzero(free_load)] = 1.0
         solution = np.zeros((3 * n, load_dofs.size))
         solution[self.free_dofs] = self._lu.solve(rhs)
-        # A unit load on a fixed dof moves nothing (rhs column zero), matching solve().
-        for j, node in enumerate(nodes):
-            columns = np.ascontiguousarray(solution[:, 3 * j : 3 * j + 3].reshape(n, 3, 3))
-            columns.flags.writeable = False
-            self._columns[int(node)] = columns
+        return solution
 
     def point_load_response(self, load_nodes, load_forces, *, output_nodes, out=None) -> np.ndarray:
         """Displacements [m], ``(s, 3) float64``, of ``output_nodes`` ``(s,) int`` under forces ``load_forces``

@@ -17,6 +17,7 @@ import numpy as np
 from numba import njit
 
 from .base import Solver
+from .compliance import mapped_compliance
 from .finite_strain import finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
@@ -80,6 +81,12 @@ class EmbeddedSolver(Solver):
         self._constant_load = volume_constant_load(self, volume, springs)
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
+
+    def point_compliance(self, nodes: np.ndarray) -> np.ndarray:
+        """``(3k, 3k)`` [m/N] the small-strain compliance among M_S vertices ``nodes`` (:mod:`.compliance`): exact
+        with the linear material, the tangent at rest with a finite-strain one (a grasper's starting Jacobian)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        return mapped_compliance(self.fem, self._tets[self.tet_of[nodes]], self.weights[nodes])
 
     def _on_load_changed(self) -> None:
         self._dirty = True

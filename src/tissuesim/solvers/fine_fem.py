@@ -85,6 +85,12 @@ class FineFEMSolver(Solver):
         self.volume_displacement = solve_volume(self, self._volume_forces)
         return self.volume_displacement
 
+    def point_compliance(self, nodes: np.ndarray) -> np.ndarray:
+        """``(3k, 3k) float64`` [m/N] the small-strain compliance at rest among M_S vertices ``nodes`` ``(k,)``
+        (:meth:`LinearFEM.compliance_among <tissuesim.fem.linear.LinearFEM.compliance_among>`): exact with the linear
+        material, the tangent at rest with a finite-strain one (what a grasper's Newton iteration starts from)."""
+        return self.fem.compliance_among(self.surface_nodes[np.asarray(nodes, dtype=np.int64)])
+
     def surface_to_volume(self) -> np.ndarray:
         """Every M_S vertex is a fine-volume node (the fem reference is never cut)."""
         return self.surface_nodes

@@ -196,3 +196,47 @@ class ToolLoad:
         if self.acting:
             self.solver.remove_load(self._load)
         self._load = None
+
+
+class VertexLoads:
+    """A tool's own loads on a solver, one per surface vertex (a probe's contacts, a grasper's held patch): set all
+    at once from arrays, each a :class:`Load` of its own beside any other tool's. A reset, or a
+    :meth:`~LoadSet.set_load` elsewhere, withdraws them; they are then forgotten, never re-applied unasked.
+
+    Attributes:
+        by_node: ``{vertex: Load}`` the loads acting (read it after :meth:`forget_withdrawn`).
+    """
+
+    def __init__(self, solver):
+        self.solver = solver
+        self.by_node: dict[int, Load] = {}
+
+    def forget_withdrawn(self) -> None:
+        """Drop the handles of loads that no longer act (a reset or ``set_load`` elsewhere withdrew them)."""
+        acting = {id(load) for load in self.solver.loads}
+        self.by_node = {node: load for node, load in self.by_node.items() if id(load) in acting}
+
+    def set(self, nodes: np.ndarray, forces: np.ndarray) -> None:
+        """``forces`` ``(k, 3)`` [N] on ``nodes`` ``(k,)``, and no load of this tool elsewhere."""
+        solver = self.solver
+        self.forget_withdrawn()
+        keep = set(int(i) for i in nodes)
+        for node in [i for i in self.by_node if i not in keep]:
+            solver.remove_load(self.by_node.pop(node))
+        for node, force in zip(nodes, forces):
+            node = int(node)
+            if node in self.by_node:
+                solver.move_load(self.by_node[node], force=force)
+            else:
+                self.by_node[node] = solver.add_load(node, force)
+
+    def at(self, nodes: np.ndarray) -> np.ndarray:
+        """``(k, 3) float64`` this tool's force [N] on each of ``nodes`` ``(k,)`` now (zero where it has none)."""
+        self.forget_withdrawn()
+        return np.array([self.by_node[int(i)].force if int(i) in self.by_node else np.zeros(3)
+                         for i in nodes]).reshape(-1, 3)
+
+    def total(self) -> np.ndarray:
+        """``(3,) float64`` the sum of this tool's forces on the tissue [N]."""
+        self.forget_withdrawn()
+        return sum((load.force for load in self.by_node.values()), np.zeros(3))

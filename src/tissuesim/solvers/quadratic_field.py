@@ -169,12 +169,19 @@ class QuadraticField:
         normals = np.asarray(normals, dtype=np.float64)
         if nodes.size == 0:
             return np.zeros((0, 0))
-        columns = self.point_responses(nodes)                                    # (k, N, 3, 3)
-        at = columns[:, self.nodes[nodes]]                                       # (k, j, 10, 3, 3)
-        motion = np.einsum("ja,ijadb->ijdb", self.values[nodes], at)             # (i, j, 3, 3)
-        compliance = np.einsum("jd,ijdb,ib->ji", normals, motion, normals)
+        motion = self.point_compliance(nodes).reshape(nodes.size, 3, nodes.size, 3)     # (j, d, i, b)
+        compliance = np.einsum("jd,jdib,ib->ji", normals, motion, normals)
         compliance[np.diag_indices(nodes.size)] += COMPLIANCE_FLOOR * np.abs(np.diagonal(compliance)).max()
         return compliance
+
+    def point_compliance(self, nodes: np.ndarray) -> np.ndarray:
+        """``(3k, 3k) float64`` [m/N] the small-strain compliance among M_S vertices ``nodes`` ``(k,)``, node-major:
+        ``[3j + d, 3i + b]`` is vertex j's motion along d under a unit force on vertex i along b (through
+        :meth:`point_responses`)."""
+        nodes = np.asarray(nodes, dtype=np.int64)
+        at = self.point_responses(nodes)[:, self.nodes[nodes]]                   # (i, j, 10, 3, 3)
+        motion = np.einsum("ja,ijadb->jdib", self.values[nodes], at)
+        return motion.reshape(3 * nodes.size, 3 * nodes.size)
 
     def compliance_fits(self, count: int) -> bool:
         """Whether the responses of ``count`` vertices (what :meth:`compliance` keeps) fit :data:`KEPT_BYTES`: on a

@@ -4,6 +4,9 @@ grabbed region, a probe's press that is refused. Everything a step reads is kept
 
 from __future__ import annotations
 
+import copy
+from contextlib import contextmanager
+
 #: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
 #: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
 #: would have without it (a pending warm-start move included).
@@ -45,3 +48,27 @@ class Snapshot:
             setattr(solver, name, value)
         solver.positions[:] = self.positions
         solver.velocities[:] = self.velocities
+
+
+@contextmanager
+def refusal_restores(tool, *, solving: bool):
+    """Put everything back as it was when the body raises: the ``tool``'s own attributes (a probe's, a grasper's,
+    with its :class:`~.load_set.VertexLoads` record) and its solver's loads, and with ``solving`` (the body steps or
+    solves) the solver's whole state (:class:`Snapshot`), so a refused call leaves no load acting and no vertex
+    moved."""
+    solver = tool.solver
+    kept = {name: copy.copy(value) if isinstance(value, dict) else value for name, value in vars(tool).items()}
+    kept_loads = {name: dict(value.by_node) for name, value in vars(tool).items() if hasattr(value, "by_node")}
+    state = Snapshot(solver) if solving else None
+    loads = None if solving else solver.kept_loads()
+    try:
+        yield
+    except BaseException:
+        if solving:
+            state.restore(solver)
+        else:
+            solver.put_back_loads(loads)
+        vars(tool).update(kept)
+        for name, by_node in kept_loads.items():
+            getattr(tool, name).by_node = by_node
+        raise

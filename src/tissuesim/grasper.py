@@ -1,0 +1,333 @@
+"""A grasper: jaws that take hold of a patch of the surface and carry it rigidly, the force being the output.
+
+    grasper = Grasper(solver, radius=0.004)             # jaws 4 mm across each way
+    grasper.grab(point)                                 # holds the surface vertices within 4 mm of the point
+    grasper.move_to(point + [0, 0, 0.01])               # the held patch 10 mm up, at static equilibrium
+    grasper.force, grasper.torque                       # the tissue's reaction on the jaws [N], [N·m]
+    grasper.settle(point, rotation=turn)                # a frame's worth, for a viewer or a haptic loop
+    grasper.release()
+
+What the pin-head (§8.2, eq 24) does by a spring to the cursor, the grasper does exactly: each held vertex i goes
+where the jaws carry it, t_i = p + R (X_i − p₀) (p the jaws' position, R their rotation, X_i and p₀ where the vertex
+and the jaws were at the grab), as a prescribed displacement. Every method takes loads, not prescribed
+displacements, so the grasper finds the nodal forces f_i that put the held vertices on their targets: the Lagrange
+multipliers of the constraints x_i = t_i, i.e. the reactions. It iterates
+
+    f ← f + J⁻¹ (t − x(f)),    J ≈ ∂x/∂f (3k × 3k),
+
+each iteration one static solve of the solver with the forces as its own loads (beside any other tool's), until
+every held vertex is within :attr:`Grasper.tolerance` of its target. J starts from the solver's own compliance where
+it has one (``point_compliance``: the fem reference, the hybrid with quadratic M_V; exact with the linear material,
+so one iteration solves it), else from an elastic half-space of the solver's E and ν (Boussinesq's normal compliance
+on each axis, :func:`~tissuesim.probe_contact.half_space_compliance`), and learns from each solve by Broyden's
+update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The converged answer is
+the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses or the iteration
+caps; J sets only how fast it is reached.
+
+Refused with a reason (and then nothing changes: the solver's state and loads, and the grasper's own, are as
+before): jaws farther than their radius from the surface, a patch with a fixed vertex in it (the support holds it
+already), a vertex another grasper holds, and a motion under which a finite-strain volume inverts (J = det F ≤ 0).
+"""
+
+from __future__ import annotations
+
+import weakref
+
+import numpy as np
+
+from .errors import BoundaryConditionError, SolverError, first_indices
+from .probe_contact import half_space_compliance
+from .solvers.checks import checked_point, positive_number, whole_count
+from .solvers.load_set import VertexLoads
+from .solvers.snapshot import Snapshot, refusal_restores
+
+#: Default tolerance: the largest distance of a held vertex from its target, as a fraction of the jaws' radius.
+TOLERANCE_FRACTION = 1e-3
+DEFAULT_MAX_ITERATIONS = 60
+#: :meth:`Grasper.settle`'s default: the iterations one frame may spend.
+FRAME_ITERATIONS = 8
+DEFAULT_MAX_STEPS = 20000
+#: How many refused solves in a row are retried with a quarter of the step before the refusal is the answer.
+RETRIES = 3
+#: Each iteration's solve goes this fraction of the tolerance close to equilibrium (a method that steps to it).
+SOLVE_FRACTION = 0.1
+#: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
+ROTATION_TOLERANCE = 1e-6
+
+#: The graspers holding each solver's vertices: two jaws may not prescribe the same vertex.
+_HOLDERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+class Grasper:
+    """Jaws that hold a surface patch and carry it rigidly (see the module docstring).
+
+    Args:
+        solver: any :class:`~tissuesim.solvers.base.Solver`.
+        radius: the jaws' reach [m]: :meth:`grab` holds the surface vertices within it of the grab point.
+        tolerance: the largest distance [m] of a held vertex from its target that a static move accepts; default
+            :data:`TOLERANCE_FRACTION` × ``radius``.
+
+    Attributes:
+        held: ``(k,) int64`` the held M_S vertices (empty before a grab).
+        position: ``(3,) float64`` the jaws' position [m], or None (holding nothing).
+        rotation: ``(3, 3) float64`` the jaws' rotation since the grab.
+        iterations, steps, residual: of the last move: iterations, solver steps, and the largest distance of a
+            held vertex from its target [m].
+    """
+
+    def __init__(self, solver, *, radius: float, tolerance: float | None = None):
+        for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads",
+                       "solve_static"):
+            if not hasattr(solver, needed):
+                raise SolverError(f"Grasper needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
+        self.solver = solver
+        self.radius = positive_number("grasper radius", radius, "m")
+        self.tolerance = (TOLERANCE_FRACTION * self.radius if tolerance is None
+                          else positive_number("grasper tolerance", tolerance, "m"))
+        self.held = np.zeros(0, dtype=np.int64)
+        self.position: np.ndarray | None = None
+        self.rotation = np.eye(3)
+        self.iterations, self.steps, self.residual = 0, 0, 0.0
+        self._grip = np.zeros((0, 3))          # the held vertices about the jaws at the grab [m]
+        self._jacobian: np.ndarray | None = None
+        self._learned: np.ndarray | None = None  # J once a solve has scaled it (None: the model's, unscaled)
+        self._surface = None                    # the surface the Jacobian belongs to (a cut replaces it)
+        self._loads = VertexLoads(solver)
+
+    # ------------------------------------------------------------------------------------------------ reading
+    @property
+    def holding(self) -> bool:
+        return self.position is not None
+
+    @property
+    def force(self) -> np.ndarray:
+        """``(3,) float64`` the tissue's reaction on the jaws [N]: minus the sum of their forces on the tissue."""
+        return -self._loads.total()
+
+    @property
+    def torque(self) -> np.ndarray:
+        """``(3,) float64`` the tissue's reaction torque on the jaws about :attr:`position` [N·m]."""
+        if not self.holding:
+            return np.zeros(3)
+        arms = self.solver.positions[self.held] - self.position
+        return -np.cross(arms, self._loads.at(self.held)).sum(axis=0)
+
+    def targets(self) -> np.ndarray:
+        """``(k, 3) float64`` where the jaws put the held vertices now [m]."""
+        self._require_holding()
+        return self.position + self._grip @ self.rotation.T
+
+    # ----------------------------------------------------------------------------------------------- driving
+    def grab(self, point) -> np.ndarray:
+        """Take hold of the surface vertices within :attr:`radius` of ``point`` ``(3,)`` [m] at the current
+        positions, where they are (a grab moves nothing); returns them ``(k,) int64``. A grasper that held a
+        patch lets it go first. Refused (nothing changes) where no vertex lies within reach, where the patch
+        includes a fixed vertex or one another grasper holds."""
+        point = checked_point(point, name="the grasp point").copy()
+        positions = self.solver.positions
+        distance = np.linalg.norm(positions - point, axis=1)
+        held = np.flatnonzero(distance <= self.radius).astype(np.int64)
+        if held.size == 0:
+            nearest = int(np.argmin(distance))
+            raise SolverError(
+                f"nothing to grasp: the nearest surface vertex ({nearest}) is {distance[nearest]:.4g} m from the "
+                f"jaws, beyond their radius {self.radius:.4g} m; put the grasp point on the surface or use larger "
+                "jaws")
+        fixed = np.intersect1d(held, self.solver.fixed)
+        if fixed.size:
+            raise BoundaryConditionError(
+                f"the jaws would hold {fixed.size} fixed vertices (first: {first_indices(fixed)}), which the support "
+                "holds already and no grasper can move; grasp farther from the support or with smaller jaws")
+        taken = np.intersect1d(held, _held_by_others(self))
+        if taken.size:
+            raise SolverError(
+                f"{taken.size} of the vertices under the jaws (first: {first_indices(taken)}) are held by another "
+                "grasper; two jaws cannot prescribe one vertex: release the other or grasp elsewhere")
+        self.release()
+        self.held, self.position, self.rotation = held, point, np.eye(3)
+        self._grip = positions[held] - point
+        self._jacobian, self._learned, self.residual = None, None, 0.0
+        _HOLDERS.setdefault(self.solver, weakref.WeakSet()).add(self)
+        return held.copy()
+
+    def move_to(self, position, rotation=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
+                max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
+        """Carry the held patch to the jaws at ``position`` ``(3,)`` [m] turned by ``rotation`` ``(3, 3)`` (a
+        proper rotation matrix about the jaws, from the grab; None: as they are) and return :attr:`force`, at the
+        static equilibrium with every held vertex within :attr:`tolerance` of its target and every other load
+        acting. Raises SolverError when ``max_iterations`` pass first, or where the motion inverts a finite-strain
+        volume; a refused move changes nothing."""
+        max_iterations = whole_count("max_iterations", max_iterations)
+        max_steps = whole_count("max_steps", max_steps)
+        with refusal_restores(self, solving=True):
+            self._place(position, rotation)
+            if not self._iterate(max_iterations, max_steps):
+                raise SolverError(
+                    f"the grasper did not reach its targets in {max_iterations} iterations (a held vertex is "
+                    f"{self.residual:.3g} m from its target, tolerance {self.tolerance:.3g} m); nothing was "
+                    "changed; raise max_iterations or the tolerance")
+        return self.force
+
+    def settle(self, position=None, rotation=None, *, max_iterations: int = FRAME_ITERATIONS) -> bool:
+        """A frame's worth of :meth:`move_to`: the jaws to ``position`` (None: where they are) and ``rotation``,
+        then at most ``max_iterations`` iterations, leaving the solver at its equilibrium under the last forces;
+        returns whether the held vertices reached their targets (if not, the next call goes on from there). Refused
+        as :meth:`move_to`, changing nothing."""
+        max_iterations = whole_count("max_iterations", max_iterations)
+        self._require_holding()
+        with refusal_restores(self, solving=True):
+            self._place(self.position if position is None else position, rotation)
+            return self._iterate(max_iterations, DEFAULT_MAX_STEPS)
+
+    def release(self) -> None:
+        """Let go: the jaws' forces leave the solver (other loads act on); nothing is held."""
+        self._loads.set(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
+        holders = _HOLDERS.get(self.solver)
+        if holders is not None:
+            holders.discard(self)
+        self.held, self.position, self.rotation = np.zeros(0, dtype=np.int64), None, np.eye(3)
+        self._grip, self._jacobian, self._learned = np.zeros((0, 3)), None, None
+
+    # -------------------------------------------------------------------------------------------- the iteration
+    def _iterate(self, max_iterations: int, max_steps: int) -> bool:
+        """Newton–Broyden iterations until every held vertex is on its target (True) or ``max_iterations`` pass
+        (False: the forces of the best iteration act).
+
+        An iteration whose solve the solver refuses (a model far stiffer than the tissue overshoots: a surface
+        turned inside out, a volume inverted), or that leaves the held vertices farther from their targets, is
+        undone; J still learns from the second, and takes a quarter of the step after the first. A refusal in the
+        last iteration allowed, or the :data:`RETRIES` + 1-th in a row, is raised."""
+        self.iterations = self.steps = refused = 0
+        error = self._error()
+        self.residual = _largest(error)
+        while self.residual > self.tolerance:
+            if self.iterations == max_iterations:
+                return False
+            self.iterations += 1
+            jacobian = self._current_jacobian()
+            try:
+                change = np.linalg.solve(jacobian, error.ravel())
+            except np.linalg.LinAlgError:     # Broyden's updates made J singular: start again from the model
+                self._jacobian = None
+                change = np.linalg.solve(self._current_jacobian(), error.ravel())
+            state, by_node = Snapshot(self.solver), dict(self._loads.by_node)
+            before = self.solver.positions[self.held].ravel()
+            try:
+                self._apply(change, max_steps)
+            except SolverError:
+                state.restore(self.solver)
+                self._loads.by_node = by_node
+                refused += 1
+                if self.iterations == max_iterations or refused > RETRIES:
+                    raise
+                self._jacobian = 4.0 * jacobian
+                continue
+            refused = 0
+            self._learn(jacobian, change, self.solver.positions[self.held].ravel() - before)
+            trial = self._error()
+            if _largest(trial) > self.residual:
+                state.restore(self.solver)
+                self._loads.by_node = by_node
+                continue
+            error, self.residual = trial, _largest(trial)
+        return True
+
+    def _apply(self, change: np.ndarray, max_steps: int) -> None:
+        """The forces changed by ``change`` ``(3k,)`` [N], and the solver's equilibrium under them."""
+        self._loads.set(self.held, self._loads.at(self.held) + change.reshape(-1, 3))
+        self.solver.solve_static(tolerance=SOLVE_FRACTION * self.tolerance, max_steps=max_steps, reset=False)
+        self.steps += self.solver.last_solve.steps
+        self._check_not_inverted()
+
+    def _learn(self, jacobian: np.ndarray, change: np.ndarray, moved: np.ndarray) -> None:
+        """J from the held vertices' motion ``moved`` ``(3k,)`` [m] under the forces' ``change`` ``(3k,)`` [N]."""
+        if self._learned is None:
+            jacobian = _fitted(jacobian, change, moved)
+        # Broyden's update, the smallest change of J that explains the motion (a new array: a refused move puts
+        # the old one back)
+        self._jacobian = jacobian + np.outer(moved - jacobian @ change, change) / float(change @ change)
+        self._learned = self._jacobian
+
+    def _error(self) -> np.ndarray:
+        """``(k, 3)`` [m] each held vertex's target minus its position."""
+        return self.targets() - self.solver.positions[self.held]
+
+    def _current_jacobian(self) -> np.ndarray:
+        """J (3k × 3k) [m/N]: the one learned while holding, or a new one (after a grab, or a cut that swapped the
+        surface) from the solver's compliance or the half-space model."""
+        surface = self.solver.hybrid.surface
+        if self._jacobian is None or surface is not self._surface:
+            self._surface = surface
+            own = getattr(self.solver, "point_compliance", None)
+            found = None if own is None else own(self.held)
+            self._jacobian = np.array(found) if found is not None else self._half_space()
+            self._learned = None
+        return self._jacobian
+
+    def _half_space(self) -> np.ndarray:
+        """``(3k, 3k)`` [m/N] Boussinesq's normal compliance of the held vertices on each axis alike."""
+        solver = self.solver
+        normal = half_space_compliance(solver.rest_positions[self.held], solver.lumped_areas()[self.held],
+                                       solver.youngs_modulus, solver.poisson_ratio)
+        return np.kron(normal, np.eye(3))
+
+    def _check_not_inverted(self) -> None:
+        """Refuse a motion under which the solver's finite-strain volume turned an element inside out."""
+        finite = getattr(self.solver, "finite", None)
+        if finite is None:
+            return
+        ratios = finite.volume_ratios(self.solver.volume_displacement).min(axis=1)
+        if ratios.min() <= 0.0:
+            raise SolverError(
+                f"the grasper's motion inverts {int(np.count_nonzero(ratios <= 0.0))} elements of the volume "
+                f"(smallest J = det F {ratios.min():.3g}): no tissue follows it; nothing was changed; move or turn the "
+                "jaws less far")
+
+    # ------------------------------------------------------------------------------------------------ placing
+    def _place(self, position, rotation) -> None:
+        self._require_holding()
+        self.position = checked_point(position, name="the jaws' position").copy()
+        if rotation is not None:
+            self.rotation = _checked_rotation(rotation)
+
+    def _require_holding(self) -> None:
+        if not self.holding:
+            raise SolverError("the grasper holds nothing; call grab(point) first")
+
+
+def _held_by_others(grasper: Grasper) -> np.ndarray:
+    """``(m,) int64`` the vertices of ``grasper``'s solver that other graspers hold."""
+    others = [g.held for g in _HOLDERS.get(grasper.solver, ()) if g is not grasper and g.holding]
+    return np.concatenate(others) if others else np.zeros(0, dtype=np.int64)
+
+
+def _checked_rotation(rotation) -> np.ndarray:
+    """``(3, 3) float64`` ``rotation`` checked to be a proper rotation matrix (RᵀR = I, det R = +1)."""
+    matrix = np.asarray(rotation, dtype=np.float64)
+    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        raise SolverError(f"the jaws' rotation must be a finite (3, 3) matrix, got shape {matrix.shape}")
+    off = float(np.abs(matrix.T @ matrix - np.eye(3)).max())
+    if off > ROTATION_TOLERANCE or np.linalg.det(matrix) < 0.0:
+        raise SolverError(
+            f"the jaws' rotation is not a proper rotation (|RᵀR − I| = {off:.3g}, det R = "
+            f"{np.linalg.det(matrix):.3g}); pass an orthonormal matrix with determinant +1, e.g. from "
+            "scipy.spatial.transform.Rotation.as_matrix()")
+    return matrix.copy()
+
+
+def _fitted(model: np.ndarray, change: np.ndarray, moved: np.ndarray) -> np.ndarray:
+    """α J + β I with α ≥ 0, β ≥ 0 fitted (least squares) to the held vertices' motion ``moved`` ``(3k,)`` [m] in
+    the first solve under the forces' ``change`` ``(3k,)`` [N]: a model's size is E's and the mesh's, and what a
+    coarse model leaves out is mostly each vertex's own dimple (the hybrid's layer between control nodes), which
+    β I stands for; Broyden then learns the rest."""
+    predicted = model @ change
+    basis = np.column_stack([predicted, change])
+    (alpha, beta), *_ = np.linalg.lstsq(basis, moved, rcond=None)
+    if beta < 0.0 or alpha < 0.0:       # one term alone: the one that explains the motion
+        alpha = max(float(moved @ predicted) / float(predicted @ predicted), 1e-3)
+        beta = 0.0
+    return alpha * model + beta * np.eye(len(model))
+
+
+def _largest(error: np.ndarray) -> float:
+    return float(np.linalg.norm(error, axis=1).max()) if error.size else 0.0
