@@ -60,15 +60,18 @@ class Tools:
         pin_heads: ``(k, 2, 3) float64`` [m] each pin-head's held vertex and its cursor (eq 24's spring).
         probes: ``(p, 4) float64`` [m] each probe's centre and radius.
         blade_depth: the scalpel's depth [m] (a wound's walls reach it), 0 without a scalpel.
+        graspers: ``(g, 4) float64`` [m] each grasper's jaws: their position and reach.
     """
 
     pin_heads: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
     probes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     blade_depth: float = 0.0
+    graspers: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
 
     @property
     def empty(self) -> bool:
-        return len(self.pin_heads) == 0 and len(self.probes) == 0 and self.blade_depth == 0.0
+        return (len(self.pin_heads) == 0 and len(self.probes) == 0 and self.blade_depth == 0.0
+                and len(self.graspers) == 0)
 
 
 @dataclass(frozen=True)
@@ -104,12 +107,13 @@ def solver_frame(solver, time: float, *, tools: Tools | None = None) -> Frame:
                  border_edges(triangles), Tools() if tools is None else tools)
 
 
-def tools_of(pin_heads=(), probes=(), blade_depth: float = 0.0) -> Tools:
+def tools_of(pin_heads=(), probes=(), blade_depth: float = 0.0, graspers=()) -> Tools:
     """:class:`Tools` from ``pin_heads`` ``[(vertex position (3,), cursor (3,))]`` [m], ``probes``
-    ``[(centre (3,), radius)]`` [m] and ``blade_depth`` [m]."""
+    ``[(centre (3,), radius)]`` [m], ``blade_depth`` [m] and ``graspers`` ``[(jaws' position (3,), reach)]`` [m]."""
     pins = np.array([np.concatenate([held, cursor]) for held, cursor in pin_heads], dtype=np.float64)
     probes = np.array([[*centre, radius] for centre, radius in probes], dtype=np.float64)
-    return Tools(pins.reshape(-1, 2, 3), probes.reshape(-1, 4), float(blade_depth))
+    jaws = np.array([[*position, reach] for position, reach in graspers], dtype=np.float64)
+    return Tools(pins.reshape(-1, 2, 3), probes.reshape(-1, 4), float(blade_depth), jaws.reshape(-1, 4))
 
 
 class Recorder:
@@ -158,7 +162,8 @@ class Recorder:
             if not frame.tools.empty:
                 (self._partial / _tools_name(name)).write_text(json.dumps(
                     {"pin_heads": frame.tools.pin_heads.reshape(-1, 6).tolist(),
-                     "probes": frame.tools.probes.tolist(), "blade_depth": frame.tools.blade_depth}))
+                     "probes": frame.tools.probes.tolist(), "blade_depth": frame.tools.blade_depth,
+                     "graspers": frame.tools.graspers.tolist()}))
             if len(self._entries) == 0 or (len(self._entries) + 1) % FLUSH_EVERY == 0:
                 _write_index(self._partial / self.path.name, self._entries + [(frame.time, name)], "")
         except OSError as error:  # e.g. a full disk
@@ -342,12 +347,13 @@ def _read_tools(file: Path) -> Tools:
         pins = np.array(data.get("pin_heads", []), dtype=np.float64).reshape(-1, 6)
         probes = np.array(data.get("probes", []), dtype=np.float64).reshape(-1, 4)
         depth = float(data.get("blade_depth", 0.0))
+        jaws = np.array(data.get("graspers", []), dtype=np.float64).reshape(-1, 4)
     except (ValueError, TypeError, AttributeError, OSError, UnicodeDecodeError) as error:
         raise RecordingError(f"cannot read tools file {str(file)!r}: {error}") from None
-    if not (np.all(np.isfinite(pins)) and np.all(np.isfinite(probes)) and np.isfinite(depth) and depth >= 0.0
-            and np.all(probes[:, 3] > 0.0)):
+    if not (np.all(np.isfinite(pins)) and np.all(np.isfinite(probes)) and np.all(np.isfinite(jaws))
+            and np.isfinite(depth) and depth >= 0.0 and np.all(probes[:, 3] > 0.0) and np.all(jaws[:, 3] > 0.0)):
         raise RecordingError(f"tools file {str(file)!r} holds non-finite values or a radius or depth below 0")
-    return Tools(pins.reshape(-1, 2, 3), probes, depth)
+    return Tools(pins.reshape(-1, 2, 3), probes, depth, jaws)
 
 
 def _point_data(file: Path, mesh, name: str, count: int) -> np.ndarray:

@@ -21,7 +21,7 @@ def solver():
 def test_tools_round_trip_and_a_frame_without_them_has_none(solver, tmp_path):
     solver.reset()
     tools = tools_of([(np.array([0.0, 0.0, 0.04]), np.array([0.0, 0.0, 0.05]))],
-                     [(np.array([0.01, 0.0, 0.06]), 0.008)], 0.015)
+                     [(np.array([0.01, 0.0, 0.06]), 0.008)], 0.015, [(np.array([-0.01, 0.0, 0.05]), 0.004)])
     with Recorder(tmp_path / "session.pvd", min_motion=0.0) as recorder:
         recorder.add(solver_frame(solver, 0.0))
         solver.set_load(int(np.argmax(solver.rest_positions[:, 2])), [0.0, 0.0, 0.5])
@@ -31,11 +31,13 @@ def test_tools_round_trip_and_a_frame_without_them_has_none(solver, tmp_path):
     assert first.tools.empty and not (tmp_path / "session_frames" / "frame_000000.tools.json").exists()
     assert np.array_equal(second.tools.pin_heads, tools.pin_heads)
     assert np.array_equal(second.tools.probes, tools.probes) and second.tools.blade_depth == 0.015
+    assert np.array_equal(second.tools.graspers, [[-0.01, 0.0, 0.05, 0.004]])
 
 
 @pytest.mark.parametrize("content, defect", [("{", "cannot read"), (json.dumps({"probes": [[0, 0, 0, -1.0]]}),
                                                                         "below 0"),
-                                              (json.dumps({"pin_heads": [[0, 0, 0, 0, 0]]}), "cannot read")])
+                                              (json.dumps({"pin_heads": [[0, 0, 0, 0, 0]]}), "cannot read"),
+                                              (json.dumps({"graspers": [[0, 0, 0, 0.0]]}), "below 0")])
 def test_a_damaged_tools_file_is_refused_by_name(solver, tmp_path, content, defect):
     with Recorder(tmp_path / "session.pvd") as recorder:
         recorder.add(solver_frame(solver, 0.0))
