@@ -54,7 +54,7 @@ def test_a_scene_run_records_its_grasper_and_blade(tmp_path):
                  "--quiet"]) == 0
     frames = read_recording(tmp_path / "liver.pvd")
     last = frames[-1]
-    assert last.tools.pin_heads.shape == (1, 2, 3) and last.tools.blade_depth == 0.015
-    held, cursor = last.tools.pin_heads[0]
-    assert np.allclose(cursor, [0.1099, -0.0047, 0.0446], atol=1e-9)        # where the script put it
-    assert np.linalg.norm(cursor - held) > 0.001                            # the spring is stretched
+    assert last.tools.graspers.shape == (1, 4) and last.tools.blade_depth == 0.015
+    assert len(last.tools.pin_heads) == 0
+    assert np.allclose(last.tools.graspers[0], [0.1128, -0.0046, 0.0378, 0.008], atol=1e-9)   # the script's jaws
+    assert len(frames[0].tools.graspers) == 0                               # not in play before its first keyframe

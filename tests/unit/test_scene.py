@@ -76,6 +76,21 @@ def test_a_preset_gives_its_values_and_a_key_overrides_one(tmp_path):
     (MINIMAL + "[method.options]\nspeed = 2\n", "method.options.speed: the hybrid method has no option 'speed'; its "
                                                 "options are"),
     ("[model\nname = 1\n", "scene.toml is not valid TOML"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\n', "tools[0].radius: missing; add it: the jaws' reach [m]"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.0\n', "tools[0].radius: input should be greater than 0"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.004\nstiffness = 50.0\n',
+     "tools[0].stiffness: unknown key; the keys accepted here are name, path, kind, radius, tolerance"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.004\npath = [{time = 0.0, position = [0, 0, 0.08], '
+               'rotation = [0.0, 0.1]}]\n', "tools[0].path[0].rotation: list should have at least 3 items after "
+                                           "validation, not 2; give the jaws' orientation, a rotation vector"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.004\npath = [{time = 0.0, position = [0, 0, 0.08], '
+               'closed = false}]\n', "tools[0].path[0].closed: unknown key; the keys accepted here are time, "
+                                      "position, pressed, rotation"),
+    (MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.004\npath = [{time = 0.2, position = [0, 0, 0.08]}, '
+               '{time = 0.1, position = [0, 0, 0.09]}]\n', "tools[0].path[1].time: 0.1 s is not after path[0].time"),
+    (MINIMAL + '[[tools]]\nkind = "probe"\nradius = 0.01\npath = [{time = 0.0, position = [0, 0, 0.08], '
+               'rotation = [0.0, 0.0, 0.1]}]\n', "tools[0].path[0].rotation: unknown key; the keys accepted here "
+                                                 "are time, position, pressed"),
 ])
 def test_a_bad_scene_is_refused_naming_the_key_and_the_fix(tmp_path, text, expected):
     assert expected in _refusal(text, tmp_path)
@@ -143,3 +158,23 @@ def test_a_capsule_probe_carries_its_shaft_along_its_path(tmp_path):
         tool.update(time)
     assert tool.tool.calls == [("settle", [0.0, 0.0, 0.09], [0.0, 0.0, 0.14]),        # its contact solved there
                                ("settle", [0.005, 0.0, 0.09], [0.005, 0.0, 0.14]), ("release",)]
+
+
+def test_a_grasper_grabs_carries_turns_and_lets_go_as_its_path_says(tmp_path):
+    loaded = _scene(MINIMAL + '[[tools]]\nkind = "grasper"\nradius = 0.004\npath = ['
+                              '{time = 0.0, position = [0, 0, 0.08], rotation = [0.0, 0.0, 0.2]}, '
+                              '{time = 0.2, position = [0.02, 0, 0.08], rotation = [0.0, 0.0, 0.6]}, '
+                              '{time = 0.3, position = [0.02, 0, 0.08], pressed = false}]\n', tmp_path)
+    tool = ScriptedTool(loaded.scene.tools[0], _Recorder(), name="grasper")
+    for time in (0.0, 0.1, 0.3):
+        tool.update(time)
+    names = [call[0] for call in tool.tool.calls]
+    assert names == ["grab", "move_to", "move_to", "release"]
+    assert tool.tool.calls[0][1] == [0.0, 0.0, 0.08] and tool.tool.calls[2][1] == [0.01, 0.0, 0.08]
+    turn = np.array(tool.tool.calls[2][2])                          # about the jaws since the grab: 0.2 rad about z
+    assert np.allclose(turn, [[np.cos(0.2), -np.sin(0.2), 0.0], [np.sin(0.2), np.cos(0.2), 0.0], [0.0, 0.0, 1.0]],
+                       atol=1e-6)
+    assert np.allclose(tool.tool.calls[1][2], np.eye(3), atol=0)    # at the grab: unturned
+    # a keyframe without a rotation keeps the one before
+    assert np.allclose(tool.orientation(0.3).as_rotvec(), [0.0, 0.0, 0.6], atol=1e-12)
+    assert not tool.pressed and tool.force is None

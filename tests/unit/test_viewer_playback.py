@@ -54,7 +54,11 @@ def test_the_scripted_scalpel_cuts_and_a_new_solver_keeps_playing():
         c.advance(c.settings.dt)
     assert c.solver.node_count > start                       # the scalpel cut
     pins, _, depth = c.playback.acting(c.solver.positions)
-    assert len(pins) == 1 and depth > 0.0                    # the grasper still pulls; the blade has its depth
+    assert pins == [] and depth > 0.0                        # the blade has its depth
+    jaws = c.playback.graspers()                             # the grasper, made anew, holds at the path's end
+    assert len(jaws) == 1 and np.allclose(jaws[0][0], [0.1128, -0.0046, 0.0378], atol=1e-12) and jaws[0][1] == 0.008
+    grasper = c.playback.tools[0].tool
+    assert np.linalg.norm(grasper.targets() - c.solver.positions[grasper.held], axis=1).max() <= grasper.tolerance
     status = c.playback.status()
     assert "played to its end" in status and "grasper " in status and " 0.00 N" not in status
 

@@ -48,7 +48,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         def frame(now: float):       # the surface, and the scripted tools where they act (a replay draws them)
             solver = simulation.solver
-            return solver_frame(solver, now, tools=tools_of(*acting(simulation.tools, solver.positions)))
+            pins, probes, depth, graspers = acting(simulation.tools, solver.positions)
+            return solver_frame(solver, now, tools=tools_of(pins, probes, depth, graspers=graspers))
 
         with Recorder(record) as recorder:
             recorder.add(frame(0.0))

@@ -178,6 +178,15 @@ class Keyframe(Strict):
     pressed: Flag = Field(True, description="true: the tool acts from this keyframe on; false: it is lifted")
 
 
+class GrasperKeyframe(Keyframe):
+    """One point of a grasper's scripted path: the jaws' position, and their orientation."""
+
+    rotation: Vector | None = Field(None, description="the jaws' orientation, a rotation vector [rx, ry, rz] [rad] "
+                                                      "(axis × angle); none: as at the keyframe before (none at the "
+                                                      "first)")
+    pressed: Flag = Field(True, description="true: the jaws hold from this keyframe on; false: they let go")
+
+
 class Tool(Strict):
     """What every tool has: a name and an optional scripted path."""
 
@@ -219,8 +228,19 @@ class Scalpel(Tool):
                                                      "edge lengths")
 
 
-ToolSpec = Annotated[Union[PinHead, Probe, Scalpel], Field(discriminator="kind")]
-TOOL_CLASSES = {"pin-head": PinHead, "probe": Probe, "scalpel": Scalpel}
+class Grasper(Tool):
+    """``kind = "grasper"``: jaws that hold the surface vertices within ``radius`` of the press and carry them
+    rigidly along the path (a prescribed displacement); the force is the output."""
+
+    kind: Literal["grasper"]
+    radius: Positive = Field(description="the jaws' reach [m]: they hold the surface vertices within it")
+    tolerance: Positive | None = Field(None, description="the largest distance [m] of a held vertex from where the "
+                                                         "jaws put it; none: radius / 1000")
+    path: list[GrasperKeyframe] = Field(default_factory=list, description="keyframes, their times increasing")
+
+
+ToolSpec = Annotated[Union[PinHead, Probe, Scalpel, Grasper], Field(discriminator="kind")]
+TOOL_CLASSES = {"pin-head": PinHead, "probe": Probe, "scalpel": Scalpel, "grasper": Grasper}
 TOOL_KINDS = tuple(TOOL_CLASSES)
 
 

@@ -1,6 +1,6 @@
 """A scene's scripted tools played in the simulator (``tissuesim view scene.toml``), until the user takes over.
 
-The scene's pin-heads, probes and scalpel follow their keyframed paths (:mod:`tissuesim.scene.script`) in
+The scene's pin-heads, probes, graspers and scalpel follow their keyframed paths (:mod:`tissuesim.scene.script`) in
 simulated time, one update before each step, exactly as ``tissuesim run`` plays them. The window's space key pauses
 the simulation, and with it the script; :meth:`ScenePlayback.restart` plays it again from the start on the body at
 rest. A press of the user's own tool on the tissue takes over: the scripted tools let go and the scene stops playing
@@ -64,10 +64,18 @@ class ScenePlayback:
 
     def acting(self, positions: np.ndarray) -> tuple[list, list, float]:
         """The scripted tools acting now over the surface ``positions`` ``(n, 3)`` [m], to draw and record
-        (:func:`tissuesim.scene.script.acting`: pin-heads, probes, the scalpel's depth)."""
+        (:func:`tissuesim.scene.script.acting`: pin-heads, probes, the scalpel's depth; the graspers are
+        :meth:`graspers`)."""
         from ..scene.script import acting
 
-        return acting(self.tools, positions)
+        return acting(self.tools, positions)[:3]
+
+    def graspers(self) -> list:
+        """The scripted graspers holding now, each as (its jaws' position ``(3,) float64``, their reach) [m]: the
+        ``graspers`` of :func:`tissuesim.recording.tools_of`."""
+        from ..scene.script import grasping
+
+        return grasping(self.tools)
 
     def status(self) -> str:
         """A line for the panel."""
