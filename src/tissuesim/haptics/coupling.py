@@ -2,7 +2,8 @@
 release), the tick schedule and its timing statistics.
 
 Physics (docs/haptics.md): the grabbed node sits at x = x0 + C f under the force f [N] on it (C: its 3×3
-compliance [m/N], :mod:`.response`); a virtual coupling spring of stiffness k_c [N/m] joins it to the tool point p,
+compliance [m/N], :mod:`.response`), and so do a grasper's jaws under the force f they exert on the patch they hold
+(C: the patch's compliance to a rigid translation); a virtual coupling spring of stiffness k_c [N/m] joins it to the tool point p,
 f = k_c (p − a − x), with a = the tool's offset from the node at the grab (grabbing applies no force). Both hold at
 once when f = (I + k_c C)⁻¹ k_c (p − a − x0): one 3×3 product per tick, its matrix computed at the grab. The device
 gets −f. The spring is passive (it stores energy, never makes it) and so is the tissue's compliance, up to the
@@ -22,8 +23,7 @@ import numpy as np
 
 from ..errors import SolverError
 from ..solvers.checks import positive_number
-from ..solvers.load_set import ToolLoad
-from .response import local_response
+from .tools import make_tool
 
 DEFAULT_RATE = 1000.0  # Hz: what haptic devices need for hard contact to feel crisp
 #: Ticks whose start times the statistics keep (a minute at 1 kHz).
@@ -64,12 +64,14 @@ class Coupler(ABC):
     Subclasses publish the coupling to their servo loop and read its latest force and tool position back.
 
     Attributes:
-        response: the :class:`~.response.LocalResponse` of the grabbed node, or None.
+        response: the :class:`~.response.LocalResponse` of the grabbed node (or of the jaws on it), or None.
+        grasper: the :class:`~tissuesim.Grasper` the device holds with ``tool="grasper"`` (its ``held``, ``force``,
+            ``torque`` to read), else None.
         offset: ``(3,) float64`` a [m]: the tool's offset from the grabbed node at the grab, or None (nothing
             held, or a node grabbed by index before the servo loop read the tool: nothing pulls until it has).
     """
 
-    def __init__(self, solver, *, stiffness: float, radius: float | None, rate: float):
+    def __init__(self, solver, *, stiffness: float, radius: float | None, rate: float, tool: str):
         if not hasattr(solver, "solve_static"):
             raise SolverError(f"{type(self).__name__} needs a solver (from tissuesim.make_solver), got "
                               f"{type(solver).__name__}")
@@ -81,15 +83,17 @@ class Coupler(ABC):
         self.offset = None
         self._node = -1
         self._grab = 0  # the number of the latest grab, published with its coupling
-        self._load = ToolLoad(solver)  # the tool's own load: other loads on the solver act on beside it
+        self._held = make_tool(tool, solver, radius=self.radius)  # its load: other loads act on beside it
+        self.grasper = self._held.grasper
 
     def grab(self, node: int | None = None) -> int:
         """Hold M_S ``node``, or (None) the node a :class:`~tissuesim.PinHead` would snap to from the tool
-        position; returns it. Measures the node's local response (four static solves; the solver's visual state
-        is put back), starts coupling at zero force (a force the servo loop computed for an earlier grab is not
-        synced) and withdraws the tool's load (other loads on the solver act on). The tool position is the one the
-        servo loop last read (see the subclass for before its first tick). A refused node (out of range, fixed, a patch reaching the support)
-        raises the solver's error and changes nothing."""
+        position; returns it. Measures the node's local response (four static solves; a grasper: its jaws put on
+        the node, four static moves; the solver's visual state is put back), starts coupling at zero force (a force
+        the servo loop computed for an earlier grab is not synced) and withdraws the tool's load (other loads on the
+        solver act on). The tool position is the one the servo loop last read (see the subclass for before its
+        first tick). A refused node (out of range, fixed, a patch reaching the support or holding a fixed vertex)
+        raises the solver's or the grasper's error and changes nothing."""
         tool = self._tool_position()
         if tool is not None and not np.all(np.isfinite(tool)):
             raise SolverError(f"the position callback must return finite coordinates [m], got {tool.tolist()}")
@@ -101,34 +105,34 @@ class Coupler(ABC):
             from ..interaction import PinHead
 
             node = PinHead(self.solver, stiffness=self.stiffness, radius=self.radius).grab(tool)
-        response = local_response(self.solver, node, radius=self.radius)
+        response = self._held.take(node)
         self._grab += 1
         self._hold(response, None if tool is None else tool - response.origin)
-        self._load.withdraw()
         return response.node
 
     def sync(self, *, relinearise: bool | None = None) -> np.ndarray:
-        """Push the latest force into the solver as its load, so the surface the user sees follows the tool;
-        returns it ``(3,)`` [N]. ``relinearise`` (default: with a finite-strain material) measures the local
-        response again around that force (four static solves). Raises what the servo loop raised, if it
+        """Push the latest force into the solver as its load (a grasper: its jaws to where the force puts them,
+        x0 + C f, and :meth:`Grasper.settle <tissuesim.Grasper.settle>`), so the surface the user sees follows the
+        tool; returns it ``(3,)`` [N]. ``relinearise`` (default: with a finite-strain material) measures the local
+        response again around that force (four static solves, or moves). Raises what the servo loop raised, if it
         stopped on an error."""
         self._raise_error()
         if self._node < 0:
             return np.zeros(3)
         force = self._latest_force()
-        self._load.apply(self._node, force, radius=self.radius)
+        self._held.apply(self.response, force)
         if relinearise is None:
             relinearise = self.solver.material != "linear"
         if relinearise:
-            self._hold(local_response(self.solver, self._node, radius=self.radius, around=force), self.offset)
+            self._hold(self._held.respond(self.response, force), self.offset)
         return force
 
     def release(self) -> None:
-        """Let go: the force drops to zero at the next tick and the tool's load is withdrawn."""
+        """Let go: the force drops to zero at the next tick and the tool's load is withdrawn (a grasper lets go)."""
         self._publish(None)
         self.response = self.offset = None
         self._node = -1
-        self._load.withdraw()
+        self._held.release()
 
     def _hold(self, response, offset: np.ndarray | None) -> None:
         """Couple the latest grab with ``response`` and ``offset`` a ``(3,)`` [m] (None: not known yet, the

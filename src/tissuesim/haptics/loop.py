@@ -39,20 +39,23 @@ class HapticLoop(Coupler):
         apply_force: callable receiving the force on the tool ``(3,) float64`` [N] (−f); the array is reused by the
             next tick: copy what you keep.
         stiffness: k_c, the virtual coupling's stiffness [N/m].
-        radius: the tool's contact radius R [m] (the load's patch, :meth:`Solver.add_load`), or None (one node).
+        radius: the tool's contact radius R [m] (the load's patch, :meth:`Solver.add_load`), or None (one node);
+            a grasper's reach (required).
         rate: ticks per second [Hz].
+        tool: what the device holds: ``"pin-head"`` (a force on the grabbed node's patch) or ``"grasper"`` (jaws
+            carrying the patch within ``radius`` of the node rigidly, :class:`~tissuesim.Grasper`).
 
     Attributes (besides :class:`~.coupling.Coupler`'s):
         ticks: ticks of the servo thread since :meth:`start` (direct :meth:`tick` calls are not counted).
     """
 
     def __init__(self, solver, *, position, apply_force, stiffness: float, radius: float | None = None,
-                 rate: float = DEFAULT_RATE):
+                 rate: float = DEFAULT_RATE, tool: str = "pin-head"):
         for name, callback in (("position", position), ("apply_force", apply_force)):
             if not callable(callback):
                 raise SolverError(f"{name} must be a callable (the device's {name} callback), got "
                                   f"{type(callback).__name__}; pass a function or a bound method")
-        super().__init__(solver, stiffness=stiffness, radius=radius, rate=rate)
+        super().__init__(solver, stiffness=stiffness, radius=radius, rate=rate, tool=tool)
         self._position, self._apply_force = position, apply_force
         self._coupling: Coupling | None = None
         self._lock = threading.Lock()

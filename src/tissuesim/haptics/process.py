@@ -51,16 +51,17 @@ class HapticProcess(Coupler):
         device: a picklable callable, called once in the servo process, returning ``(position, apply_force)``:
             ``position()`` the tool position ``(3,)`` [m], ``apply_force(force)`` the force on the tool ``(3,)``
             [N] (an array reused by the next tick).
-        stiffness: k_c [N/m]; radius: the contact radius R [m] or None; rate: ticks per second [Hz].
+        stiffness: k_c [N/m]; radius: the contact radius R [m] or None (a grasper's reach: required); rate: ticks
+            per second [Hz]; tool: ``"pin-head"`` or ``"grasper"``, as :class:`~.loop.HapticLoop`'s.
     """
 
     def __init__(self, solver, *, device, stiffness: float, radius: float | None = None,
-                 rate: float = DEFAULT_RATE):
+                 rate: float = DEFAULT_RATE, tool: str = "pin-head"):
         if not callable(device):
             raise SolverError(f"device must be a picklable callable returning (position, apply_force), got "
                               f"{type(device).__name__}; pass a module-level function or class")
         check_picklable(device)
-        super().__init__(solver, stiffness=stiffness, radius=radius, rate=rate)
+        super().__init__(solver, stiffness=stiffness, radius=radius, rate=rate, tool=tool)
         self.device = device
         self._coupling: Coupling | None = None
         self._block = None

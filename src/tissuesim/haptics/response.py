@@ -1,5 +1,6 @@
 """The grabbed region's local response: x(f) ≈ x0 + C f at one M_S node, for a force f [N] spread over a contact
-patch, measured on the solver itself by its own static solves and the visual state put back afterwards.
+patch, or at a grasper's jaws, for the force f [N] they exert on the patch they hold, measured on the solver itself by its own
+static solves (the grasper's static moves) and the visual state put back afterwards.
 
 With the linear material the model is linear, so the affine map is exact (to round-off): four static solves (the
 current load and one step along x, y, z) give x0 and the three columns of C. With a finite-strain material C is the
@@ -9,17 +10,20 @@ there: exact at that load, good near it; :meth:`HapticLoop.sync <tissuesim.hapti
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..solvers.snapshot import Snapshot
+from ..solvers.snapshot import Snapshot, refusal_restores
 
 #: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else
 #: the mean M_S edge length): a force that strains the patch by about 1e-3, small against the nonlinearity and
 #: large against the Newton solves' tolerance (0.09 mN on the cube's 4 mm tip; steps of 0.1 to 10 mN there give the
 #: same tangent to 3 digits).
 TANGENT_STEP = 1e-3
+#: How close to its targets [the step's fraction] a grasper's measuring move goes: the columns' relative error.
+MEASURE_FRACTION = 1e-3
 
 
 @dataclass(frozen=True)
@@ -70,3 +74,41 @@ def tangent_step(solver, radius: float | None) -> float:
         ends = surface.vertices[surface.edges]
         radius = float(np.linalg.norm(ends[:, 0] - ends[:, 1], axis=1).mean())
     return TANGENT_STEP * solver.youngs_modulus * radius ** 2
+
+
+def grasper_response(grasper, node: int) -> LocalResponse:
+    """The jaws' translational response x_j(f) = x0 + C_g f where they are, as a :class:`LocalResponse` (``node``:
+    the M_S vertex the jaws were put on; ``origin``: x0 [m], where the jaws hold the patch with no force;
+    ``compliance``: C_g ``(3, 3)`` [m/N]; ``around``: the force f [N] at the jaws' position). f is the sum of the
+    jaws' forces on the tissue, and C_g the held patch's compliance to a rigid translation, (Tᵀ J⁻¹ T)⁻¹ of the held
+    vertices' compliance J (T: k 3×3 identities stacked).
+
+    Measured by the grasper's own static moves (:meth:`~tissuesim.Grasper.move_to`, the jaws' rotation kept): where
+    the jaws are, then one step along x, y and z; C_g is the inverse of the stiffness those give. The step is the
+    jaws' radius with the linear material (exact: the model is affine), a strain of :data:`TANGENT_STEP` (that
+    fraction of the radius) with a finite-strain one (the tangent), and each move goes within
+    :data:`MEASURE_FRACTION` of the step of its targets. The solver's and the grasper's state are put back
+    afterwards; a move the grasper refuses raises its error and changes nothing."""
+    step = grasper.radius if grasper.solver.material == "linear" else TANGENT_STEP * grasper.radius
+    position = grasper.position.copy()
+    with leaves_no_trace(grasper):
+        grasper.tolerance = min(grasper.tolerance, MEASURE_FRACTION * step)
+        base = -grasper.move_to(position)
+        columns = [(-grasper.move_to(position + step * axis) - base) / step for axis in np.eye(3)]
+    compliance = np.linalg.inv(np.column_stack(columns))
+    return LocalResponse(int(node), grasper.radius, position - compliance @ base, compliance, base)
+
+
+class _Measured(Exception):
+    """Ends a measurement: :func:`~tissuesim.solvers.snapshot.refusal_restores` puts back what its body changed."""
+
+
+@contextmanager
+def leaves_no_trace(grasper):
+    """Put the grasper's and its solver's state back after the body, as a refused move does."""
+    try:
+        with refusal_restores(grasper, solving=True):
+            yield
+            raise _Measured
+    except _Measured:
+        pass
