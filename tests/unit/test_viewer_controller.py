@@ -318,3 +318,64 @@ def test_the_quadratic_m_v_is_a_setting_that_replaces_the_near_field(hybrid):
     assert not c.element_available() and c.solver.name == "pbd"       # pbd has no M_V: the setting waits
     c.configure(method="hybrid")
     assert c.solver.element == "quadratic"
+
+
+class TextsImGui:
+    """Stands in for polyscope's ImGui module: keeps the texts the panel writes; every widget answers 'unchanged'."""
+
+    def __init__(self):
+        self.texts = []
+
+    def __getattr__(self, name):
+        if name.startswith("ImGui"):
+            return 0
+
+        def call(*args):
+            if name.startswith("Text"):
+                self.texts.append(args[-1])
+            if name in ("Checkbox", "SliderFloat", "SliderInt", "Combo", "InputFloat"):
+                return False, args[1]
+            return False if name.startswith(("Button", "RadioButton", "Is")) else None
+        return call
+
+
+def panel_texts(controller):
+    """The texts of one frame of the simulator's panel over ``controller``."""
+    from tissuesim.viewer.panel import PanelWidgets
+
+    panel = PanelWidgets()
+    panel.__dict__.update(controller=controller, title="", recorder=None, stats=None, frame_seconds=0.0,
+                          render_seconds=0.0, sim_time=0.0, show_wireframe=False, show_control=False,
+                          show_colours=False, colour_top=1.0, _pending={}, _toggle_recording=lambda: None)
+    imgui = TextsImGui()
+    panel._panel(imgui)
+    return imgui.texts
+
+
+def test_the_grasper_is_a_mode_whose_force_the_panel_shows_and_s_goes_back_to_it(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"), mode="grasper", scalpel_factory=FakeScalpel)
+    assert "t = 0.00 s   grasper 0.000 N" in panel_texts(c)
+    top = top_of(c)
+    side = np.array([0.0, 1.0, 0.0])
+    c.pointer_down(top, top - side, side)
+    c.pointer_move(None, top + [0.0, 0.0, 0.008] - side, side)
+    for _ in range(5):
+        c.advance(c.settings.dt)
+    assert c.holding and c.grasper.force[2] < 0.0
+    texts = panel_texts(c)
+    assert f"t = 0.00 s   grasper {np.linalg.norm(c.grasper.force):.3f} N" in texts
+    assert any(text.startswith(f"holding {c.grasper.grasper.held.size} vertices") for text in texts)
+    c.pointer_up(hold=True)
+    assert any(text.startswith("holding 1 grasper ") for text in panel_texts(c))   # the let-go row
+    c.key("s")
+    assert c.mode == "scalpel"
+    c.key("s")
+    assert c.mode == "grasper" and len(c.grasper.held) == 1
+
+
+def test_the_pin_head_stays_the_papers_mode_and_a_bad_mode_is_refused(hybrid):
+    from tissuesim.viewer.panel import MODE_LABELS
+
+    assert Controller(hybrid).mode == "pin" and "paper" in MODE_LABELS["pin"]
+    with pytest.raises(SolverError, match="unknown mode 'grasp'"):
+        Controller(hybrid, mode="grasp")

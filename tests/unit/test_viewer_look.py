@@ -161,3 +161,41 @@ def test_the_panel_rows_stay_when_a_pin_head_holds_and_the_simulation_falls_behi
     busy = _panel_calls(controller, stats=SimpleNamespace(step_seconds=0.02, behind=True, dropped=0.1))
     assert len(controller.held) == 1 and controller.paused
     assert busy == idle
+
+
+def test_the_jaws_are_a_ring_of_their_reach_and_a_pair_of_jaws_meeting_at_their_position():
+    from tissuesim.viewer.tool_layers import RING_SEGMENTS, jaws_geometry
+
+    graspers = np.array([[0.0, 0.0, 0.1, 0.004], [0.05, 0.0, 0.0, 0.002]])
+    nodes, edges = jaws_geometry(graspers)
+    per = len(nodes) // 2
+    for (position, reach), own in zip([(g[:3], g[3]) for g in graspers], [nodes[:per], nodes[per:]]):
+        ring = own[:RING_SEGMENTS]
+        np.testing.assert_allclose(np.linalg.norm(ring - position, axis=1), reach, rtol=1e-12)
+        np.testing.assert_allclose(own[RING_SEGMENTS:RING_SEGMENTS + 2].mean(axis=0), position, atol=1e-15)
+    assert edges.min() == 0 and edges.max() == len(nodes) - 1 and len(edges) == 2 * (RING_SEGMENTS + 3)
+
+
+def test_the_window_draws_and_records_the_graspers_while_they_hold():
+    from tissuesim.viewer.gl import opengl_available
+
+    if not opengl_available():
+        pytest.skip("no OpenGL (install libegl1 libegl-mesa0 libgl1-mesa-dri)")
+    from tissuesim.viewer.app import ViewerApp
+    from tissuesim.viewer.controller import Controller
+
+    app = ViewerApp(Controller(HybridMesh.build(models.cube(300), fine_volume=False), mode="grasper"), headless=True)
+    try:
+        c = app.controller
+        top = c.solver.positions[np.argmax(c.solver.positions[:, 2])].copy()
+        c.pointer_down(top, top + [0.0, -1.0, 0.0], [0.0, 1.0, 0.0])
+        c.pointer_move(None, top + [0.0, -1.0, 0.005], [0.0, 1.0, 0.0])
+        app.tick()
+        assert app.ps.has_curve_network("your jaws")
+        jaws = app.recorded_tools().graspers
+        np.testing.assert_allclose(jaws, [[*(top + [0.0, 0.0, 0.005]), c.grasper.radius]], atol=1e-12)
+        c.pointer_up()
+        app.tick()
+        assert not app.ps.has_curve_network("your jaws") and len(app.recorded_tools().graspers) == 0
+    finally:
+        app.close()

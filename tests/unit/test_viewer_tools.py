@@ -177,3 +177,78 @@ def test_a_painted_ligament_holds_with_its_stiffness_and_a_bad_option_changes_no
     assert c.solver is solver and "gravity" in c.notice and "gravity" not in c.solver_options
     c.set_solver_option("attachments", None)
     assert c.solver.attached_nodes.size == 0
+
+
+SIDE = np.array([0.0, 1.0, 0.0])   # a camera looking along +y: its plane is x-z, so a drag can lift
+
+
+def grasp_and_carry(controller, point, motion, *, frames=10):
+    """Press the grasper at ``point`` seen from the side, drag the jaws by ``motion`` (3,) m in the camera plane,
+    and let ``frames`` frames pass."""
+    controller.pointer_down(point, point - SIDE, SIDE)
+    controller.pointer_move(None, point + np.asarray(motion, dtype=float) - SIDE, SIDE)
+    for _ in range(frames):
+        controller.advance(controller.settings.dt)
+
+
+def off_target(grasper):
+    """The largest distance [m] of a held vertex from where its jaws put it."""
+    return float(np.linalg.norm(grasper.targets() - grasper.solver.positions[grasper.held], axis=1).max())
+
+
+def test_the_grasper_carries_the_held_patch_where_the_jaws_go_and_lets_go(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"), mode="grasper")
+    top = surface_point(c, [0.0, 0.0, 1.0])
+    grasp_and_carry(c, top, [0.0, 0.0, 0.01])                          # lifted 10 mm
+    grasper = c.grasper.grasper
+    assert c.notice == "" and grasper.held.size >= 3
+    np.testing.assert_allclose(grasper.position, top + [0.0, 0.0, 0.01], rtol=0, atol=1e-12)
+    assert off_target(grasper) <= grasper.tolerance                   # the patch is where the jaws are
+    assert c.grasper.force[2] < -5.0 * np.linalg.norm(c.grasper.force[:2])   # the tissue pulls the jaws back down
+    assert len(c.solver.loads) == grasper.held.size
+    (position, reach), = c.grasper.jaws()
+    assert reach == c.grasper.radius and np.array_equal(position, grasper.position)
+    c.pointer_up()
+    assert not c.grasper.grasping and c.solver.loads == () and c.grasper.jaws() == []
+
+
+def test_graspers_let_go_with_hold_keep_holding_and_follow_a_change_of_method(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"), mode="grasper")
+    grasp_and_carry(c, surface_point(c, [0.0, 0.0, 1.0]), [0.0, 0.0, 0.005])
+    c.pointer_up(hold=True)
+    grasp_and_carry(c, surface_point(c, [1.0, 0.0, 0.0]), [0.005, 0.0, 0.0])
+    c.pointer_up(hold=True)
+    held = [(g.held.copy(), g.position.copy()) for g in c.grasper.held]
+    assert len(held) == 2 and not c.grasper.grasping
+    assert len(c.solver.loads) == sum(patch.size for patch, _ in held)   # both act together
+    c.configure(method="fem")
+    for grasper, (patch, position) in zip(c.grasper.held, held):
+        assert grasper.solver is c.solver
+        np.testing.assert_array_equal(grasper.held, patch)
+        np.testing.assert_allclose(grasper.position, position, rtol=0, atol=1e-15)
+    before = max(off_target(g) for g in c.grasper.held)
+    for _ in range(5):
+        c.advance(c.settings.dt)
+    # each holding patch settles on its own jaws; the two pull on each other, so the pair converges step by step
+    assert max(off_target(g) for g in c.grasper.held) < 0.5 * before
+    c.key("x")
+    assert c.grasper.held == [] and c.solver.loads == ()
+
+
+def test_a_grasp_the_grasper_refuses_says_why_and_changes_nothing(hybrid):
+    c = Controller(hybrid, settings=Settings(method="hybrid"), mode="grasper")
+    bottom = surface_point(c, [0.0, 0.0, -1.0])                     # in the fixed bottom tenth
+    x = c.solver.positions.copy()
+    c.pointer_down(bottom, bottom - SIDE, SIDE)
+    assert "fixed" in c.notice and not c.grasper.grasping and c.solver.loads == ()
+    c.pointer_move(None, bottom + [0.0, 0.0, 0.01] - SIDE, SIDE)
+    c.advance(c.settings.dt)
+    np.testing.assert_array_equal(c.solver.positions, x)
+    top = surface_point(c, [0.0, 0.0, 1.0])
+    grasp_and_carry(c, top, [0.0, 0.0, 0.005], frames=2)
+    c.pointer_up(hold=True)
+    loads = c.solver.loads
+    c.pointer_down(top, top - SIDE, SIDE)                           # the same patch again: another grasper holds it
+    assert "another grasper" in c.notice and not c.grasper.grasping and c.solver.loads == loads
+    c.pointer_down(top + [0.0, 0.0, 1.0], top + [0.0, 0.0, 1.0] - SIDE, SIDE)  # nothing within reach
+    assert "nothing to grasp" in c.notice and not c.grasper.grasping

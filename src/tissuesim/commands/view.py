@@ -1,8 +1,9 @@
-"""``tissuesim view [MODEL]``: the interactive simulator (§8.2 pin-head, §8.4 scalpel) in a polyscope window.
+"""``tissuesim view [MODEL]``: the interactive simulator in a polyscope window: the grasper (the tissue goes where
+the jaws go, the force is the output), the paper's pin-head (§8.2), the probe and the scalpel (§8.4).
 
 MODEL is a built-in model (default: liver), a surface file, a saved hybrid bundle or a scene file (``.toml``, see
 ``docs/scenes.md``): a scene sets the model, material, method, supports and gravity, and its first pin-head's
-stiffness and radius, its first probe's radius and its first scalpel's depth, and its scripted tools play in the
+stiffness and radius, its first probe's and first grasper's radius and its first scalpel's depth, and its scripted tools play in the
 window until the user's own press takes over (:mod:`tissuesim.viewer.playback`). ``--fix REGION`` holds another region
 than the bottom tenth (:mod:`.fixing`). ``--record FILE.pvd`` records the session for ParaView (a frame whenever
 something moved); ``--replay FILE.pvd`` plays a recording back instead of simulating.
@@ -19,7 +20,7 @@ from pathlib import Path
 from ..solvers.checks import ELEMENTS
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
 
-HELP = "open the interactive simulator: drag with the pin-head, cut with the scalpel (needs a display)"
+HELP = "open the interactive simulator: grasp and drag the tissue, cut with the scalpel (needs a display)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -141,7 +142,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"tools: {sized.line}; --stiffness sets k", file=sys.stderr)
     scalpel = scalpel_class()
     controller = Controller(hybrid, settings=settings, solver_options=None if fixed is None else {"fixed": fixed},
-                            scalpel_factory=None if scalpel is None else partial(scalpel, depth=sized.depth))
+                            scalpel_factory=None if scalpel is None else partial(scalpel, depth=sized.depth),
+                            mode="grasper")
     controller.probe = ProbeTool(radius=max(sized.radius, controller.probe.radius))
     app = ViewerApp(controller, title=f"{name}: {hybrid.surface.vertex_count} M_S nodes", record=record)
     try:
@@ -183,8 +185,9 @@ def _run_scene(args: argparse.Namespace) -> int:
     from ..viewer.playback import ScenePlayback
 
     controller = Controller(hybrid, settings=settings, solver_options=extra, scalpel_factory=_scene_scalpel(loaded),
-                            playback=ScenePlayback(loaded))
+                            playback=ScenePlayback(loaded), mode="grasper")
     _scene_probe(loaded, controller)
+    _scene_grasper(loaded, controller)
     title = loaded.scene.title or f"{name}: {hybrid.surface.vertex_count} M_S nodes"
     app = ViewerApp(controller, title=title, record=record)
     try:
@@ -234,3 +237,12 @@ def _scene_probe(loaded, controller) -> None:
     spec = _first(loaded, "probe")
     if spec is not None:
         controller.probe = ProbeTool(radius=spec.radius)
+
+
+def _scene_grasper(loaded, controller) -> None:
+    """The simulator's grasper takes the reach of the scene's first grasper."""
+    from ..viewer.tools import GrasperTool
+
+    spec = _first(loaded, "grasper")
+    if spec is not None:
+        controller.grasper = GrasperTool(radius=spec.radius)

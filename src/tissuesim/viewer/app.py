@@ -1,11 +1,12 @@
 """The simulator's window: a thin polyscope layer over :class:`~tissuesim.viewer.controller.Controller`.
 
 Each frame polyscope calls :meth:`ViewerApp.frame`, which (1) turns the mouse into pointer events — a left click
-on the surface grabs (pin-head) or starts a cut (scalpel) and turns the camera's mouse handling off until the
-button is released; a click beside the surface turns the camera as usual — (2) lets the controller run the steps
-the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a recording frame, (5) draws
-the panel (:mod:`.panel`). Keys: S switches pin-head / scalpel, X lets go of the held pin-heads, R resets, space
-pauses, Q or Esc closes the window; releasing the button with Shift held leaves the pin-head holding (a second hand).
+on the surface grasps (grasper), grabs (the paper's pin-head) or starts a cut (scalpel) and turns the camera's mouse
+handling off until the button is released; a click beside the surface turns the camera as usual — (2) lets the
+controller run the steps the elapsed wall time asks for, (3) pushes the new positions to the GPU, (4) writes a
+recording frame, (5) draws the panel (:mod:`.panel`). Keys: S switches the hand tool (grasper or pin-head) / scalpel,
+X lets go of everything held, R resets, space pauses, Q or Esc closes the window; releasing the button with Shift
+held leaves the grasper or pin-head holding (a second hand).
 
 The window is the model's view plus the panel beside it (:data:`VIEW_SIZE` + :data:`PANEL_WIDTH`), and the camera
 centres the model in the free part (:func:`~tissuesim.viewer.gl.look_at_oblique`'s ``pane``), so the panel never
@@ -26,7 +27,7 @@ from ..errors import TissuesimError
 from ..mesh.coincident import coincident_pairs
 from ..recording import Recorder, Tools, border_edges, solver_frame, tools_of
 from ..recording_place import session_path
-from .controller import Controller
+from .controller import HANDS, Controller
 from .figures import WALL_COLOR
 from .gl import look_at_oblique, polyscope
 from .look import SURFACE, TissueSurface  # noqa: F401  (SURFACE: the name scripts look the model up by)
@@ -73,6 +74,7 @@ class ViewerApp(PanelWidgets):
         self._dragging = False
         self._held_count = 0
         self._scene_tools = None      # a scene's scripted tools, drawn (ToolLayers)
+        self._own_tools = None        # the user's graspers, drawn (ToolLayers)
         self._mouse = None
         self._last = None
         self.headless = headless
@@ -138,7 +140,7 @@ class ViewerApp(PanelWidgets):
         if self._topology is not triangles:  # first frame, or a cut changed the surface: register anew
             self._topology = triangles
             self.mesh, self.surface, self.cut, self.walls, self._shown = None, None, None, None, {}  # wrappers first
-            self._scene_tools = None
+            self._scene_tools = self._own_tools = None
             ps.remove_all_structures()
             self.surface = TissueSurface(ps, x, triangles, solver.rest_positions)
             self.mesh = self.surface.mesh
@@ -190,6 +192,10 @@ class ViewerApp(PanelWidgets):
                     lambda p: ps.register_curve_network("spring", p, np.array([[0, 1]]), color=(0.85, 0.1, 0.1),
                                                         radius=0.002))
         self._held_layers(x)
+        if self._own_tools is None:         # first frame, or a cut registered the surface anew
+            self._own_tools = ToolLayers(self.ps, "your")
+        jaws = tools_of(graspers=c.grasper.jaws()).graspers
+        self._own_tools.update(np.zeros((0, 2, 3)), np.zeros((0, 4)), graspers=jaws)
         self._scripted_layers(x)
         probe = c.probe.probe
         self._layer("probe", probe is not None, None if probe is None else probe.center[None],
@@ -226,28 +232,30 @@ class ViewerApp(PanelWidgets):
                                                         radius=0.002))
 
     def _scripted_layers(self, x) -> None:
-        """A scene's scripted pin-heads and probes, where they are now (:class:`~.tool_layers.ToolLayers`)."""
+        """A scene's scripted pin-heads, probes and graspers, where they are now (:class:`~.tool_layers.ToolLayers`)."""
         playback = self.controller.playback
         if playback is None:
             return
         if self._scene_tools is None:       # first frame, or a cut registered the surface anew
             self._scene_tools = ToolLayers(self.ps, "scene")
-        tools = tools_of(*playback.acting(x)[:2])
-        self._scene_tools.update(tools.pin_heads, tools.probes)
+        tools = tools_of(*playback.acting(x)[:2], graspers=playback.graspers())
+        self._scene_tools.update(tools.pin_heads, tools.probes, graspers=tools.graspers)
 
     def recorded_tools(self) -> Tools:
-        """Every tool acting now, for a recording: the pin-head held, those left holding, the scene's scripted ones,
-        the probes, and the scalpel's depth."""
+        """Every tool acting now, for a recording: the graspers, the pin-head held, those left holding, the scene's
+        scripted ones, the probes, and the scalpel's depth."""
         c = self.controller
         x = c.solver.positions
         pins = [(x[c.pin.node], c.cursor)] if c.pin.grabbed and c.cursor is not None else []
         pins += [(x[node], cursor) for node, cursor in zip(c.held.nodes, c.held.cursors)]
         probes = [] if c.probe.probe is None else [(c.probe.probe.center, c.probe.radius)]
         depth = 0.0 if c.scalpel is None else float(c.scalpel.depth)
+        graspers = c.grasper.jaws()
         if c.playback is not None:
             scene_pins, scene_probes, scene_depth = c.playback.acting(x)
             pins, probes, depth = pins + scene_pins, probes + scene_probes, max(depth, scene_depth)
-        return tools_of(pins, probes, depth)
+            graspers += c.playback.graspers()
+        return tools_of(pins, probes, depth, graspers)
 
     def _layer(self, name: str, shown: bool, points, register) -> None:
         layer = self._shown.get(name)
@@ -284,14 +292,15 @@ class ViewerApp(PanelWidgets):
         if psim.IsMouseClicked(0):
             hit, ray = self._pick(mouse)
             c.pointer_down(hit, *ray)
-            self._dragging = hit is not None and (c.pin.grabbed or c.mode != "pin")
+            self._dragging = hit is not None and (c.holding or c.mode not in HANDS)
             self.ps.set_do_default_mouse_interaction(not self._dragging)
         elif psim.IsMouseReleased(0) and self._dragging:
             c.pointer_up(hold=io.KeyShift)
             self._dragging = False
             self.ps.set_do_default_mouse_interaction(True)
         elif moved and (self._dragging or c.mode == "pin"):
-            hit, ray = self._pick(mouse) if (c.mode != "pin" or not self._dragging) else (None, self._ray(mouse))
+            # a hand tool drags along the camera ray alone: no pick (a render pass) while it holds
+            hit, ray = (None, self._ray(mouse)) if self._dragging and c.mode in HANDS else self._pick(mouse)
             c.pointer_move(hit, *ray)
 
     def _pick(self, mouse):

@@ -1,6 +1,6 @@
 """How the simulator's :class:`~tissuesim.viewer.controller.Controller` builds its solver and tools from the
-settings: a mixin, so that a change of method, material or support swaps in a new solver, pin-head, held pin-heads and
-scalpel all at once, or (refused) changes nothing."""
+settings: a mixin, so that a change of method, material or support swaps in a new solver, pin-head, held pin-heads,
+graspers, probe and scalpel all at once, or (refused) changes nothing."""
 
 from __future__ import annotations
 
@@ -131,15 +131,17 @@ class SolverBuilding:
         return "element" in solver_options(self.settings.method)
 
     def _build(self, hybrid, *, carry: bool = False) -> None:
-        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node. Everything is
-        built first and swapped in only then, so a refusal (a method that cannot run here, a contact radius that
-        reaches the fixed region from the held node) leaves the controller as it was."""
+        """A fresh solver, pin-head and scalpel over ``hybrid``; with ``carry``, re-grab a held node and the
+        graspers' patches. Everything is built first and swapped in only then, so a refusal (a method that cannot
+        run here, a contact radius or a support that reaches the fixed region from what is held) leaves the
+        controller as it was."""
         held = (self.pin.node, self.pin.anchor) if carry and self.pin.grabbed else None
         solver = make_solver(self.settings.method, hybrid, **self._solver_options(hybrid))
         pin = PinHead(solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
         holding = self.held.moved_to(solver, stiffness=self.settings.stiffness, radius=self.settings.radius) \
             if carry else []
         probe = self.probe.moved_to(solver) if carry else None
+        graspers = self.grasper.moved_to(solver) if carry else ([], None)
         force = np.zeros(3)
         if held is not None:
             pin.node, pin.anchor = held
@@ -153,9 +155,10 @@ class SolverBuilding:
         self.solver, self.pin, self.force = solver, pin, force
         self.held.adopt(holding)
         self.probe.adopt(probe)
+        self.grasper.adopt(graspers)
         self.scalpel, self._no_scalpel = scalpel, no_scalpel
         if self.scalpel is None and self.mode == "scalpel":
-            self.mode = "pin"
+            self.mode = self._hand
         elif self.mode == "scalpel":
             self._prepare_scalpel()
         self._debt = 0.0

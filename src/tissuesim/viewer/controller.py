@@ -1,15 +1,20 @@
-"""The simulator's interaction logic, without any window: pointer and key events in, PinHead / Scalpel calls out.
+"""The simulator's interaction logic, without any window: pointer and key events in, Grasper / PinHead / Scalpel calls
+out.
 
 A window layer (:mod:`tissuesim.viewer.app`) turns mouse events into *pointer events* — the picked surface point
 under the cursor (or None) and the camera ray through it — and calls :meth:`Controller.advance` once per frame
 with the wall time that passed. Everything else happens here, so it is tested without OpenGL:
 
-* **pin-head mode** (§8.2): pointer down on the surface snaps the pin-head to the nearest M_S node
+* **grasper mode** (what the simulator starts in: ``tissuesim view`` passes ``mode="grasper"``): pointer down on the
+  surface closes jaws (:class:`~.tools.GrasperTool`) on the vertices within their reach; moving carries the jaws in
+  the camera plane, and the held patch goes exactly where they go (each step settles it there first), the force on
+  them being the output; pointer up lets go, with the hold modifier they keep holding, so several hold at once;
+* **pin-head mode** (the paper's, §8.2): pointer down on the surface snaps the pin-head to the nearest M_S node
   (:meth:`PinHead.grab`); moving drags the cursor in the *camera plane* (the plane through the grab point facing
   the camera), so f = k (x − x0) (eq 24) lies in the screen plane as on a haptic-free desktop; pointer up releases;
 * **a second hand**: a pin-head let go with the hold modifier (Shift in the window) keeps its load, clamped where it
   was let go (:class:`~.tools.HeldPins`), so the user can hold a fold and then grab again or cut beside it; X lets go
-  of every held pin-head;
+  of every held pin-head, grasper and probe;
 * **probe mode**: a rigid sphere (:class:`~.tools.ProbeTool`) pressed where the pointer touches the surface and slid
   across it while the button is down; with Shift on release it stays pressing;
 * **support mode**: a stroke paints the fixed region (:class:`~.tools.SupportBrush`); when it ends the solver is
@@ -19,7 +24,7 @@ with the wall time that passed. Everything else happens here, so it is tested wi
   normal) sweeps across the surface (off the surface: the camera-plane point through the last blade point);
 * **settings** (method, E, ν, k, contact radius, iterations, dt, prestrain) change live: a change that alters the
   solver (method, material, iterations, prestrain) builds a new one over the current mesh and re-applies a held
-  pin-head;
+  pin-head, the graspers' holds and the probe;
 * **time**: the simulation runs at its own fixed dt (:meth:`advance`), as many steps as the wall time asks, at most
   :data:`MAX_STEPS_PER_FRAME` steps and :data:`STEP_BUDGET` seconds per frame so a slow method never freezes the
   window; when one step takes longer than dt of wall time the simulation is slower than real time and
@@ -28,7 +33,9 @@ with the wall time that passed. Everything else happens here, so it is tested wi
 Choices where the paper is silent: the default pin-head stiffness :data:`~.settings.DEFAULT_STIFFNESS` [N/m] (a 2 cm
 drag is 1 N, the middle of the experiments' 0.5–20 N range; ``tissuesim view`` sizes it to the model instead,
 :func:`~.settings.sized_defaults`); a grab that misses every node within the snap radius leaves
-the pin-head free and says why in :attr:`Controller.notice`, instead of raising into the window loop.
+the pin-head free and says why in :attr:`Controller.notice`, instead of raising into the window loop; so does a grab
+the grasper refuses (nothing in reach, a fixed vertex, a vertex other jaws hold), and a refused carry leaves the jaws
+where they were.
 """
 
 from __future__ import annotations
@@ -44,7 +51,7 @@ from ..solvers.checks import checked_point
 from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
 from .rays import camera_plane_point, unit_ray
-from .tools import BRUSH_EDGES, HeldPins, ProbeTool, SupportBrush
+from .tools import BRUSH_EDGES, GRASP_EDGES, GrasperTool, HeldPins, ProbeTool, SupportBrush
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
@@ -52,7 +59,9 @@ BLADE_LIFT = 0.3  # of the blade depth: the tip is held this far above the picke
 # that every sweep of the blade crosses the surface (a tip exactly on it would sweep only just below it)
 PROBE_EDGES = 3.0  # the probe's default radius in mean rest edge lengths: larger than the triangles it presses
 SMOOTHING = 0.1  # weight of the newest sample in the running means of step time and frame rate
-MODES = ("pin", "probe", "scalpel", "support")
+MODES = ("grasper", "pin", "probe", "scalpel", "support")
+#: The modes whose press takes hold of the tissue (the window drags only after a press that held).
+HANDS = ("grasper", "pin")
 
 
 @dataclass(frozen=True)
@@ -94,10 +103,13 @@ class Controller(SolverBuilding):
             installed, else scalpel mode is unavailable.
         playback: a scene's scripted tools (:class:`~.playback.ScenePlayback`), played before each step until the
             user's own press takes over; None (default) for none.
+        mode: the tool to start with, one of :data:`MODES` (default ``"pin"``, the paper's pin-head; the simulator's
+            window starts with the grasper).
         clock: seconds, monotonic (injectable for tests).
 
     Attributes:
-        solver, pin (PinHead), scalpel (or None), mode (one of :data:`MODES`), paused, settings, notice (a line for
+        solver, pin (PinHead), grasper (:class:`~.tools.GrasperTool`), scalpel (or None), mode (one of
+        :data:`MODES`), paused, settings, notice (a line for
         the user or ""), cursor (``(3,)`` pin-head position [m] or None), force (``(3,)`` current pin-head force [N]),
         last_cut (the last report the scalpel returned, or None), held (:class:`~.tools.HeldPins`: pin-heads left
         holding), brush (:class:`~.tools.SupportBrush`), support (``(k,) int32`` the painted fixed vertices, or None:
@@ -105,17 +117,21 @@ class Controller(SolverBuilding):
     """
 
     def __init__(self, hybrid, *, settings: Settings = Settings(), solver_options=None, scalpel_factory=None,
-                 clock=time.perf_counter, playback=None):
+                 clock=time.perf_counter, playback=None, mode: str = "pin"):
+        if mode not in MODES:
+            raise SolverError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         self.hybrid = hybrid
         self.playback = playback
         self.solver_options = extra_options(solver_options)
         self.held = HeldPins()
         self.brush = SupportBrush(hybrid.surface)
         self.probe = ProbeTool(radius=PROBE_EDGES * self.brush.radius / BRUSH_EDGES)
+        self.grasper = GrasperTool(radius=GRASP_EDGES * self.brush.radius / BRUSH_EDGES)
         self.support: np.ndarray | None = None
         self.clock = clock
         self._scalpel_factory = scalpel_class() if scalpel_factory is None else scalpel_factory
-        self.mode = "pin"
+        self.mode = mode
+        self._hand = mode if mode in HANDS else HANDS[0]    # the hand tool S goes back to: the one used last
         self.paused = False
         self.notice = ""
         self.cursor: np.ndarray | None = None
@@ -135,6 +151,11 @@ class Controller(SolverBuilding):
         return self.scalpel is not None
 
     @property
+    def holding(self) -> bool:
+        """Whether the hand tool holds what the press took (the grasper's patch, the pin-head's node)."""
+        return self.grasper.grasping if self.mode == "grasper" else self.mode == "pin" and self.pin.grabbed
+
+    @property
     def force_newtons(self) -> float:
         """|f| of the pin-head [N]."""
         return float(np.linalg.norm(self.force))
@@ -150,7 +171,9 @@ class Controller(SolverBuilding):
         took_over = self.playback is not None and self.playback.take_over()
         try:
             hit = checked_point(hit).copy()
-            if self.mode == "pin":
+            if self.mode == "grasper":
+                self.grasper.grab(self.solver, hit)
+            elif self.mode == "pin":
                 self.pin.grab(hit)
                 self.notice = self.pin.notice  # the grab may have held a farther node than the one clicked: say so
                 self.cursor, self.force = hit, np.zeros(3)
@@ -168,12 +191,14 @@ class Controller(SolverBuilding):
             self.notice = "you took over from the scene's script (R plays it again from the start)"
 
     def pointer_move(self, hit, ray_origin, ray_direction) -> None:
-        """Cursor moved: drag the held pin-head in the camera plane, or move the blade.
+        """Cursor moved: drag the grasper's jaws or the held pin-head in the camera plane, or move the blade.
 
         A drag the pin-head refuses (a bad ray, a force too large to hold) keeps the hold and the last force and
         says why in :attr:`notice`; a refused cut lifts the blade (:meth:`_move_blade`)."""
         try:
-            if self.mode == "pin":
+            if self.mode == "grasper":
+                self.grasper.drag(ray_origin, ray_direction)
+            elif self.mode == "pin":
                 self._drag_pin(hit, ray_origin, ray_direction)
             elif self.mode == "probe":
                 self.probe.drag(ray_origin, ray_direction)
@@ -212,9 +237,11 @@ class Controller(SolverBuilding):
         self._blade = point
 
     def pointer_up(self, *, hold: bool = False) -> None:
-        """Button up: release the pin-head (the force goes; with ``hold``, it stays clamped where it is and a new
-        pin-head takes the next grab), fix the painted region, or lift the blade."""
-        if self.mode == "pin":
+        """Button up: the grasper lets go, or releases the pin-head (the force goes; with ``hold``, either stays
+        holding where it is and the next press takes a new one), fix the painted region, or lift the blade."""
+        if self.mode == "grasper":
+            self.grasper.let_go(hold=hold)
+        elif self.mode == "pin":
             if hold and self.pin.grabbed and self.cursor is not None:
                 self.held.hold(self.pin, self.cursor)
                 self.pin = PinHead(self.solver, stiffness=self.settings.stiffness, radius=self.settings.radius)
@@ -233,8 +260,8 @@ class Controller(SolverBuilding):
             self._cutting = False
 
     def key(self, name: str) -> None:
-        """Keyboard: "s" switches pin-head / scalpel, "x" lets go of every held pin-head, "r" resets, "space" pauses
-        and resumes."""
+        """Keyboard: "s" switches the hand tool (grasper or pin-head) / scalpel, "x" lets go of everything held, "r"
+        resets, "space" pauses and resumes."""
         actions = {"s": self.toggle_mode, "x": self.release_held, "r": self.reset, "space": self.toggle_pause}
         if not isinstance(name, str):
             self.notice = f"a key is named by a string (s, x, r, space), got {name!r}; ignored"
@@ -243,7 +270,8 @@ class Controller(SolverBuilding):
 
     # ---------------------------------------------------------------------------------------------- commands
     def toggle_mode(self) -> None:
-        self.set_mode("scalpel" if self.mode == "pin" else "pin")
+        """The scalpel from the hand tool, else back to the hand tool used last (grasper or pin-head)."""
+        self.set_mode("scalpel" if self.mode in HANDS else self._hand)
 
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
@@ -253,6 +281,8 @@ class Controller(SolverBuilding):
             return
         self.pointer_up()  # never leave a load or a cut dangling across a mode switch
         self.mode = mode
+        if mode in HANDS:
+            self._hand = mode
         if mode == "scalpel":
             self._prepare_scalpel()
 
@@ -260,8 +290,9 @@ class Controller(SolverBuilding):
         self.paused = not self.paused
 
     def release_held(self) -> None:
-        """Every pin-head left holding lets go, and the probe."""
+        """Every pin-head and grasper left holding lets go, and the probe."""
         self.held.release_all()
+        self.grasper.release_all()
         self.probe.release()
 
     def reset(self) -> None:
@@ -284,6 +315,7 @@ class Controller(SolverBuilding):
         while self._debt >= dt and steps < MAX_STEPS_PER_FRAME and self.clock() - began < STEP_BUDGET:
             start = self.clock()
             try:
+                self._settle_graspers()
                 self.probe.before_step()
                 if self.playback is not None:
                     self.playback.before_step(self.solver, dt)
@@ -295,6 +327,7 @@ class Controller(SolverBuilding):
                 self.notice = str(error)
                 self.pin.release()
                 self.held.forget()
+                self.grasper.release_all()
                 self.probe.adopt(None)
                 self.solver.reset()
                 self.force = np.zeros(3)
@@ -324,6 +357,14 @@ class Controller(SolverBuilding):
         return seconds
 
     # ---------------------------------------------------------------------------------------------- internals
+    def _settle_graspers(self) -> None:
+        """The held patches carried onto their jaws; a carry the tissue cannot follow leaves those jaws where they
+        were, changes nothing, and says why in :attr:`notice` (the body is fine: no restart)."""
+        try:
+            self.grasper.before_step()
+        except TissuesimError as error:
+            self.notice = f"the grasper's move was refused: {error}"
+
     def _lifted(self, point: np.ndarray, direction) -> np.ndarray:
         """``point`` moved back along the camera ray by BLADE_LIFT × the blade depth."""
         return point - BLADE_LIFT * self.scalpel.depth * unit_ray(direction)

@@ -1,7 +1,7 @@
 """The simulator window's panel (:class:`~tissuesim.viewer.app.ViewerApp`'s ImGui widgets): tool, hints, method,
 material and time settings, timings, record and reset buttons, the layers to show and the controller's notice.
 
-Its rows keep their places: a row that says something only at times (the held pin-heads, the slower-than-real-time
+Its rows keep their places: a row that says something only at times (what is left holding, the slower-than-real-time
 and beyond-small-strain status, the colour legend, the near field after a cut) is always drawn, blank or greyed out
 when it has nothing to say, so the next click lands on the widget it was aimed at. What changes with the user's own
 choice (the method's options, the tool's settings) sits below the fixed rows, and the notice comes last.
@@ -21,18 +21,36 @@ from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES
 
-MODE_LABELS = {"pin": "pin-head", "probe": "probe", "scalpel": "scalpel", "support": "support"}
+MODE_LABELS = {"grasper": "grasper", "pin": "pin-head (paper)", "probe": "probe", "scalpel": "scalpel",
+               "support": "support"}
 STANDARD_GRAVITY = 9.81  # m/s²: the panel's gravity, straight down the model's z
 PANEL_ITEM_WIDTH = 150  # pixels of one widget: with the panel's width, it leaves the model in view
 PAIR_ITEM_WIDTH = 85  # pixels of a widget two to a row (E and nu; dt and prestrain), so the panel fits the window
 BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 #: The keys, two lines that fit the panel.
-KEY_HINTS = ("keys: S pin-head / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
+KEY_HINTS = ("keys: S hand tool / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
 #: What the mouse does on the model in each mode (beside it, as in every polyscope window, a drag turns the view).
-MOUSE_HINTS = {"pin": "drag on the tissue: pull; Shift + release: hold",
+MOUSE_HINTS = {"grasper": "drag on the tissue: grasp and carry; Shift + release: hold",
+               "pin": "drag on the tissue: pull (eq 24 spring); Shift + release: hold",
                "probe": "press on the tissue; Shift + release: hold",
                "scalpel": "drag across the tissue: cut",
                "support": "drag on the tissue: paint (fixed blue, ligament green)"}
+
+
+def held_line(c) -> str:
+    """What the controller ``c`` has left holding, with the pull of each kind [N], or "" for nothing."""
+    graspers = len(c.grasper.held)
+    pins = len(c.held)
+    parts = []
+    if graspers:
+        pulling = sum(float(np.linalg.norm(grasper.force)) for grasper in c.grasper.held)
+        parts.append(f"{graspers} grasper{'s' * (graspers != 1)} {pulling:.2f} N")
+    if pins:
+        pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
+        parts.append(f"{pins} pin-head{'s' * (pins != 1)} {pulling:.2f} N")
+    if c.probe.held and c.probe.pressing:
+        parts.append("probe")
+    return "holding " + " + ".join(parts) if parts else ""
 
 
 def iterations_act(solver) -> bool:
@@ -55,10 +73,10 @@ class PanelWidgets:
         c, s = self.controller, self.controller.settings
         psim.PushItemWidth(PANEL_ITEM_WIDTH)
         psim.TextUnformatted(self.title or " ")
-        for number, mode in enumerate(MODES):      # two to a row: four in one would run past the panel
+        for number, mode in enumerate(MODES):      # two to a row: more in one would run past the panel
             if psim.RadioButton(MODE_LABELS[mode], c.mode == mode):
                 c.set_mode(mode)
-            if number % 2 == 0:
+            if number % 2 == 0 and number + 1 < len(MODES):
                 psim.SameLine()
         for line in KEY_HINTS:
             psim.TextDisabled(line)
@@ -86,9 +104,11 @@ class PanelWidgets:
         if changed:
             self._configure(method=methods[index])
         self._material(psim, s)
-        if c.mode in ("probe", "support"):
+        if c.mode in ("grasper", "probe", "support"):
             psim.Separator()
-            if c.mode == "probe":
+            if c.mode == "grasper":
+                self._grasper(psim, c.grasper)
+            elif c.mode == "probe":
                 self._probe(psim, c.probe)
             else:
                 self._support(psim, c)
@@ -99,20 +119,15 @@ class PanelWidgets:
 
     @staticmethod
     def _held(psim, c) -> None:
-        """One row: the pin-heads left holding and their pull, or the probe left pressing, and the button that lets
-        them go (greyed when nothing holds)."""
-        count, probe = len(c.held), c.probe.held and c.probe.pressing
-        pulling = sum(float(np.linalg.norm(pin.force(cursor))) for pin, cursor in zip(c.held.pins, c.held.cursors))
-        psim.BeginDisabled(count == 0 and not probe)
+        """One row: the graspers and pin-heads left holding and their pull, and the probe left pressing, and the
+        button that lets them go (greyed when nothing holds)."""
+        line = held_line(c)
+        psim.BeginDisabled(not line)
         if psim.Button("let go (X)"):
             c.release_held()
         psim.EndDisabled()
         psim.SameLine()
-        if count:
-            psim.TextUnformatted(f"holding {count} pin-head{'s' * (count != 1)}, {pulling:.2f} N" +
-                                 (" + probe" if probe else ""))
-        else:
-            psim.TextUnformatted("the probe holds" if probe else "nothing holding")
+        psim.TextUnformatted(line or "nothing holding")
 
     def _gravity(self, psim, c) -> None:
         gravity = c.solver_options.get("gravity") is not None
@@ -147,6 +162,19 @@ class PanelWidgets:
             c.set_support(None)
             self._topology = None
         psim.EndDisabled()
+
+    @staticmethod
+    def _grasper(psim, tool) -> None:
+        """The jaws' reach, and what they hold."""
+        changed, reach_mm = psim.SliderFloat("jaws' reach [mm]", 1e3 * tool.radius, 1.0, 30.0, "%.1f")
+        if changed:
+            tool.radius = 1e-3 * reach_mm     # the next grab
+        if tool.grasping:
+            grasper = tool.grasper
+            psim.TextUnformatted(f"holding {grasper.held.size} vertices, torque "
+                                 f"{1e3 * np.linalg.norm(grasper.torque):.2f} mN m")
+        else:
+            psim.TextWrapped("press on the tissue and drag: it goes where the jaws go; Shift + release keeps it held")
 
     @staticmethod
     def _probe(psim, tool) -> None:
@@ -242,8 +270,10 @@ class PanelWidgets:
         step_ms = 1e3 * st.step_seconds if st else 0.0
         fps = 1.0 / self.frame_seconds if self.frame_seconds else 0.0
         psim.TextUnformatted(f"step {step_ms:.2f} ms   draw {1e3 * self.render_seconds:.1f} ms   {fps:.0f} frames/s")
-        if c.probe.pressing:          # the tool that acts: the probe's push, else the pin-head's pull
+        if c.probe.pressing:          # the tool that acts: the probe's push, the jaws' pull, else the pin-head's
             acting = f"probe {np.linalg.norm(c.probe.force):.3f} N"
+        elif c.mode == "grasper":
+            acting = f"grasper {np.linalg.norm(c.grasper.force):.3f} N"
         else:
             acting = f"force {c.force_newtons:.3f} N" + (f" on node {c.pin.node}" if c.pin.grabbed else "")
         psim.TextUnformatted(f"t = {self.sim_time:.2f} s   {acting}")

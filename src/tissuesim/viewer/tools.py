@@ -1,5 +1,11 @@
-"""The simulator's tools beside the live pin-head: pin-heads left holding (a second hand) and the brush that paints
-the fixed region. Both are headless, driven by :class:`~tissuesim.viewer.controller.Controller`.
+"""The simulator's tools beside the live pin-head: the grasper, pin-heads left holding (a second hand), the probe and
+the brush that paints the fixed region. All are headless, driven by :class:`~tissuesim.viewer.controller.Controller`.
+
+* :class:`GrasperTool`: jaws (:class:`~tissuesim.grasper.Grasper`) that hold the surface vertices within their reach
+  of the point pressed and carry them rigidly where the pointer drags the jaws, in the plane facing the camera; each
+  step first settles every held patch on its jaws (:meth:`~tissuesim.grasper.Grasper.settle`), so the tissue goes
+  where the hand goes and the force is the output. Let go with the hold modifier (Shift), the jaws keep holding, so
+  several hold at once;
 
 * :class:`HeldPins`: a pin-head released with the hold modifier (Shift) keeps its load, clamped at the cursor
   where it was let go, while the user grabs again or cuts beside it; each holds its own load on the solver
@@ -17,16 +23,18 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import SolverError
+from ..grasper import Grasper
 from ..interaction import PinHead
-from ..solvers.checks import checked_point
 from ..probe import Probe
-from ..solvers.checks import positive_number
+from ..solvers.checks import checked_point, positive_number
 from .rays import camera_plane_point, unit_ray
 
 #: The support brush's default radius, in mean rest edge lengths of M_S.
 BRUSH_EDGES = 2.0
 #: A painted ligament's default total stiffness [N/m]: a few times a pin-head's pull, so a held organ sways but stays.
 DEFAULT_LIGAMENT = 200.0
+#: The grasper's default reach, in mean rest edge lengths of M_S: the jaws take a patch of a few vertices.
+GRASP_EDGES = 2.0
 #: How far the probe presses beyond the surface it touches, as a fraction of its radius (δ ≪ R: Hertz's range).
 PRESS_FRACTION = 0.3
 
@@ -218,3 +226,117 @@ class ProbeTool:
     def adopt(self, probe: Probe | None) -> None:
         self.probe, self._settled = probe, False
         self.held = self.held and probe is not None
+
+
+class GrasperTool:
+    """The simulator's jaws (see the module docstring).
+
+    Args:
+        radius: the jaws' reach [m]: a press holds the surface vertices within it of the point pressed.
+
+    Attributes:
+        radius: the reach [m] of the next grab.
+        grasper: the :class:`~tissuesim.grasper.Grasper` the pointer drags now, or None.
+        held: the graspers left holding, oldest first.
+    """
+
+    def __init__(self, *, radius: float):
+        self.radius = positive_number("grasper reach", radius, "m")
+        self.grasper: Grasper | None = None
+        self.held: list[Grasper] = []
+        self._aims: dict[Grasper, np.ndarray] = {}    # where the pointer put jaws not yet settled there [m]
+
+    @property
+    def grasping(self) -> bool:
+        return self.grasper is not None
+
+    @property
+    def graspers(self) -> list[Grasper]:
+        """Every grasper holding: those left holding, then the dragged one."""
+        return self.held + ([] if self.grasper is None else [self.grasper])
+
+    @property
+    def force(self) -> np.ndarray:
+        """``(3,) float64`` the tissue's reaction on the dragged jaws [N] (zero when none drags)."""
+        return np.zeros(3) if self.grasper is None else self.grasper.force
+
+    def jaws(self) -> list[tuple[np.ndarray, float]]:
+        """``[(position (3,) [m], reach [m])]`` of every grasper holding, where the pointer put it (to draw and
+        record)."""
+        return [(self._aims.get(grasper, grasper.position), grasper.radius) for grasper in self.graspers]
+
+    def grab(self, solver, hit) -> None:
+        """Take hold of ``solver``'s surface within :attr:`radius` of ``hit`` ``(3,)`` [m]; refused (SolverError,
+        nothing held, nothing changed) where no vertex is in reach, or the patch has a fixed vertex or one that
+        other jaws hold."""
+        grasper = Grasper(solver, radius=self.radius)
+        grasper.grab(hit)
+        if self.grasper is not None:        # a press without a release before it: the old jaws let go
+            self._drop(self.grasper)
+        self.grasper = grasper
+
+    def drag(self, ray_origin, ray_direction) -> None:
+        """Aim the dragged jaws where the camera ray meets the plane through them facing the camera; the next step
+        carries the patch there."""
+        if self.grasper is None:
+            return
+        anchor = self._aims.get(self.grasper, self.grasper.position)
+        point = camera_plane_point(ray_origin, ray_direction, anchor)
+        if point is not None:
+            self._aims[self.grasper] = point
+
+    def let_go(self, *, hold: bool) -> None:
+        """The button was released: with ``hold`` the dragged jaws keep holding where they were aimed, else they
+        let go."""
+        if self.grasper is None:
+            return
+        if hold:
+            self.held.append(self.grasper)
+        else:
+            self._drop(self.grasper)
+        self.grasper = None
+
+    def before_step(self) -> None:
+        """Every held patch settled on its jaws, each where the pointer aimed it (a frame's iterations; a patch
+        not there yet, or moved by another tool, goes on at the next step). A motion the tissue cannot follow (a
+        volume it would invert) is refused: those jaws stay where they were, nothing changes, and SolverError says
+        why."""
+        for grasper in self.graspers:
+            grasper.settle(self._aims.pop(grasper, None))
+
+    def release_all(self) -> None:
+        """Every grasper lets go, the dragged one and those left holding; their forces are withdrawn."""
+        for grasper in self.graspers:
+            self._drop(grasper)
+        self.grasper, self.held = None, []
+
+    def moved_to(self, solver) -> tuple[list[Grasper], Grasper | None]:
+        """``(held, dragged)``: every grasper rebuilt on ``solver`` (a new solver over the same vertices, at rest),
+        holding its patch and carrying it a frame's worth toward its jaws (the steps go on); the live ones are
+        untouched, so a refusal here changes nothing (:meth:`adopt` swaps). Every patch is taken at rest before
+        any is carried."""
+        moved = {grasper: _regrabbed(grasper, solver) for grasper in self.graspers}
+        for grasper, again in moved.items():
+            again.settle(self._aims.get(grasper, grasper.position), grasper.rotation)
+        return [moved[grasper] for grasper in self.held], moved.get(self.grasper)
+
+    def adopt(self, graspers: tuple[list[Grasper], Grasper | None]) -> None:
+        """The graspers of :meth:`moved_to` (or ``([], None)``: none) become the live ones."""
+        self.held, self.grasper = graspers
+        self._aims = {}
+
+    def _drop(self, grasper: Grasper) -> None:
+        grasper.release()
+        self._aims.pop(grasper, None)
+
+
+def _regrabbed(grasper: Grasper, solver) -> Grasper:
+    """New jaws on ``solver`` (at rest) holding ``grasper``'s patch, not yet carried.
+
+    They grab where the old jaws were, relative to the patch, at its grab: the patch's grip is the old targets less
+    the jaws, turned back. That is exact for a patch grabbed at rest; one grabbed deformed keeps its vertices'
+    offsets about their mean, to within its deformation at the grab."""
+    grip = (grasper.targets() - grasper.position) @ grasper.rotation        # (k, 3) X_i − p₀ [m]
+    again = Grasper(solver, radius=grasper.radius, tolerance=grasper.tolerance)
+    again.grab((solver.positions[grasper.held] - grip).mean(axis=0))
+    return again
