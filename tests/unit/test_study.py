@@ -86,6 +86,19 @@ def test_presets_ranges_and_random_loads_expand(tmp_path):
      "loads.depths: a probe is pressed to depths"),
     ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\ndepths = [0.001]\n',
      "loads.depths: a pin-head is loaded by forces"),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "grasper"\nradius = 0.01\n',
+     "loads.displacements: a grasper is moved by displacements [m], e.g. displacements = [0.001, 0.002]"),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "grasper"\ndisplacements = [0.001]\n',
+     "loads.radius: a grasper needs its jaws' reach [m], e.g. radius = 0.005"),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "grasper"\nradius = 0.01\n'
+     'depths = [0.001]\n', 'loads.depths: a grasper is moved by displacements; remove depths or set kind = "probe"'),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\ndisplacements = [0.001]\n',
+     'loads.displacements: a pin-head is loaded by forces; remove displacements or set kind = "grasper"'),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "probe"\nradius = 0.01\n'
+     'depths = [0.001]\npoint = [0.0, 0.0, 0.08]\n', "loads.point: only a grasper's jaws close on a given point"),
+    ('[[models]]\nname = "cube"\n[[methods]]\nname = "hybrid"\n[loads]\nkind = "grasper"\nradius = 0.01\n'
+     'displacements = [0.001]\n[loads.random]\ncount = 2\nforce = [1.0, 2.0]\n',
+     "loads.random: random loads are pin-head loads"),
 ])
 def test_a_bad_study_is_refused_naming_the_key(tmp_path, text, expected):
     assert expected in _refusal(text, tmp_path)
@@ -243,3 +256,55 @@ def test_file_folder_and_bundle_models_are_known_by_their_content(tmp_path):
     rows = {r["model_kind"]: r for r in store.combine().to_pylist()}
     # a bundle is the hybrid mesh as built: the same answer as building it from the same surface
     assert rows["bundle"]["max_displacement_m"] == pytest.approx(rows["file"]["max_displacement_m"], rel=1e-9)
+
+
+GRASPER = """
+[[models]]
+name = "cube"
+resolution = 200
+[[methods]]
+name = "hybrid"
+[[methods]]
+name = "fem"
+[loads]
+kind = "grasper"
+radius = 0.01
+displacements = [0.0005, 0.001, 0.002]
+directions = ["tension", [1.0, 0.0, 0.0]]
+[record]
+field = true
+"""
+
+
+def test_a_grasper_pull_has_a_reaction_linear_in_its_travel_for_the_linear_material(tmp_path):
+    cases = _cases(GRASPER, tmp_path)
+    assert len(cases) == 2 * 2 * 3 and len({case.reference_key for case in cases}) == 2 * 3
+    store = Store(tmp_path / "out")
+    assert run_study(cases, store, progress=False).done == 12
+    rows = store.combine().to_pylist()
+    for method in ("hybrid", "fem"):
+        for direction in (0.0, 1.0):                  # tension (up, on the top face's load node), then along x
+            group = sorted((r for r in rows if r["method"] == method and r["direction_x"] == direction),
+                           key=lambda r: r["depth_m"])
+            forces = np.array([[r["force_x"], r["force_y"], r["force_z"]] for r in group])
+            travels = np.array([r["depth_m"] for r in group])
+            # N/m: the same at every travel where the model is linear, to 0.5 % (the held vertices are on their
+            # targets to the grasper's tolerance, radius / 1000: 2 % of the smallest travel, 0.2 % in the force here)
+            stiffness = forces / travels[:, None]
+            assert np.linalg.norm(stiffness - stiffness[0], axis=1).max() <= 5e-3 * np.linalg.norm(stiffness[0])
+            pull = [0.0, 0.0, 1.0] if direction == 0.0 else [1.0, 0.0, 0.0]
+            assert forces[0] @ pull > 0.9 * np.linalg.norm(forces[0])   # the jaws pull the tissue their way
+            assert all(r["status"] == "done" and r["tool"] == "grasper" for r in group)
+            assert max(r["max_displacement_m"] for r in group) >= travels[-1] * (1 - 1e-3)
+    assert all(r["relative_rmse"] == 0.0 for r in rows if r["method"] == "fem")   # the reference pulled alike
+    assert store.field(rows[0]["case_id"]).shape == (rows[0]["surface_nodes"], 3)
+
+
+def test_a_grasp_the_grasper_refuses_fails_its_case_with_the_reason(tmp_path):
+    text = GRASPER.replace("displacements = [0.0005, 0.001, 0.002]", "displacements = [0.001]\npoint = [0.0, 0.0, "
+                                                                    "0.2]").replace("field = true", "metrics = false")
+    store = Store(tmp_path / "out")
+    summary = run_study(_cases(text, tmp_path), store, progress=False)
+    assert (summary.done, summary.failed) == (0, 4)
+    errors = {r["error"] for r in store.combine().to_pylist()}
+    assert len(errors) == 1 and errors.pop().startswith("SolverError: nothing to grasp: the nearest surface vertex")

@@ -20,7 +20,7 @@ from ..errors import MaterialError
 from ..fem.material import Material
 from ..fem.presets import preset
 from .load import StudyError, StudyFile
-from .schema import MAX_CASES
+from .schema import MAX_CASES, TRAVELS
 
 #: Changes whenever a case's answer would change for the same inputs; part of every hash.
 FORMAT = "tissuesim-study-1"
@@ -70,7 +70,9 @@ class ModelRef:
 class Case:
     """One case. Forces [N], lengths [m]; ``direction`` a unit ``(3,)`` tuple, or None for a random load (then
     ``random`` = (seed, index, lowest N, highest N) and the worker draws node, direction and force). A probe
-    (``tool = "probe"``, sphere of ``radius``) is pressed ``depth`` into the load node along ``direction``."""
+    (``tool = "probe"``, sphere of ``radius``) is pressed ``depth`` into the load node along ``direction``; a
+    grasper's jaws (``tool = "grasper"``, reach ``radius``) close on ``point`` ``(3,)`` [m] (None: the load node's
+    rest position) and are carried ``depth`` along ``direction``."""
 
     model: ModelRef
     method: str
@@ -84,6 +86,7 @@ class Case:
     tool: str = "pin-head"
     depth: float | None = None
     reference: tuple = ("fem",)      # ("fem",) or ("contact", max_levels, shipped)
+    point: tuple | None = None
 
     @property
     def reference_key(self) -> str:
@@ -93,12 +96,18 @@ class Case:
             return content_hash("contact", self.model.key, self.material[1:3], self.radius, self.random,
                                 self.reference, self.record.samples)
         return content_hash("reference", self.model.key, self.material, self.radius, self.force_N, self.direction,
-                            self.random, self.record.max_steps, self.tool, self.depth)
+                            self.random, self.record.max_steps, self.tool, self.depth, *self._given_point())
 
     @property
     def case_id(self) -> str:
         """The hash of every input; the model by its key (its content), not by its file's name or place."""
-        return content_hash("case", {**asdict(self), "model": self.model.key})
+        inputs = {**asdict(self), "model": self.model.key}
+        if self.point is None:      # a key added later: absent where unused, so earlier studies keep their ids
+            del inputs["point"]
+        return content_hash("case", inputs)
+
+    def _given_point(self) -> tuple:
+        return () if self.point is None else (self.point,)
 
 
 def expand(loaded: StudyFile, *, announce=None) -> list[Case]:
@@ -117,7 +126,7 @@ def expand(loaded: StudyFile, *, announce=None) -> list[Case]:
     record = Recording(**study.record.model_dump())
     reference = (("fem",) if study.reference.kind == "fem" else
                  ("contact", study.reference.max_levels, study.reference.shipped))
-    cases = [Case(model, name, options, material, *load[:4], record, *load[4:], reference)
+    cases = [Case(model, name, options, material, *load[:4], record, *load[4:6], reference, *load[6:])
              for model, (name, options), material, load in product(models, methods, _materials(study), _loads(study))]
     ids = [case.case_id for case in cases]
     if len(set(ids)) < len(ids):
@@ -134,8 +143,7 @@ def counted(loaded: StudyFile, models: int) -> str:
     varied = spec.youngs_modulus is not None or spec.poisson_ratio is not None or not spec.presets
     materials = len(spec.presets) + (_count(spec.youngs_modulus) * _count(spec.poisson_ratio) if varied else 0)
     loads = study.loads
-    load_count = (loads.random.count if loads.random is not None else
-                  len(loads.directions) * len(loads.depths if loads.kind == "probe" else loads.forces))
+    load_count = loads.random.count if loads.random is not None else len(loads.directions) * len(_sizes(loads))
     factors = [(models, "model"), (len(study.methods), "method"), (materials, "material"), (load_count, "load")]
     total = math.prod(count for count, _ in factors)
     text = f"{total} cases ({' × '.join(f'{count} {noun}' + ('' if count == 1 else 's') for count, noun in factors)})"
@@ -228,13 +236,20 @@ def _values(spec, default: float) -> list[float]:
     return spec.values() if hasattr(spec, "values") else [float(v) for v in spec]
 
 
+def _sizes(loads) -> list[float]:
+    """Each load's size along a direction: forces [N], or a displacement-driven tool's travels [m]."""
+    return loads.forces if loads.kind not in TRAVELS else getattr(loads, TRAVELS[loads.kind][0])
+
+
 def _loads(study) -> list[tuple]:
-    """(radius, force, direction, random, tool, depth) of every load."""
+    """(radius, force, direction, random, tool, depth, point) of every load."""
     loads = study.loads
     if loads.random is not None:
         r = loads.random
-        return [(loads.radius, None, None, (r.seed, i, *r.force), "pin-head", None) for i in range(r.count)]
+        return [(loads.radius, None, None, (r.seed, i, *r.force), "pin-head", None, None) for i in range(r.count)]
     directions = [tuple(LOAD_DIRECTIONS[d]) if isinstance(d, str) else tuple(d) for d in loads.directions]
-    if loads.kind == "probe":
-        return [(loads.radius, None, d, None, "probe", float(depth)) for d in directions for depth in loads.depths]
-    return [(loads.radius, float(f), d, None, "pin-head", None) for d in directions for f in loads.forces]
+    if loads.kind in TRAVELS:
+        point = None if loads.point is None else tuple(loads.point)
+        return [(loads.radius, None, d, None, loads.kind, float(travel), point) for d in directions
+                for travel in _sizes(loads)]
+    return [(loads.radius, float(f), d, None, "pin-head", None, None) for d in directions for f in loads.forces]

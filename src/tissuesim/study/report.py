@@ -17,7 +17,8 @@ from ..experiments.plots import STYLE
 
 #: Inputs a study may vary, each with its axis label (a numeric column of the table).
 PARAMETERS = {"force_N": "force [N]", "youngs_modulus_Pa": "Young's modulus E [Pa]",
-              "poisson_ratio": "Poisson's ratio ν", "radius_m": "tip radius [m]", "resolution": "surface vertices"}
+              "poisson_ratio": "Poisson's ratio ν", "radius_m": "tip radius [m]", "resolution": "surface vertices",
+              "depth_m": "a probe's depth or a grasper's travel [m]"}
 
 
 def write_report(rows: list[dict], folder, *, title: str = "") -> Path:

@@ -134,15 +134,30 @@ class RandomLoads(Strict):
 
 Direction = Union[Literal[tuple(LOAD_DIRECTIONS)], Vector]
 
+#: The displacement-driven tools: the key of their travels [m], what their radius is, and an example.
+TRAVELS = {
+    "probe": ("depths", "its sphere's radius", "pressed to depths [m], e.g. depths = [0.001, 0.002]"),
+    "grasper": ("displacements", "its jaws' reach",
+                "moved by displacements [m], e.g. displacements = [0.001, 0.002]"),
+}
+
 
 class Loads(Strict):
     """``[loads]``: a pin-head on the protocol's load node (§8.3), each force in each direction, or random ones;
-    or a rigid spherical probe pressed into the load node, each depth in each direction."""
+    or a rigid spherical probe pressed into the load node, each depth in each direction; or a grasper's jaws closed
+    on the load node (or a given point) and carried each displacement in each direction (a pull that has an
+    equilibrium at any depth, where a dead load may have none)."""
 
-    kind: Literal["pin-head", "probe"] = Field("pin-head", description="the tool: pin-head or probe")
+    kind: Literal["pin-head", "probe", "grasper"] = Field("pin-head", description="the tool: pin-head, probe or "
+                                                                                  "grasper")
     depths: list[Positive] | None = Field(None, description="a probe's indentation depths [m] along the direction")
+    displacements: list[Positive] | None = Field(
+        None, description="a grasper's travels [m] along the direction, from where its jaws close")
+    point: Vector | None = Field(None, description="where a grasper's jaws close [x, y, z] [m]; absent: the load "
+                                                   "node's rest position")
     radius: Positive | None = Field(None, description="the tip's contact radius [m]; absent: one node, as the "
-                                                      "paper's protocol (§8.3) loads")
+                                                      "paper's protocol (§8.3) loads; a probe's sphere's, a "
+                                                      "grasper's reach")
     forces: list[Positive] = Field(default_factory=lambda: [1.0], description="force magnitudes [N]")
     directions: list[Direction] = Field(default_factory=lambda: ["tension"],
                                         description="tension, pressure, or unit vectors [x, y, z]")
@@ -150,16 +165,22 @@ class Loads(Strict):
 
     @model_validator(mode="after")
     def _tool_keys(self):
-        if self.kind == "probe":
+        for kind, (key, _, _) in TRAVELS.items():    # another tool's travels
+            if kind != self.kind and getattr(self, key) is not None:
+                loaded = "loaded by forces" if self.kind == "pin-head" else f"moved by {TRAVELS[self.kind][0]}"
+                raise located(key, f"a {self.kind} is {loaded}; remove {key} or set kind = \"{kind}\"")
+        if self.kind in TRAVELS:
+            key, radius, example = TRAVELS[self.kind]
             if self.radius is None:
-                raise located("radius", "a probe needs its sphere's radius [m], e.g. radius = 0.005")
-            if self.depths is None:
-                raise located("depths", "a probe is pressed to depths [m], e.g. depths = [0.001, 0.002]")
+                raise located("radius", f"a {self.kind} needs {radius} [m], e.g. radius = 0.005")
+            if getattr(self, key) is None:
+                raise located(key, f"a {self.kind} is {example}")
             if self.random is not None:
                 raise located("random", "random loads are pin-head loads; remove [loads.random] or use "
                                         "kind = \"pin-head\"")
-        elif self.depths is not None:
-            raise located("depths", "a pin-head is loaded by forces; remove depths or set kind = \"probe\"")
+        if self.point is not None and self.kind != "grasper":
+            raise located("point", "only a grasper's jaws close on a given point; remove point or set "
+                                   "kind = \"grasper\"")
         return self
 
     @field_validator("directions")

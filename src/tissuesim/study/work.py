@@ -72,14 +72,15 @@ def solver_of(model: ModelRef, method: str, options: str, material: tuple):
 
 
 def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
-    """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid``: the protocol's load node
-    (§8.3), or for a random load a node drawn among those whose contact patch clears the fixed region, a direction
-    uniform on the sphere and a magnitude uniform in the range, from the case's own seed (the same draw wherever it
-    runs)."""
+    """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid`` (a probe's or a grasper's:
+    its unit direction): the protocol's load node (§8.3), or the node nearest a grasper's given point, or for a
+    random load a node drawn among those whose contact patch clears the fixed region, a direction uniform on the
+    sphere and a magnitude uniform in the range, from the case's own seed (the same draw wherever it runs)."""
     vertices = hybrid.surface.vertices
     if case.random is None:
-        node = protocol.load_node(vertices, hybrid.surface.triangles)
-        size = 1.0 if case.tool == "probe" else float(case.force_N)   # a probe's: its unit direction
+        node = (protocol.load_node(vertices, hybrid.surface.triangles) if case.point is None else
+                int(np.argmin(np.linalg.norm(vertices - np.asarray(case.point), axis=1))))
+        size = 1.0 if case.force_N is None else float(case.force_N)
         return node, size * np.asarray(case.direction, dtype=np.float64)
     seed, index, lowest, highest = case.random
     rng = np.random.default_rng([seed, index])
@@ -99,17 +100,47 @@ def _clear_nodes(vertices: np.ndarray, radius: float | None) -> np.ndarray:
 
 def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(n, 3) float64`` M_S positions [m] at equilibrium under ``case``'s tool, and the ``(3,)`` force [N] on the
-    tissue; the loads stay applied. A pin-head's ``load`` is its force; a probe's is its unit direction d: the
-    sphere, touching the node's rest position from outside (centre x − R d), is held ``depth`` further along d."""
+    tissue; the loads stay applied. A pin-head's ``load`` is its force; a probe's and a grasper's, their unit
+    direction d (:data:`EQUILIBRIA`)."""
+    return EQUILIBRIA[case.tool](solver, case, node, load)
+
+
+def _pressed(solver, case: Case, node: int, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A probe's: the sphere, touching the node's rest position from outside (centre x − R d), is held ``depth``
+    further along d; the force on the tissue is the probe's reaction reversed."""
     from ..probe import Probe
 
-    if case.tool == "pin-head":
-        return _settled(solver, node, load, case), np.asarray(load, dtype=np.float64)
     solver.reset()
     probe = Probe(solver, radius=case.radius)
-    centre = np.asarray(solver.rest_positions)[node] + (case.depth - case.radius) * load
+    centre = np.asarray(solver.rest_positions)[node] + (case.depth - case.radius) * direction
     positions = np.array(probe.press_static(centre, max_steps=case.record.max_steps))
     return positions, -np.asarray(probe.force, dtype=np.float64)
+
+
+def _grasped(solver, case: Case, node: int, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A grasper's: the jaws close at rest on the surface within ``radius`` of the case's point (else the node's
+    rest position) and are carried ``depth`` along d, at static equilibrium; the force on the tissue is the jaws'
+    reaction reversed. A refused grab or move is raised (the case fails with its message)."""
+    from ..grasper import Grasper
+
+    solver.reset()
+    grasper = Grasper(solver, radius=case.radius)
+    point = np.asarray(solver.rest_positions)[node] if case.point is None else np.asarray(case.point)
+    grasper.grab(point)
+    try:
+        grasper.move_to(point + case.depth * direction, max_steps=case.record.max_steps)
+    except Exception:
+        grasper.release()   # a solver kept for the next case holds nothing of this one
+        raise
+    return np.array(solver.positions), -grasper.force
+
+
+def _pulled(solver, case: Case, node: int, force: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    return _settled(solver, node, force, case), np.asarray(force, dtype=np.float64)
+
+
+#: How each tool reaches its equilibrium: ``(solver, case, node, load) -> (positions (n, 3) [m], force (3,) [N])``.
+EQUILIBRIA = {"pin-head": _pulled, "probe": _pressed, "grasper": _grasped}
 
 
 def _settled(solver, node: int, force: np.ndarray, case: Case) -> np.ndarray:
