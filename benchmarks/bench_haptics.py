@@ -1,11 +1,13 @@
 """The haptic loop's rate and jitter while the visual loop steps the full solver, on spheres from
 ``models.sphere(n)``.
 
-    OMP_NUM_THREADS=1 python benchmarks/bench_haptics.py [--sizes 1000 10000 100000] [--seconds 3]
+    OMP_NUM_THREADS=1 python benchmarks/bench_haptics.py [--sizes 1000 10000 100000] [--seconds 3] [--tool grasper]
 
 Per size: the hybrid (linear material, mesh built without its fine volume), a 4 mm tip on the top node, a simulated
 device whose tool circles 5 mm above its grab point at 0.5 Hz (the servo loop calls its position; its force is
-kept). Printed: the grab's cost (the local response: four static solves; the first grab, then a new node), then
+kept). ``--tool grasper``: the device holds jaws of the same radius instead of the tip (the visual loop's sync
+settles them where the coupling puts them). Printed: the grab's cost (the local response: four static solves, or a
+grasper's four static moves; the first grab, then a new node), then
 for each case over ``--seconds``: the ticks per second, the interval between tick starts (median, p99, longest)
 [ms], the ticks that started more than a period late, and the visual loop's step (sync + step) median [ms].
 
@@ -83,7 +85,7 @@ def run_case(loop, solver, seconds: float, *, visual: bool, node: int | None = N
     return loop.statistics(), steps
 
 
-def bench(size: int, seconds: float) -> None:
+def bench(size: int, seconds: float, tool: str) -> None:
     start = time.perf_counter()
     hybrid = HybridMesh.build(models.sphere(size), fine_volume=False)
     solver = make_solver("hybrid", hybrid)
@@ -93,24 +95,28 @@ def bench(size: int, seconds: float) -> None:
     top = int(np.argmax(x[:, 2]))
     device = CirclingTool(x[top])
     position, apply_force = device()
-    loop = HapticLoop(solver, position=position, apply_force=apply_force, stiffness=COUPLING, radius=RADIUS)
+    loop = HapticLoop(solver, position=position, apply_force=apply_force, stiffness=COUPLING, radius=RADIUS,
+                      tool=tool)
     # a node 30° down the sphere for the first grab: a patch never loaded before
     direction = np.array([np.sin(np.pi / 6), 0.0, np.cos(np.pi / 6)])
     other = int(np.argmax((x - x.mean(axis=0)) @ direction))
     for label, node in (("first grab", other), ("grab of a new node", top)):
         start = time.perf_counter()
         loop.grab(node)
-        print(f"{label}: {1e3 * (time.perf_counter() - start):.1f} ms (local response: 4 static solves)")
+        print(f"{label}: {1e3 * (time.perf_counter() - start):.1f} ms (local response: 4 static solves or moves)")
     compliance = loop.response.compliance
-    print(f"C at the top node [mm/N]: diagonal {np.round(1e3 * np.diag(compliance), 2).tolist()}")
+    held = "" if loop.grasper is None else f" ({loop.grasper.held.size} vertices in the jaws)"
+    print(f"C at the top node{held} [mm/N]: diagonal {np.round(1e3 * np.diag(compliance), 2).tolist()}")
     print("| case | ticks/s | interval median / p99 / longest [ms] | late ticks | step median [ms] |")
     print("|---|---:|---:|---:|---:|")
     interval = sys.getswitchinterval()
-    process = HapticProcess(solver, device=device, stiffness=COUPLING, radius=RADIUS)
+    process = HapticProcess(solver, device=device, stiffness=COUPLING, radius=RADIUS, tool=tool)
     for label, servo, visual, switch in (
             ("thread, idle", loop, False, interval), ("thread, visual 60 Hz", loop, True, interval),
             ("thread, visual 60 Hz, switch 0.1 ms", loop, True, 1e-4),
             ("process, visual 60 Hz", process, True, interval)):
+        if servo is process:
+            loop.release()  # the process holds the node next (two graspers cannot hold one patch)
         sys.setswitchinterval(switch)
         try:
             stats, steps = run_case(servo, solver, seconds, visual=visual, node=top if servo is process else None)
@@ -126,11 +132,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[1000, 10000], help="sphere vertex counts")
     parser.add_argument("--seconds", type=float, default=3.0, help="length of each case [s]")
+    parser.add_argument("--tool", choices=["pin-head", "grasper"], default="pin-head", help="what the device holds")
     args = parser.parse_args(argv)
     print(f"haptic loop: target 1000 ticks/s; OMP_NUM_THREADS={os.environ['OMP_NUM_THREADS']}, "
           f"{os.cpu_count()} CPUs, default switch interval {1e3 * sys.getswitchinterval():g} ms")
     for size in args.sizes:
-        bench(size, args.seconds)
+        bench(size, args.seconds, args.tool)
     return 0
 
 

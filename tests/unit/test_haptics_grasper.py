@@ -131,3 +131,23 @@ def test_refusals_change_nothing(cube):
     assert np.array_equal(loop.tick(), pulled)
     loop.release()
     assert not loop.grasper.holding and len(solver.loads) == 0 and np.array_equal(loop.tick(), np.zeros(3))
+
+
+@pytest.mark.slow
+def test_finite_strain_settles_at_the_static_graspers_reaction(cube):
+    """Neo-Hookean: the coupling's C_g is the tangent at the grab; after two syncs (each measures it again where
+    the jaws settled) the settled force is the static grasper's reaction at the jaws' place."""
+    solver = make_solver("fem", cube, material="neo-hookean")
+    node = top_centre(cube)
+    start = cube.surface.vertices[node]
+    hand = Hand(start, start + [0.002, 0.0, 0.006])
+    loop = grasper_loop(solver, hand)
+    loop.grab(node)
+    for _ in range(2):
+        settle(loop, hand)
+        loop.sync()
+    force = settle(loop, hand)
+    static = Grasper(make_solver("fem", cube, material="neo-hookean"), radius=JAWS, tolerance=1e-9)
+    static.grab(start)
+    reaction = static.move_to(jaws_for(loop, force))
+    assert np.linalg.norm(-reaction - force) <= 1e-3 * np.linalg.norm(force)
