@@ -25,7 +25,8 @@ class RunSummary:
         steps: steps taken. simulated: simulated time [s]. seconds: wall-clock time of the steps [s].
         largest_displacement: the largest displacement of any M_S node from rest over the run [m], reached by
             ``largest_node`` at ``largest_time`` [s]; final_displacement: the largest at the end [m].
-        forces: each tool's force on the tissue at the end, ``(3,) float64`` [N] (pressed pin-heads and probes).
+        forces: each tool's force on the tissue at the end, ``(3,) float64`` [N] (pressed pin-heads, probes and
+            holding graspers).
         vertices_added: M_S vertices the cuts added.
         warning: the solver's sentence when the end state lies beyond linear elasticity, else None.
     """
