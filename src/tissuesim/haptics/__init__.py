@@ -8,6 +8,9 @@ at its own rate and syncs the force into it.
         while running:
             loop.sync()         # the latest force becomes the solver's load
             solver.step()       # the visual loop, e.g. 60 Hz
+
+``tool="grasper"`` holds the patch within ``radius`` in a :class:`~tissuesim.Grasper`'s jaws instead: ``sync()``
+settles the jaws where the coupling puts them.
 """
 
 from .coupling import HapticStatistics
