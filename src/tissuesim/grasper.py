@@ -17,10 +17,11 @@ multipliers of the constraints x_i = t_i, i.e. the reactions. It iterates
 
 each iteration one static solve of the solver with the forces as its own loads (beside any other tool's), until
 every held vertex is within :attr:`Grasper.tolerance` of its target. J starts from the solver's own compliance where
-it has one (``point_compliance``: the fem reference, the hybrid with quadratic M_V; exact with the linear material,
-so one iteration solves it), else from an elastic half-space of the solver's E and ν (Boussinesq's normal compliance
-on each axis, :func:`~tissuesim.probe_contact.half_space_compliance`), and learns from each solve by Broyden's
-update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The converged answer is
+it has one (``point_compliance``: the fem reference, the embedded surface, the hybrid with quadratic M_V; exact with
+the linear material, so one iteration solves it), else from a model (the hybrid's coarse surface,
+``compliance_model``, or an elastic half-space of the solver's E and ν: Boussinesq's normal compliance on each axis,
+:func:`~tissuesim.probe_contact.half_space_compliance`) that a short first step sizes, and learns from each solve by
+Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The converged answer is
 the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses or the iteration
 caps; J sets only how fast it is reached.
 
@@ -47,6 +48,10 @@ DEFAULT_MAX_ITERATIONS = 60
 #: :meth:`Grasper.settle`'s default: the iterations one frame may spend.
 FRAME_ITERATIONS = 8
 DEFAULT_MAX_STEPS = 20000
+#: The first step of a model not yet sized by a solve goes this fraction of the Newton step: a coarse model can be
+#: tens of times stiffer than the tissue (the hybrid's layer between control nodes), and the full step would throw
+#: the patch that many times too far.
+FIRST_STEP = 0.1
 #: How many refused solves in a row are retried with a quarter of the step before the refusal is the answer.
 RETRIES = 3
 #: Each iteration's solve goes this fraction of the tolerance close to equilibrium (a method that steps to it).
@@ -210,6 +215,8 @@ class Grasper:
             except np.linalg.LinAlgError:     # Broyden's updates made J singular: start again from the model
                 self._jacobian = None
                 change = np.linalg.solve(self._current_jacobian(), error.ravel())
+            if self._learned is None:         # a model not yet sized by a solve: a short first step sizes it
+                change = FIRST_STEP * change
             state, by_node = Snapshot(self.solver), dict(self._loads.by_node)
             before = self.solver.positions[self.held].ravel()
             try:
@@ -254,14 +261,15 @@ class Grasper:
 
     def _current_jacobian(self) -> np.ndarray:
         """J (3k × 3k) [m/N]: the one learned while holding, or a new one (after a grab, or a cut that swapped the
-        surface) from the solver's compliance or the half-space model."""
+        surface): the solver's own small-strain compliance where it has it (``point_compliance``, trusted as it
+        is), else a model to be sized by the first solve (the solver's ``compliance_model``, or Boussinesq's)."""
         surface = self.solver.hybrid.surface
         if self._jacobian is None or surface is not self._surface:
             self._surface = surface
-            own = getattr(self.solver, "point_compliance", None)
-            found = None if own is None else own(self.held)
-            self._jacobian = np.array(found) if found is not None else self._half_space()
-            self._learned = None
+            exact = _asked(self.solver, "point_compliance", self.held)
+            model = exact if exact is not None else _asked(self.solver, "compliance_model", self.held)
+            self._jacobian = np.array(model) if model is not None else self._half_space()
+            self._learned = self._jacobian if exact is not None else None
         return self._jacobian
 
     def _half_space(self) -> np.ndarray:
@@ -299,6 +307,12 @@ def _held_by_others(grasper: Grasper) -> np.ndarray:
     """``(m,) int64`` the vertices of ``grasper``'s solver that other graspers hold."""
     others = [g.held for g in _HOLDERS.get(grasper.solver, ()) if g is not grasper and g.holding]
     return np.concatenate(others) if others else np.zeros(0, dtype=np.int64)
+
+
+def _asked(solver, hook: str, held: np.ndarray) -> np.ndarray | None:
+    """The solver's answer to an optional compliance ``hook`` for the ``held`` vertices, or None."""
+    found = getattr(solver, hook, None)
+    return None if found is None else found(held)
 
 
 def _checked_rotation(rotation) -> np.ndarray:

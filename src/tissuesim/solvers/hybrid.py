@@ -54,7 +54,7 @@ import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, warn
 from .checks import check_element, flag
-from .compliance import mapped_compliance
+from .compliance import HybridCompliance
 from .registry import register
 from .embedded import map_embedded
 from .finite_strain import carried_rest, finite_volume, move_supports, solve_volume
@@ -72,7 +72,7 @@ VOLUME_ITERATIONS = 1
 
 
 @register("hybrid")
-class HybridSolver(SurfaceLayerSolver):
+class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     """FEM on M_V + PBD/XPBD on M_S (paper §6; see the module docstring).
 
     Options (besides those of :class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver`):
@@ -330,35 +330,6 @@ class HybridSolver(SurfaceLayerSolver):
         self.targets[:] = carried[self.prescribed]
         self._u[: self.control_count] = u[self.control]
         self._dirty = False
-
-    def contact_compliance(self, nodes: np.ndarray, normals: np.ndarray) -> np.ndarray | None:
-        """``(k, k)`` [m/N] the normal compliance of M_S vertices ``nodes`` along ``normals`` ``(k, 3)`` (what the
-        probe's Newton step uses): M_V's own (:meth:`QuadraticField.compliance
-        <tissuesim.solvers.quadratic_field.QuadraticField.compliance>`) with ``element="quadratic"``, the linear
-        material and every one of ``nodes`` on the field, where their responses fit in memory; None otherwise (a
-        vertex freed by a cut is the layer's: the probe then models it)."""
-        if self.finite is not None or not self._on_quadratic_field(nodes):
-            return None
-        return self.quadratic_field.compliance(nodes, normals)
-
-    def point_compliance(self, nodes: np.ndarray) -> np.ndarray:
-        """``(3k, 3k)`` [m/N] the small-strain compliance among M_S vertices ``nodes`` (a grasper's starting
-        Jacobian): with ``element="quadratic"`` M_V's own where every one of ``nodes`` is on the field and their
-        responses fit in memory (exact with the linear material); else the coarse surface's
-        (:func:`~.compliance.mapped_compliance` through M'_S to the control nodes), which leaves out the layer's own
-        motion."""
-        if self._on_quadratic_field(nodes):
-            return self.quadratic_field.point_compliance(nodes)
-        nodes = np.asarray(nodes, dtype=np.int64)
-        return mapped_compliance(self.fem, self.load_volume_nodes[nodes], self.load_weights[nodes])
-
-    def _on_quadratic_field(self, nodes: np.ndarray) -> bool:
-        """Whether M_S vertices ``nodes`` all follow the quadratic field and their responses fit in memory."""
-        if self.quadratic_field is None or not self.quadratic_field.compliance_fits(len(nodes)):
-            return False
-        on_field = np.zeros(self.node_count, dtype=bool)
-        on_field[self.prescribed] = True
-        return bool(np.all(on_field[np.asarray(nodes, dtype=np.int64)]))
 
     def _linear_response(self) -> None:
         """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
