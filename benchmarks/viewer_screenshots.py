@@ -4,8 +4,10 @@ for looking at what users see:
     python benchmarks/viewer_screenshots.py [--output docs/figures] [--model liver] [--only two-tools support]
         [--element quadratic] [--method pbd]
 
-* ``window``: the whole window as ``tissuesim view liver`` opens it, the pin-head pulling the top up, the
-  displacement colours off (``viewer_window.png``);
+* ``grasp``: the grasper, the tool ``tissuesim view`` starts with, holding the top and lifting it by a tenth of the
+  model's size: the held patch is where the jaws are, the force on them in the panel (``viewer_grasp.png``);
+* ``window``: the whole window with the paper's pin-head pulling the top up, the displacement colours off
+  (``viewer_window.png``);
 * ``colours``: the same with the displacement colours switched on, their legend at the top left
   (``viewer_colours.png``);
 * ``replay``: a recording of the ``wound`` session played back (``tissuesim view --replay``), its cut's edges in
@@ -152,6 +154,14 @@ def wound(app) -> None:
     frames(app, 1)
 
 
+def grasp(app) -> None:
+    """The grasper holds the top and lifts it by the sized drag (a tenth of the model's size), and keeps holding."""
+    c = app.controller
+    c.set_mode("grasper")
+    pull(c, vertex_towards(c, [0.2, -0.3, 1.0]), [0.0, 0.0, DRAG_FRACTION * c.solver.size])
+    frames(app, SETTLE_FRAMES)
+
+
 def window(app) -> None:
     """The pin-head pulls the top up by the sized drag (a tenth of the model's size) and keeps pulling."""
     c = app.controller
@@ -246,7 +256,7 @@ def creases(output: Path) -> Path:
     return image
 
 
-SCENARIOS = {"window": (window, "viewer_window.png"), "colours": (colours, "viewer_colours.png"),
+SCENARIOS = {"grasp": (grasp, "viewer_grasp.png"), "window": (window, "viewer_window.png"), "colours": (colours, "viewer_colours.png"),
              "probe": (probe, "viewer_probe.png"), "wound": (wound, "viewer_wound.png"),
              "two-tools": (two_tools, "viewer_two_tools.png"), "support": (support, "viewer_support.png"),
              "replay": (None, "viewer_replay.png"), "creases": (None, "viewer_creases.png"),

@@ -30,8 +30,8 @@ BEHIND = (1.0, 0.35, 0.2, 1.0)  # colour of the slower-than-real-time notice
 #: The keys, two lines that fit the panel.
 KEY_HINTS = ("keys: S hand tool / scalpel   X let go   R reset", "      space pause   Q or Esc quit")
 #: What the mouse does on the model in each mode (beside it, as in every polyscope window, a drag turns the view).
-MOUSE_HINTS = {"grasper": "drag on the tissue: grasp and carry; Shift + release: hold",
-               "pin": "drag on the tissue: pull (eq 24 spring); Shift + release: hold",
+MOUSE_HINTS = {"grasper": "drag on the tissue: carry it; Shift + release: hold",
+               "pin": "drag on the tissue: pull; Shift + release: hold",
                "probe": "press on the tissue; Shift + release: hold",
                "scalpel": "drag across the tissue: cut",
                "support": "drag on the tissue: paint (fixed blue, ligament green)"}
