@@ -4,8 +4,8 @@ model, so that no grab, material switch, probe press or cut waits on Numba later
 Numba compiles a kernel the first time it is called with a new type signature and caches it on disk; a fresh
 install therefore stalls the first grab under a finite-strain material, the first probe press and the first cut for
 seconds to minutes each. :func:`warm_up` plays a short session on a 200-vertex cube instead: every method with
-every material it has (and the hybrid's quadratic M_V), a pin-head grab and drag, a probe press, and two scalpel
-strokes with the step after each, gravity and a ligament on, with a progress bar. Where the kernels are cached already
+every material it has (and the hybrid's quadratic M_V), a pin-head grab and drag, a grasper's lift, a probe press,
+and two scalpel strokes with the step after each, gravity and a ligament on, with a progress bar. Where the kernels are cached already
 it only loads them: about 5 s on 2 cores, which :func:`ensure_warm` (what the simulator calls before its window
 opens) spares: it plays the session only where no stamp says it was played for these sources and this Numba.
 """
@@ -55,7 +55,10 @@ def warm_up(*, progress: bool = True) -> int:
 
 
 def _play(hybrid, method: str, options: dict) -> None:
-    """One configuration: built with gravity and a ligament, a grab and a drag, a probe press, a cut and a step."""
+    """One configuration: built with gravity and a ligament, a grab and a drag, a grasper's lift, a probe press, a
+    cut and a step."""
+    from .errors import TissuesimError
+    from .grasper import Grasper
     from .interaction import PinHead
     from .probe import Probe
     from .scalpel import Scalpel
@@ -75,6 +78,13 @@ def _play(hybrid, method: str, options: dict) -> None:
         pin.drag(centre + [0.0, 0.0, lift * size])
         solver.step()
     pin.release()
+    grasper = Grasper(solver, radius=0.1 * size)
+    grasper.grab(centre)
+    try:            # the static solves, each method's compliance and the finite-strain checks run before any refusal
+        grasper.settle(centre + [0.0, 0.0, 0.01 * size], max_iterations=2)
+    except TissuesimError:
+        pass
+    grasper.release()
     probe = Probe(solver, radius=0.3 * size)
     probe.press_static([0.0, 0.0, top + 0.3 * size - 0.02 * size])
     probe.release()
