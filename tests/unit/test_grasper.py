@@ -223,3 +223,19 @@ def test_a_motion_that_inverts_the_volume_is_refused():
         grasper.move_to(grip_point(small), Rotation.from_rotvec([0.0, 0.0, 2.5]).as_matrix())
     assert np.array_equal(solver.positions, solver.rest_positions) and not solver.loads
     assert np.array_equal(grasper.rotation, np.eye(3))
+
+
+def test_the_hybrids_own_compliance_is_its_static_answers(hybrid):
+    # the paper's hybrid is linear in its loads (M_V and the layer): its compliance among the held vertices, found
+    # by two multi-column solves, is what its static solve gives for each unit force (not symmetric: a force on a
+    # layer vertex loads M_V through M'_S and the layer at once)
+    solver = make_solver("hybrid", hybrid)
+    held = np.flatnonzero(np.linalg.norm(solver.rest_positions - grip_point(hybrid), axis=1) <= JAWS)
+    compliance = solver.point_compliance(held)
+    columns = []
+    for node in held:
+        for axis in range(3):
+            positions = solver.solve_static(int(node), 1e-3 * np.eye(3)[axis])
+            columns.append((positions[held] - solver.rest_positions[held]).ravel() / 1e-3)
+    expected = np.array(columns).T
+    assert np.abs(compliance - expected).max() <= 1e-9 * np.abs(expected).max()

@@ -22,7 +22,10 @@ from .factorise import factorise_spd
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
 from .rigid_modes import connected_pieces, free_rigid_modes
 from .springs import check_springs, spring_stiffness
-#: Contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps (72 n bytes each).
+#: The memory [bytes] of the contact patches whose combined K⁻¹ columns :meth:`LinearFEM.patch_response` keeps
+#: (72 n bytes each), and the fewest it keeps: a probe or a grasper holds a load on each of tens of vertices, and a
+#: cache smaller than that solved every one of them again at every step.
+PATCH_CACHE_BYTES = 256 * 2**20
 PATCH_CACHE = 8
 
 
@@ -165,20 +168,20 @@ class LinearFEM:
         dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
         return self._unit_load_solution(nodes)[dofs]
 
+    def solve_columns(self, forces: np.ndarray) -> np.ndarray:
+        """``(3n, m) float64`` displacements [m] of every dof (node-major) in ``m`` load cases ``(3n, m)`` [N]: one
+        call of the factor for them all (a force on a fixed dof moves nothing, as in :meth:`solve`)."""
+        u = np.zeros((3 * self.node_count, forces.shape[1]))
+        u[self.free_dofs] = self._lu.solve(np.ascontiguousarray(forces[self.free_dofs]))
+        return u
+
     def _unit_load_solution(self, nodes: np.ndarray) -> np.ndarray:
         """``(3n, 3k) float64`` [m/N] the displacement of every dof under a unit force along each axis on each of
-        ``nodes`` ``(k,)`` in turn: one back-substitution for them all (a load on a fixed dof moves nothing,
-        matching :meth:`solve`)."""
-        n, f = self.node_count, self.free_dofs.size
-        position = np.full(3 * n, -1, dtype=np.int64)       # each global dof's place among the free dofs (-1: fixed)
-        position[self.free_dofs] = np.arange(f)
+        ``nodes`` ``(k,)`` in turn."""
         load_dofs = (3 * nodes[:, None] + np.arange(3)).ravel()
-        rhs = np.zeros((f, load_dofs.size))
-        free_load = position[load_dofs] >= 0
-        rhs[position[load_dofs[free_load]], np.flatnonzero(free_load)] = 1.0
-        solution = np.zeros((3 * n, load_dofs.size))
-        solution[self.free_dofs] = self._lu.solve(rhs)
-        return solution
+        forces = np.zeros((3 * self.node_count, load_dofs.size))
+        forces[load_dofs, np.arange(load_dofs.size)] = 1.0
+        return self.solve_columns(forces)
 
     def point_load_response(self, load_nodes, load_forces, *, output_nodes, out=None) -> np.ndarray:
         """Displacements [m], ``(s, 3) float64``, of ``output_nodes`` ``(s,) int`` under forces ``load_forces``
@@ -220,14 +223,15 @@ class LinearFEM:
         A patch's response is learnt one direction of force per call (:class:`_PatchResponse`): its first use
         costs one single back-substitution, whatever k (k separate columns would cost k of them: the first grab
         of a wide patch), as do its second and third, after which a drag, which changes F on one patch, costs
-        O(s) per call. The last :data:`PATCH_CACHE` patches are kept."""
+        O(s) per call. The last patches are kept, as many as fit :data:`PATCH_CACHE_BYTES` (at least
+        :data:`PATCH_CACHE`)."""
         nodes = np.ascontiguousarray(nodes, dtype=np.int64)
         weights = np.ascontiguousarray(weights, dtype=np.float64)
         key = (nodes.tobytes(), weights.tobytes())
         patch = self._patches.pop(key, None)
         if patch is None:
             patch = _PatchResponse(self, self._check_nodes(nodes, "nodes"), weights)
-            if len(self._patches) >= PATCH_CACHE:
+            if len(self._patches) >= max(PATCH_CACHE, PATCH_CACHE_BYTES // (72 * self.node_count)):
                 self._patches.pop(next(iter(self._patches)))    # the least recently used
         self._patches[key] = patch
         force = np.asarray(force, dtype=np.float64)

@@ -187,11 +187,22 @@ class LayerStatics:
         ``forces`` ``(n, 3)`` [N], the prescribed nodes moved by ``prescribed_displacement`` ``(k, 3)`` [m]."""
         if self.free_nodes.size == 0:
             return np.zeros((0, 3))
+        rhs = forces[self.free_nodes].ravel() - self._coupling @ np.ravel(prescribed_displacement)
+        return np.asarray(self._free_factor().solve(rhs)).reshape(-1, 3)
+
+    def displacement_columns(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
+        """``(3f, m) float64`` the free nodes' displacements [m] (node-major, :attr:`free_nodes` order) in ``m``
+        load cases at once: free-node forces ``(3f, m)`` [N] and prescribed displacements ``(3k, m)`` [m] (node-major,
+        :attr:`prescribed` order); one call of K_ff's factor."""
+        rhs = forces - self._coupling @ prescribed_displacement
+        return np.asarray(self._free_factor().solve(np.ascontiguousarray(rhs))).reshape(rhs.shape)
+
+    def _free_factor(self):
+        """K_ff's factor, made on first use."""
         if self._factor is None:
             try:
                 self._factor = factorise_spd(self._free_stiffness, self._dof_node)
             except SolverError as error:
                 raise SolverError(f"the surface layer does not hold every free node ({error}); a cut may have left "
                                   "a flap that only its inertia holds") from None
-        rhs = forces[self.free_nodes].ravel() - self._coupling @ np.ravel(prescribed_displacement)
-        return np.asarray(self._factor.solve(rhs)).reshape(-1, 3)
+        return self._factor

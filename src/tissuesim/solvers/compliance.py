@@ -10,6 +10,9 @@ from __future__ import annotations
 
 import numpy as np
 
+#: The most memory [bytes] the hybrid's exact compliance may take (its columns over M_V and over the layer).
+LAYERED_BYTES = 512 * 2**20
+
 
 def mapped_compliance(fem, nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``(3k, 3k) float64`` [m/N], node-major, of ``k`` vertices on the volume nodes ``nodes`` ``(k, r) int`` of
@@ -42,10 +45,45 @@ class HybridCompliance:
     def point_compliance(self, nodes: np.ndarray) -> np.ndarray | None:
         """``(3k, 3k)`` [m/N] the small-strain compliance among M_S vertices ``nodes`` (a grasper's starting
         Jacobian, exact with the linear material): with ``element="quadratic"`` M_V's own where every one of
-        ``nodes`` is on the field and their responses fit in memory; None otherwise (:meth:`compliance_model`)."""
-        if not self._on_quadratic_field(nodes):
+        ``nodes`` is on the field and their responses fit in memory; with the paper's linear M_V, the linear
+        material and the layer's static form, the whole model's (:meth:`_layered_compliance`); None otherwise (a
+        near field, finite strain: :meth:`compliance_model`)."""
+        if self.quadratic_field is not None:
+            return self.quadratic_field.point_compliance(nodes) if self._on_quadratic_field(nodes) else None
+        if self.finite is not None or self._near is not None or self.form != "xpbd":
             return None
-        return self.quadratic_field.point_compliance(nodes)
+        return self._layered_compliance(np.asarray(nodes, dtype=np.int64))
+
+    def _layered_compliance(self, nodes: np.ndarray) -> np.ndarray | None:
+        """The hybrid's static answer is linear in the loads: a unit force on vertex j loads M_V through its M'_S
+        triangle, which moves the control nodes, and the layer, whose free nodes answer
+        K_ff u_f = e_j − K_fp u_p. Both for all 3k unit forces at once: one multi-column solve of M_V's factor and
+        one of the layer's. None where the layer's columns would not fit :data:`LAYERED_BYTES`."""
+        statics = self.statics()
+        k = nodes.size
+        if 8 * 9 * k * max(statics.free_nodes.size, self.fem.node_count) > LAYERED_BYTES:
+            return None
+        volume = np.zeros((3 * self.fem.node_count, 3 * k))
+        for slot, (corners, weights) in enumerate(zip(self.load_volume_nodes[nodes], self.load_weights[nodes])):
+            for axis in range(3):
+                np.add.at(volume[:, 3 * slot + axis], 3 * corners + axis, weights)
+        moved = self.fem.solve_columns(volume)
+        prescribed = np.zeros((3 * statics.prescribed.size, 3 * k))        # the fixed nodes stay at rest
+        control = (3 * self.output_nodes[: self.control_count, None] + np.arange(3)).ravel()
+        prescribed[: 3 * self.control_count] = moved[control]
+        slot_of = np.full(self.node_count, -1, dtype=np.int64)
+        slot_of[statics.free_nodes] = np.arange(statics.free_nodes.size)
+        forces = np.zeros((3 * statics.free_nodes.size, 3 * k))
+        for slot, node in enumerate(nodes):
+            if slot_of[node] >= 0:
+                forces[3 * slot_of[node]:3 * slot_of[node] + 3, 3 * slot:3 * slot + 3] = np.eye(3)
+        free = statics.displacement_columns(forces, prescribed)
+        place = np.full(self.node_count, -1, dtype=np.int64)
+        place[statics.prescribed] = np.arange(statics.prescribed.size)
+        rows = np.array([3 * (slot_of[j] if slot_of[j] >= 0 else place[j]) for j in nodes])
+        rows = (rows[:, None] + np.arange(3)).ravel()
+        on_layer = np.repeat(slot_of[nodes] >= 0, 3)
+        return np.where(on_layer[:, None], free[np.where(on_layer, rows, 0)], prescribed[np.where(on_layer, 0, rows)])
 
     def compliance_model(self, nodes: np.ndarray) -> np.ndarray:
         """``(3k, 3k)`` [m/N] the coarse surface's compliance among M_S vertices ``nodes``
