@@ -83,20 +83,38 @@ def grasper_response(grasper, node: int) -> LocalResponse:
     jaws' forces on the tissue, and C_g the held patch's compliance to a rigid translation, (Tᵀ J⁻¹ T)⁻¹ of the held
     vertices' compliance J (T: k 3×3 identities stacked).
 
-    Measured by the grasper's own static moves (:meth:`~tissuesim.Grasper.move_to`, the jaws' rotation kept): where
+    With the linear material and a solver that has its exact compliance J (``point_compliance``), from J itself.
+    Otherwise measured by the grasper's own static moves (:meth:`~tissuesim.Grasper.move_to`, the jaws' rotation kept): where
     the jaws are, then one step along x, y and z; C_g is the inverse of the stiffness those give. The step is the
     jaws' radius with the linear material (exact: the model is affine), a strain of :data:`TANGENT_STEP` (that
     fraction of the radius) with a finite-strain one (the tangent), and each move goes within
     :data:`MEASURE_FRACTION` of the step of its targets. The solver's and the grasper's state are put back
     afterwards; a move the grasper refuses raises its error and changes nothing."""
-    step = grasper.radius if grasper.solver.material == "linear" else TANGENT_STEP * grasper.radius
     position = grasper.position.copy()
+    exact = _patch_compliance(grasper)
+    if exact is not None:
+        base = -grasper.move_to(position)          # where the jaws are: none or one solve when they settled there
+        return LocalResponse(int(node), grasper.radius, position - exact @ base, exact, base)
+    step = grasper.radius if grasper.solver.material == "linear" else TANGENT_STEP * grasper.radius
     with leaves_no_trace(grasper):
         grasper.tolerance = min(grasper.tolerance, MEASURE_FRACTION * step)
         base = -grasper.move_to(position)
         columns = [(-grasper.move_to(position + step * axis) - base) / step for axis in np.eye(3)]
     compliance = np.linalg.inv(np.column_stack(columns))
     return LocalResponse(int(node), grasper.radius, position - compliance @ base, compliance, base)
+
+
+def _patch_compliance(grasper) -> np.ndarray | None:
+    """C_g ``(3, 3)`` [m/N] = (Tᵀ J⁻¹ T)⁻¹ from the solver's exact small-strain compliance J of the held vertices
+    (``point_compliance``: the fem, the embedded surface, the hybrid), with the linear material; None where the
+    solver has none or the material is finite-strain (then it is measured)."""
+    solver = grasper.solver
+    found = getattr(solver, "point_compliance", None)
+    compliance = None if found is None or solver.material != "linear" else found(grasper.held)
+    if compliance is None:
+        return None
+    stack = np.tile(np.eye(3), (grasper.held.size, 1))
+    return np.linalg.inv(stack.T @ np.linalg.solve(compliance, stack))
 
 
 class _Measured(Exception):

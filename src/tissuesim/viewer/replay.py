@@ -65,7 +65,7 @@ class ReplayApp:
         if self.cut is not None:
             self.cut.update_node_positions(frame.positions[self._cut_nodes])
             self._walls(frame)
-        self.tools.update(frame.tools.pin_heads, frame.tools.probes)
+        self.tools.update(frame.tools.pin_heads, frame.tools.probes, graspers=frame.tools.graspers)
         mm = 1e3 * np.linalg.norm(frame.displacement, axis=1)
         top = max(float(mm.max()), 1.0)
         self.surface.colour(mm if self.show_colours else None, top)
