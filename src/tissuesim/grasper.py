@@ -32,6 +32,7 @@ already), a vertex another grasper holds, and a motion under which a finite-stra
 
 from __future__ import annotations
 
+import itertools
 import weakref
 
 import numpy as np
@@ -59,8 +60,13 @@ SOLVE_FRACTION = 0.1
 #: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
 ROTATION_TOLERANCE = 1e-6
 
-#: The graspers holding each solver's vertices: two jaws may not prescribe the same vertex.
+#: The graspers holding each solver's vertices: two jaws may not prescribe the same vertex, and their forces are
+#: solved together.
 _HOLDERS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+#: Numbers each grasper in the order made (a group is solved oldest first, whichever of them moves).
+_SERIALS = itertools.count()
+#: Singular values of J below this fraction of its largest count as zero in the least-squares change.
+SINGULAR = 1e-10
 
 
 class Grasper:
@@ -96,7 +102,8 @@ class Grasper:
         self._grip = np.zeros((0, 3))          # the held vertices about the jaws at the grab [m]
         self._jacobian: np.ndarray | None = None
         self._learned: np.ndarray | None = None  # J once a solve has scaled it (None: the model's, unscaled)
-        self._surface = None                    # the surface the Jacobian belongs to (a cut replaces it)
+        self._key = None                        # the surface and the group the Jacobian belongs to
+        self._serial = next(_SERIALS)
         self._loads = VertexLoads(solver)
 
     # ------------------------------------------------------------------------------------------------ reading
@@ -195,59 +202,67 @@ class Grasper:
 
     # -------------------------------------------------------------------------------------------- the iteration
     def _iterate(self, max_iterations: int, max_steps: int) -> bool:
-        """Newton–Broyden iterations until every held vertex is on its target (True) or ``max_iterations`` pass
-        (False: the forces of the best iteration act).
+        """Newton–Broyden iterations until every held vertex of every grasper on the solver is on its target
+        (True) or ``max_iterations`` pass (False: the forces of the best iteration act). The graspers holding on one
+        solver are solved together (:meth:`_group`): each patch's forces move the others'.
 
-        An iteration whose solve the solver refuses (a model far stiffer than the tissue overshoots: a surface
-        turned inside out, a volume inverted), or that leaves the held vertices farther from their targets, is
-        undone; J still learns from the second, and takes a quarter of the step after the first. A refusal in the
-        last iteration allowed, or the :data:`RETRIES` + 1-th in a row, is raised."""
+        The change of the forces is J's least-squares solution (the smallest forces where two patches ask for more
+        than the method's surface can do between them). An iteration whose solve the solver refuses (a model far
+        stiffer than the tissue overshoots: a surface turned inside out, a volume inverted), or that leaves the held
+        vertices farther from their targets, is undone; J still learns from the second, and takes a quarter of the
+        step after the first. A refusal in the last iteration allowed, or the :data:`RETRIES` + 1-th in a row, is
+        raised."""
+        group = self._group()
         self.iterations = self.steps = refused = 0
-        error = self._error()
+        error, misses = _errors(group)
         self.residual = _largest(error)
-        while self.residual > self.tolerance:
+        while misses > 1.0:
             if self.iterations == max_iterations:
                 return False
             self.iterations += 1
-            jacobian = self._current_jacobian()
-            try:
-                change = np.linalg.solve(jacobian, error.ravel())
-            except np.linalg.LinAlgError:     # Broyden's updates made J singular: start again from the model
-                self._jacobian = None
-                change = np.linalg.solve(self._current_jacobian(), error.ravel())
+            jacobian = self._current_jacobian(group)
+            change = np.linalg.lstsq(jacobian, error.ravel(), rcond=SINGULAR)[0]
             if self._learned is None:         # a model not yet sized by a solve: a short first step sizes it
                 change = FIRST_STEP * change
-            state, by_node = Snapshot(self.solver), dict(self._loads.by_node)
-            before = self.solver.positions[self.held].ravel()
+            state, loads = Snapshot(self.solver), [dict(g._loads.by_node) for g in group]
+            held = np.concatenate([g.held for g in group])
+            before = self.solver.positions[held].ravel()
             try:
-                self._apply(change, max_steps)
+                self._apply(group, change, max_steps)
             except SolverError:
-                state.restore(self.solver)
-                self._loads.by_node = by_node
+                _put_back(group, state, loads)
                 refused += 1
                 if self.iterations == max_iterations or refused > RETRIES:
                     raise
                 self._jacobian = 4.0 * jacobian
                 continue
             refused = 0
-            self._learn(jacobian, change, self.solver.positions[self.held].ravel() - before)
-            trial = self._error()
-            if _largest(trial) > self.residual:
-                state.restore(self.solver)
-                self._loads.by_node = by_node
+            self._learn(jacobian, change, self.solver.positions[held].ravel() - before)
+            trial, trial_misses = _errors(group)
+            if trial_misses > misses:
+                _put_back(group, state, loads)
                 continue
-            error, self.residual = trial, _largest(trial)
+            error, misses, self.residual = trial, trial_misses, _largest(trial)
         return True
 
-    def _apply(self, change: np.ndarray, max_steps: int) -> None:
-        """The forces changed by ``change`` ``(3k,)`` [N], and the solver's equilibrium under them."""
-        self._loads.set(self.held, self._loads.at(self.held) + change.reshape(-1, 3))
-        self.solver.solve_static(tolerance=SOLVE_FRACTION * self.tolerance, max_steps=max_steps, reset=False)
+    def _group(self) -> list[Grasper]:
+        """This grasper, then every other one holding on its solver, oldest first."""
+        others = [g for g in _HOLDERS.get(self.solver, ()) if g is not self and g.holding]
+        return [self, *sorted(others, key=lambda g: g._serial)]
+
+    def _apply(self, group: list[Grasper], change: np.ndarray, max_steps: int) -> None:
+        """Each grasper's forces changed by its part of ``change`` ``(3K,)`` [N], and the solver's equilibrium
+        under them."""
+        parts = np.split(change.reshape(-1, 3), np.cumsum([g.held.size for g in group])[:-1])
+        for grasper, part in zip(group, parts):
+            grasper._loads.set(grasper.held, grasper._loads.at(grasper.held) + part)
+        tolerance = min(g.tolerance for g in group)
+        self.solver.solve_static(tolerance=SOLVE_FRACTION * tolerance, max_steps=max_steps, reset=False)
         self.steps += self.solver.last_solve.steps
         self._check_not_inverted()
 
     def _learn(self, jacobian: np.ndarray, change: np.ndarray, moved: np.ndarray) -> None:
-        """J from the held vertices' motion ``moved`` ``(3k,)`` [m] under the forces' ``change`` ``(3k,)`` [N]."""
+        """J from the held vertices' motion ``moved`` ``(3K,)`` [m] under the forces' ``change`` ``(3K,)`` [N]."""
         if self._learned is None:
             jacobian = _fitted(jacobian, change, moved)
         # Broyden's update, the smallest change of J that explains the motion (a new array: a refused move puts
@@ -259,23 +274,25 @@ class Grasper:
         """``(k, 3)`` [m] each held vertex's target minus its position."""
         return self.targets() - self.solver.positions[self.held]
 
-    def _current_jacobian(self) -> np.ndarray:
-        """J (3k × 3k) [m/N]: the one learned while holding, or a new one (after a grab, or a cut that swapped the
-        surface): the solver's own small-strain compliance where it has it (``point_compliance``, trusted as it
-        is), else a model to be sized by the first solve (the solver's ``compliance_model``, or Boussinesq's)."""
-        surface = self.solver.hybrid.surface
-        if self._jacobian is None or surface is not self._surface:
-            self._surface = surface
-            exact = _asked(self.solver, "point_compliance", self.held)
-            model = exact if exact is not None else _asked(self.solver, "compliance_model", self.held)
-            self._jacobian = np.array(model) if model is not None else self._half_space()
+    def _current_jacobian(self, group: list[Grasper]) -> np.ndarray:
+        """J (3K × 3K) [m/N] of the ``group``'s held vertices: the one learned while they held, or a new one (after a
+        grab or a release in the group, or a cut that swapped the surface): the solver's own small-strain compliance
+        where it has it (``point_compliance``, trusted as it is), else a model to be sized by the first solve (the
+        solver's ``compliance_model``, or Boussinesq's)."""
+        key = (self.solver.hybrid.surface, tuple((g._serial, g.held.size) for g in group))
+        if self._jacobian is None or key != self._key:
+            self._key = key
+            held = np.concatenate([g.held for g in group])
+            exact = _asked(self.solver, "point_compliance", held)
+            model = exact if exact is not None else _asked(self.solver, "compliance_model", held)
+            self._jacobian = np.array(model) if model is not None else self._half_space(held)
             self._learned = self._jacobian if exact is not None else None
         return self._jacobian
 
-    def _half_space(self) -> np.ndarray:
-        """``(3k, 3k)`` [m/N] Boussinesq's normal compliance of the held vertices on each axis alike."""
+    def _half_space(self, held: np.ndarray) -> np.ndarray:
+        """``(3K, 3K)`` [m/N] Boussinesq's normal compliance of the ``held`` vertices on each axis alike."""
         solver = self.solver
-        normal = half_space_compliance(solver.rest_positions[self.held], solver.lumped_areas()[self.held],
+        normal = half_space_compliance(solver.rest_positions[held], solver.lumped_areas()[held],
                                        solver.youngs_modulus, solver.poisson_ratio)
         return np.kron(normal, np.eye(3))
 
@@ -341,6 +358,20 @@ def _fitted(model: np.ndarray, change: np.ndarray, moved: np.ndarray) -> np.ndar
         alpha = max(float(moved @ predicted) / float(predicted @ predicted), 1e-3)
         beta = 0.0
     return alpha * model + beta * np.eye(len(model))
+
+
+def _errors(group: list[Grasper]) -> tuple[np.ndarray, float]:
+    """``(K, 3)`` [m] every held vertex's target minus its position, the ``group``'s in turn, and the largest miss
+    of a grasper over its own tolerance."""
+    errors = [g._error() for g in group]
+    return np.concatenate(errors), max(_largest(e) / g.tolerance for e, g in zip(errors, group))
+
+
+def _put_back(group: list[Grasper], state: Snapshot, loads: list[dict]) -> None:
+    """The solver's state and the ``group``'s loads as they were before an iteration."""
+    state.restore(group[0].solver)
+    for grasper, by_node in zip(group, loads):
+        grasper._loads.by_node = by_node
 
 
 def _largest(error: np.ndarray) -> float:

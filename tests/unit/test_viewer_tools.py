@@ -226,11 +226,10 @@ def test_graspers_let_go_with_hold_keep_holding_and_follow_a_change_of_method(hy
         assert grasper.solver is c.solver
         np.testing.assert_array_equal(grasper.held, patch)
         np.testing.assert_allclose(grasper.position, position, rtol=0, atol=1e-15)
-    before = max(off_target(g) for g in c.grasper.held)
-    for _ in range(5):
+    for _ in range(2):
         c.advance(c.settings.dt)
-    # each holding patch settles on its own jaws; the two pull on each other, so the pair converges step by step
-    assert max(off_target(g) for g in c.grasper.held) < 0.5 * before
+    # the two patches pull on each other; their forces are solved together, so both sit on their own jaws
+    assert all(off_target(g) <= g.tolerance for g in c.grasper.held)
     c.key("x")
     assert c.grasper.held == [] and c.solver.loads == ()
 
