@@ -5,7 +5,8 @@ in the same run, on spheres from ``models.sphere(n)``.
 
 For each method (and the hybrid's neo-Hookean and quadratic M_V variants): jaws of 4 mm at the top grab and lift the
 patch 5 mm (the first frame: grab plus :meth:`~tissuesim.Grasper.settle`, as the viewer does after a click), then
-are dragged 0.5 mm sideways a frame for 20 frames (settle and the step after it). Beside it, the pin-head's frame
+are dragged 0.5 mm sideways a frame for 20 frames (:meth:`~tissuesim.Grasper.follow` and the step after it, as the
+viewer does: a static settle, or on the finite-strain hybrid one relaxed update, whose patch then lags its jaws). Beside it, the pin-head's frame
 (drag plus step) on a twin solver. Prints the frames' medians [ms], the iterations each needed, how far the held
 vertices are from the jaws' targets after each frame [µm] and the grasper's frame over the pin-head's. Asserts
 nothing.
@@ -38,14 +39,14 @@ def grasper_frames(solver, top: np.ndarray) -> tuple[float, list[float], list[in
     grasper = Grasper(solver, radius=JAWS)
     start = time.perf_counter()
     grasper.grab(top)
-    grasper.settle(top + [0.0, 0.0, LIFT])
+    grasper.follow(top + [0.0, 0.0, LIFT])
     solver.step()
     first = time.perf_counter() - start
     frames, iterations, miss = [], [], 0.0
     for frame in range(1, FRAMES + 1):
         jaws = top + [DRAG * frame, 0.0, LIFT]
         start = time.perf_counter()
-        grasper.settle(jaws)
+        grasper.follow(jaws)
         solver.step()
         frames.append(time.perf_counter() - start)
         iterations.append(grasper.iterations)

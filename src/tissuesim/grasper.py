@@ -55,6 +55,9 @@ DEFAULT_MAX_STEPS = 20000
 FIRST_STEP = 0.1
 #: How many refused solves in a row are retried with a quarter of the step before the refusal is the answer.
 RETRIES = 3
+#: :meth:`Grasper.update` moves the forces this fraction of the Newton change: the step after it goes only part of
+#: the way to the equilibrium, so a full change would overshoot (the probe's interactive update does the same).
+RELAXATION = 0.3
 #: Each iteration's solve goes this fraction of the tolerance close to equilibrium (a method that steps to it).
 SOLVE_FRACTION = 0.1
 #: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
@@ -191,6 +194,33 @@ class Grasper:
             self._place(self.position if position is None else position, rotation)
             return self._iterate(max_iterations, DEFAULT_MAX_STEPS)
 
+    def update(self, position=None, rotation=None) -> None:
+        """One force update toward the jaws at ``position`` (None: where they are) and ``rotation``, from the
+        current positions and without a solve (the caller's ``solver.step()`` follows): :data:`RELAXATION` of the
+        Newton change with J as it is (a frame's positions are no equilibrium to learn from). What a viewer or a
+        haptic loop calls each frame on a method whose step is not a static solve but which has its compliance
+        (``point_compliance``: a finite-strain hybrid, whose static solve takes seconds at 10k vertices): no frame
+        waits, and the patch reaches its jaws over a few frames. Refused as :meth:`move_to`, changing nothing."""
+        self._require_holding()
+        with refusal_restores(self, solving=False):
+            self._place(self.position if position is None else position, rotation)
+            group = self._group()
+            error, misses = _errors(group)
+            self.residual = _largest(error)
+            if misses > 1.0:
+                change = np.linalg.lstsq(self._current_jacobian(group), error.ravel(), rcond=SINGULAR)[0]
+                _add_forces(group, RELAXATION * change)
+
+    def follow(self, position=None, rotation=None) -> None:
+        """A frame's worth of following the jaws, whichever way keeps the frame short: :meth:`settle` (the patch on
+        its jaws at the end of the frame), or on a finite-strain method whose step is no static solve but which has
+        its compliance (the hybrid, whose static solve takes seconds at 10k vertices) :meth:`update` (the patch
+        reaches its jaws over a few frames). The caller steps the solver after it."""
+        if _relaxed(self.solver):
+            self.update(position, rotation)
+        else:
+            self.settle(position, rotation)
+
     def release(self) -> None:
         """Let go: the jaws' forces leave the solver (other loads act on); nothing is held."""
         self._loads.set(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
@@ -253,9 +283,7 @@ class Grasper:
     def _apply(self, group: list[Grasper], change: np.ndarray, max_steps: int) -> None:
         """Each grasper's forces changed by its part of ``change`` ``(3K,)`` [N], and the solver's equilibrium
         under them."""
-        parts = np.split(change.reshape(-1, 3), np.cumsum([g.held.size for g in group])[:-1])
-        for grasper, part in zip(group, parts):
-            grasper._loads.set(grasper.held, grasper._loads.at(grasper.held) + part)
+        _add_forces(group, change)
         tolerance = min(g.tolerance for g in group)
         self.solver.solve_static(tolerance=SOLVE_FRACTION * tolerance, max_steps=max_steps, reset=False)
         self.steps += self.solver.last_solve.steps
@@ -326,6 +354,13 @@ def _held_by_others(grasper: Grasper) -> np.ndarray:
     return np.concatenate(others) if others else np.zeros(0, dtype=np.int64)
 
 
+def _relaxed(solver) -> bool:
+    """Whether :meth:`Grasper.follow` updates rather than settles on ``solver``: a finite-strain material whose step
+    is no static solve, with its own compliance to update by."""
+    return (solver.material != "linear" and not getattr(solver, "static", False)
+            and getattr(solver, "point_compliance", None) is not None)
+
+
 def _asked(solver, hook: str, held: np.ndarray) -> np.ndarray | None:
     """The solver's answer to an optional compliance ``hook`` for the ``held`` vertices, or None."""
     found = getattr(solver, hook, None)
@@ -365,6 +400,13 @@ def _errors(group: list[Grasper]) -> tuple[np.ndarray, float]:
     of a grasper over its own tolerance."""
     errors = [g._error() for g in group]
     return np.concatenate(errors), max(_largest(e) / g.tolerance for e, g in zip(errors, group))
+
+
+def _add_forces(group: list[Grasper], change: np.ndarray) -> None:
+    """Each grasper's forces changed by its part of ``change`` ``(3K,)`` [N], the ``group``'s in turn."""
+    parts = np.split(change.reshape(-1, 3), np.cumsum([g.held.size for g in group])[:-1])
+    for grasper, part in zip(group, parts):
+        grasper._loads.set(grasper.held, grasper._loads.at(grasper.held) + part)
 
 
 def _put_back(group: list[Grasper], state: Snapshot, loads: list[dict]) -> None:

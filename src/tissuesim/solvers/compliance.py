@@ -45,12 +45,12 @@ class HybridCompliance:
     def point_compliance(self, nodes: np.ndarray) -> np.ndarray | None:
         """``(3k, 3k)`` [m/N] the small-strain compliance among M_S vertices ``nodes`` (a grasper's starting
         Jacobian, exact with the linear material): with ``element="quadratic"`` M_V's own where every one of
-        ``nodes`` is on the field and their responses fit in memory; with the paper's linear M_V, the linear
-        material and the layer's static form, the whole model's (:meth:`_layered_compliance`); None otherwise (a
-        near field, finite strain: :meth:`compliance_model`)."""
+        ``nodes`` is on the field and their responses fit in memory; with the paper's linear M_V and the layer's
+        static form, the whole model's (:meth:`_layered_compliance`); the tangent at rest with a finite-strain
+        material; None otherwise (a near field: :meth:`compliance_model`)."""
         if self.quadratic_field is not None:
             return self.quadratic_field.point_compliance(nodes) if self._on_quadratic_field(nodes) else None
-        if self.finite is not None or self._near is not None or self.form != "xpbd":
+        if self._near is not None or self.form != "xpbd":
             return None
         return self._layered_compliance(np.asarray(nodes, dtype=np.int64))
 
@@ -59,7 +59,7 @@ class HybridCompliance:
         triangle, which moves the control nodes, and the layer, whose free nodes answer
         K_ff u_f = e_j − K_fp u_p. Both for all 3k unit forces at once: one multi-column solve of M_V's factor and
         one of the layer's. None where the layer's columns would not fit :data:`LAYERED_BYTES`."""
-        statics = self.statics()
+        statics = self.linear_statics()
         k = nodes.size
         if 8 * 9 * k * max(statics.free_nodes.size, self.fem.node_count) > LAYERED_BYTES:
             return None

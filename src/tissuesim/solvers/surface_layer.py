@@ -330,8 +330,8 @@ class SurfaceLayerSolver(Solver):
                                      self.targets, self.mass, dt, self.damping, **options)
 
     def statics(self):
-        """The :class:`~tissuesim.layer.static.LayerStatics` of this layer and its prescribed nodes (built on first
-        use: one sparse factorisation)."""
+        """The static solver of this layer and its prescribed nodes (built on first use: one sparse factorisation):
+        :class:`~tissuesim.layer.static.LayerStatics` with the linear material, else the finite-strain layer."""
         if self._statics is None and self.material != "linear":
             from ..layer.finite_layer import FiniteLayer
 
@@ -341,20 +341,32 @@ class SurfaceLayerSolver(Solver):
                                         rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
                                         prescribed=self.prescribed)
         if self._statics is None:
-            from ..layer.static import LayerStatics, layer_stiffness
-
-            c = self.constraints
-            stiffness = layer_stiffness(self.rest_positions, edges=c.edges, stretch_compliance=self.stretch_compliance,
-                                        hinges=c.bending, bend_compliance=self.bend_compliance,
-                                        signed_bending=self.signed_bending)
-            if self.body_on_layer and self.attachments:     # k_i I₃ on each attached node's block
-                from ..fem.springs import spring_stiffness
-
-                nodes = self.attached_nodes
-                stiffness = stiffness + spring_stiffness(len(self.rest_positions), nodes[:, None],
-                                                         np.ones((nodes.size, 1)), self.attached_stiffness)
-            self._statics = LayerStatics(stiffness, prescribed=self.prescribed)
+            self._statics = self.linear_statics()
         return self._statics
+
+    def linear_statics(self):
+        """The layer's small-strain :class:`~tissuesim.layer.static.LayerStatics` (the tangent at rest with a
+        finite-strain material): the linear material's own static solver, kept once made."""
+        if self.material == "linear" and self._statics is not None:
+            return self._statics
+        kept = getattr(self, "_linear_statics", None)
+        if (kept is not None and kept.prescribed is self.prescribed
+                and kept.stiffness.shape[0] == 3 * len(self.rest_positions)):     # not since a cut
+            return kept
+        from ..layer.static import LayerStatics, layer_stiffness
+
+        c = self.constraints
+        stiffness = layer_stiffness(self.rest_positions, edges=c.edges, stretch_compliance=self.stretch_compliance,
+                                    hinges=c.bending, bend_compliance=self.bend_compliance,
+                                    signed_bending=self.signed_bending)
+        if self.body_on_layer and self.attachments:     # k_i I₃ on each attached node's block
+            from ..fem.springs import spring_stiffness
+
+            nodes = self.attached_nodes
+            stiffness = stiffness + spring_stiffness(len(self.rest_positions), nodes[:, None],
+                                                     np.ones((nodes.size, 1)), self.attached_stiffness)
+        self._linear_statics = LayerStatics(stiffness, prescribed=self.prescribed)
+        return self._linear_statics
 
     def _prepare_static(self) -> None:
         """Bring the prescribed nodes' ``targets`` up to date with the load (the hybrid's FEM part)."""
