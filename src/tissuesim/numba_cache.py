@@ -110,3 +110,15 @@ def install() -> None:
     is."""
     if fcntl is not None:
         after_numba_import(_patch)
+
+
+def kernel_view(array):
+    """A read-only view of ``array`` (no copy): Numba compiles a kernel once per argument type, and a writable and a
+    read-only array are two types, so a kernel fed the surface's frozen arrays on one call and a cut's working copies
+    on the next compiled again mid-session. Passing every array through this at a kernel's boundary gives it one
+    type whatever the caller holds."""
+    import numpy as np
+
+    view = np.asarray(array).view()
+    view.flags.writeable = False
+    return view

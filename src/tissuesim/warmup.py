@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -43,14 +44,17 @@ def warm_up(*, progress: bool = True) -> int:
     draws a bar on stderr."""
     from tqdm import tqdm
 
+    from .errors import TissuesimWarning
     from .mesh import models
     from .mesh.hybrid import HybridMesh
 
     hybrid = HybridMesh.build(models.cube(VERTICES))
     played = sessions()
-    for method, options in tqdm(played, desc="preparing the kernels", unit="method", disable=not progress,
-                                leave=False):
-        _play(hybrid, method, options)
+    with warnings.catch_warnings():     # what the small model's tools warn of concerns no user's model
+        warnings.simplefilter("ignore", TissuesimWarning)
+        for method, options in tqdm(played, desc="preparing the kernels", unit="method", disable=not progress,
+                                    leave=False):
+            _play(hybrid, method, options)
     return len(played)
 
 

@@ -258,3 +258,26 @@ def test_a_finite_strain_hybrid_follows_by_relaxed_updates_and_gets_there(hybrid
     static = Grasper(twin, radius=JAWS)
     static.grab(grip_point(hybrid))
     assert np.linalg.norm(static.move_to(grip_point(hybrid) + LIFT) - followed) <= 0.02 * np.linalg.norm(followed)
+
+
+def test_the_hybrids_compliance_after_cuts_is_still_its_static_answers(hybrid):
+    from tissuesim import Scalpel
+
+    solver = make_solver("hybrid", hybrid)
+    scalpel = Scalpel(solver, depth=2e-3)
+    scalpel.press(grip_point(hybrid, -6e-3) - [0.0, 6e-3, 0.0])
+    for k in range(1, 7):                    # several moves: the layer's statics are corrected, not made anew
+        scalpel.move(grip_point(hybrid, -6e-3) + [0.0, 2e-3 * k - 6e-3, 0.0])
+        solver.step()
+    scalpel.release()
+    held = np.flatnonzero(np.linalg.norm(solver.rest_positions - grip_point(hybrid, -4e-3), axis=1) <= JAWS)
+    compliance = solver.point_compliance(held)
+    columns = []
+    for node in held:
+        for axis in range(3):
+            solver.reset()
+            positions = solver.solve_static(int(node), 1e-3 * np.eye(3)[axis])
+            columns.append((positions[held] - solver.rest_positions[held]).ravel() / 1e-3)
+    expected = np.array(columns).T
+    assert type(solver.statics()).__name__ in ("LayerStatics", "CutLayerStatics")
+    assert np.abs(compliance - expected).max() <= 1e-8 * np.abs(expected).max()

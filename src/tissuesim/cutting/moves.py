@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..numba_cache import kernel_view
 from .snapping import EXACT_MIN, _quality3, along_cut, exit_point
 
 #: A vertex moves onto an edge point at most this fraction of its edge away: beyond the snap fraction too, so the
@@ -172,7 +173,7 @@ def _fan_holds(v: int, fan: list, where: np.ndarray, moved: dict, target: np.nda
     for row in fan:
         before = [where[x] for x in row]
         after = [target if x == v else moved.get(x, where[x]) for x in row]
-        if _quality3(*after) < MOVE_QUALITY:
+        if _quality3(*map(kernel_view, after)) < MOVE_QUALITY:
             return False
         normal_before = np.cross(before[1] - before[0], before[2] - before[0])
         normal_after = np.cross(after[1] - after[0], after[2] - after[0])

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..numba_cache import kernel_view
 from .snapping import snapped_weights
 
 
@@ -30,7 +31,7 @@ class CutPoints:
         """Snap barycentric ``w`` in a triangle with vertex ids ``corners`` (its sides' opposite vertices
         ``opposite``, :func:`~.snapping.opposite_vertices`): ``("v", id)``, ``("e", lo, hi, t)`` (t from lo) or
         ``("f", triangle, weights)``; nothing is registered yet."""
-        w = snapped_weights(self.rest, self.now, corners, w, opposite, self.snap)
+        w = snapped_weights(*map(kernel_view, (self.rest, self.now, corners, w, opposite)), self.snap)
         nonzero = [k for k, x in enumerate(w.tolist()) if x != 0.0]
         if len(nonzero) == 1:
             return ("v", int(corners[nonzero[0]]))

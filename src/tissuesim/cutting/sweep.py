@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from ..errors import SolverError
+from ..numba_cache import kernel_view
 from ..loads import real_number
 
 #: Relative tolerance [1] under which a vertex counts as lying on the sweep plane (fraction of the edge length).
@@ -145,8 +146,8 @@ def crossings(positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *,
     if not np.any(normal):
         return []
     near = candidate_triangles(positions, triangles, sweep) if near is None else near
-    rows, ends = _crossing_segments(positions, triangles, np.asarray(near, dtype=np.int64), sweep.origin, normal,
-                                    sweep._dual, PLANE_TOLERANCE)
+    arrays = (positions, triangles, np.asarray(near, dtype=np.int64), sweep.origin, normal, sweep._dual)
+    rows, ends = _crossing_segments(*map(kernel_view, arrays), PLANE_TOLERANCE)
     return [Crossing(t, e) for t, e in zip(rows.tolist(), ends)]
 
 

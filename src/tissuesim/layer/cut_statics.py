@@ -252,6 +252,14 @@ class CutLayerStatics(LayerStatics):
         slot = np.searchsorted(fresh.free_nodes, self.free_nodes)
         return fresh.displacement(forces, prescribed_displacement)[slot]
 
+    def displacement_columns(self, forces: np.ndarray, prescribed_displacement: np.ndarray) -> np.ndarray:
+        """:meth:`LayerStatics.displacement_columns`, in this layer's free-node order."""
+        fresh = self._fresh()
+        rows = _dofs(np.searchsorted(fresh.free_nodes, self.free_nodes))
+        ordered = np.zeros_like(forces)
+        ordered[rows] = forces
+        return fresh.displacement_columns(ordered, prescribed_displacement)[rows]
+
     @property
     def stiffness(self) -> sp.csr_matrix:
         """``(3n, 3n)`` the layer's stiffness after the cuts [N/m] (built on first use)."""

@@ -341,18 +341,22 @@ class SurfaceLayerSolver(Solver):
                                         rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
                                         prescribed=self.prescribed)
         if self._statics is None:
-            self._statics = self.linear_statics()
+            self._statics = self._new_linear_statics()
         return self._statics
 
     def linear_statics(self):
-        """The layer's small-strain :class:`~tissuesim.layer.static.LayerStatics` (the tangent at rest with a
-        finite-strain material): the linear material's own static solver, kept once made."""
-        if self.material == "linear" and self._statics is not None:
-            return self._statics
+        """The layer's small-strain :class:`~tissuesim.layer.static.LayerStatics`: :meth:`statics` with the linear
+        material; with a finite-strain one its tangent at rest, kept until the prescribed nodes or the surface
+        change."""
+        if self.material == "linear":
+            return self.statics()
         kept = getattr(self, "_linear_statics", None)
-        if (kept is not None and kept.prescribed is self.prescribed
-                and kept.stiffness.shape[0] == 3 * len(self.rest_positions)):     # not since a cut
-            return kept
+        if (kept is None or kept.prescribed is not self.prescribed
+                or kept.stiffness.shape[0] != 3 * len(self.rest_positions)):
+            self._linear_statics = self._new_linear_statics()
+        return self._linear_statics
+
+    def _new_linear_statics(self):
         from ..layer.static import LayerStatics, layer_stiffness
 
         c = self.constraints
@@ -365,8 +369,7 @@ class SurfaceLayerSolver(Solver):
             nodes = self.attached_nodes
             stiffness = stiffness + spring_stiffness(len(self.rest_positions), nodes[:, None],
                                                      np.ones((nodes.size, 1)), self.attached_stiffness)
-        self._linear_statics = LayerStatics(stiffness, prescribed=self.prescribed)
-        return self._linear_statics
+        return LayerStatics(stiffness, prescribed=self.prescribed)
 
     def _prepare_static(self) -> None:
         """Bring the prescribed nodes' ``targets`` up to date with the load (the hybrid's FEM part)."""

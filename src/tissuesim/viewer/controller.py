@@ -270,8 +270,9 @@ class Controller(SolverBuilding):
 
     # ---------------------------------------------------------------------------------------------- commands
     def toggle_mode(self) -> None:
-        """The scalpel from the hand tool, else back to the hand tool used last (grasper or pin-head)."""
-        self.set_mode("scalpel" if self.mode in HANDS else self._hand)
+        """The scalpel from any other mode, and from the scalpel back to the hand tool used last (grasper or
+        pin-head)."""
+        self.set_mode(self._hand if self.mode == "scalpel" else "scalpel")
 
     def set_mode(self, mode: str) -> None:
         if mode not in MODES:
