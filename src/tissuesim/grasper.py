@@ -40,6 +40,7 @@ import numpy as np
 from .errors import BoundaryConditionError, SolverError, first_indices
 from .probe_contact import half_space_compliance
 from .solvers.checks import checked_point, positive_number, whole_count
+from .solvers.finite_strain import slow_static_solve
 from .solvers.load_set import VertexLoads
 from .solvers.snapshot import Snapshot, refusal_restores
 
@@ -355,10 +356,9 @@ def _held_by_others(grasper: Grasper) -> np.ndarray:
 
 
 def _relaxed(solver) -> bool:
-    """Whether :meth:`Grasper.follow` updates rather than settles on ``solver``: a finite-strain material whose step
-    is no static solve, with its own compliance to update by."""
-    return (solver.material != "linear" and not getattr(solver, "static", False)
-            and getattr(solver, "point_compliance", None) is not None)
+    """Whether :meth:`Grasper.follow` updates rather than settles on ``solver``: its static solve is slow
+    (:func:`~.solvers.finite_strain.slow_static_solve`) and it has its own compliance to update by."""
+    return slow_static_solve(solver) and getattr(solver, "point_compliance", None) is not None
 
 
 def _asked(solver, hook: str, held: np.ndarray) -> np.ndarray | None:

@@ -283,3 +283,10 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
             f"(μ = {mu:.3g} Pa): beyond about μ a body pressed by a fixed force has no stable finite-strain "
             f"equilibrium (here: above {largest:.3g} N); lower the load, or press with tissuesim.Probe, a rigid tip "
             "driven by displacement (the pin-head's force is a fixed force too)")
+
+
+def slow_static_solve(solver) -> bool:
+    """Whether ``solver``'s static solve is a Newton solve its step only approaches (a finite-strain material on a
+    method whose step is no static solve: the hybrid's takes seconds at 10k vertices): a tool that follows a hand
+    then updates its forces once a frame and lets the steps relax, rather than solve each frame."""
+    return solver.material != "linear" and not getattr(solver, "static", False)
