@@ -9,8 +9,6 @@ block is the Hertz tests' (80 × 80 × 40 mm, a layer bonded to its base: under 
 a / H = 0.06). δ = 0.02 mm ≪ a: the small-displacement limit.
 """
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -24,15 +22,6 @@ SHEAR = E / (2.0 * (1.0 + NU))
 PUNCH = 2e-3          # [m] the held ring's radius
 DEPTH = 0.02e-3       # [m]
 EDGE = 0.5e-3         # [m] the block's fine edge
-
-
-@pytest.fixture(scope="module")
-def hertz():
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "hertz_reference.py"
-    spec = importlib.util.spec_from_file_location("hertz_reference", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def sneddon(radius, depth):

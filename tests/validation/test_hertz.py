@@ -9,8 +9,6 @@ left is the mesh's and the contact's error. docs/probe.md has every method's num
 (benchmarks/hertz.py).
 """
 
-import importlib.util
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -19,15 +17,6 @@ import tissuesim
 
 E, NU = 5500.0, 0.3
 DEPTHS = (0.05e-3, 0.1e-3, 0.2e-3, 0.5e-3)
-
-
-@pytest.fixture(scope="module")
-def hertz():
-    path = Path(__file__).resolve().parents[2] / "benchmarks" / "hertz_reference.py"
-    spec = importlib.util.spec_from_file_location("hertz_reference", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def ratios(hertz, solver, depths=DEPTHS) -> np.ndarray:
