@@ -20,8 +20,8 @@ def _example(name):
 
 # each script as a user runs it, at its defaults (in a scratch folder: what it writes goes there), the haptic
 # loop's visual loop cut from 1 s to 0.2 s
-SCRIPTS = {"pinhead_drag": [], "scalpel_cut": [], "probe_press": [], "two_tools": [], "scene_file": [],
-           "haptic_loop": ["--seconds", "0.2"], "scripted_session": []}
+SCRIPTS = {"pinhead_drag": [], "grasp_lift": [], "scalpel_cut": [], "probe_press": [], "two_tools": [],
+           "scene_file": [], "haptic_loop": ["--seconds", "0.2"], "scripted_session": []}
 
 
 def test_every_example_script_is_run_here():
@@ -34,6 +34,14 @@ def test_the_script_runs_and_reports(name, tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(sys, "argv", [f"{name}.py", *SCRIPTS[name]])
     runpy.run_path(str(EXAMPLES / f"{name}.py"), run_name="__main__")
     assert capsys.readouterr().out.strip()           # it says what happened
+
+
+def test_the_grasp_lift_carries_the_held_patch_and_its_pull_grows_linearly():
+    result = _example("grasp_lift").lift(np.array([0.002, 0.004]), resolution=400)
+    assert np.all(result["miss"] <= result["tolerance"])            # the held patch is where the jaws are
+    # the linear hybrid: twice the lift, twice the pull (to the iteration's tolerance)
+    assert np.linalg.norm(result["pull"][1] - 2 * result["pull"][0]) <= 1e-3 * np.linalg.norm(result["pull"][1])
+    assert result["pull"][0, 2] > 0.0
 
 
 def test_pinhead_drag_lifts_the_grabbed_node_and_release_returns_it():
