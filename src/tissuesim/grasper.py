@@ -39,7 +39,7 @@ import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices
 from .probe_contact import half_space_compliance
-from .solvers.checks import checked_point, positive_number, whole_count
+from .solvers.checks import checked_point, numeric_array, positive_number, whole_count
 from .solvers.finite_strain import slow_static_solve
 from .solvers.load_set import VertexLoads
 from .solvers.snapshot import Snapshot, refusal_restores
@@ -61,6 +61,8 @@ RETRIES = 3
 RELAXATION = 0.3
 #: Each iteration's solve goes this fraction of the tolerance close to equilibrium (a method that steps to it).
 SOLVE_FRACTION = 0.1
+#: ... measured as the motion per this much simulated time [s] (the default step).
+SOLVE_TIME = 0.01
 #: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
 ROTATION_TOLERANCE = 1e-6
 
@@ -95,7 +97,7 @@ class Grasper:
                        "solve_static"):
             if not hasattr(solver, needed):
                 raise SolverError(f"Grasper needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
-        self.solver = solver
+        self._solver = solver
         self.radius = positive_number("grasper radius", radius, "m")
         self.tolerance = (TOLERANCE_FRACTION * self.radius if tolerance is None
                           else positive_number("grasper tolerance", tolerance, "m"))
@@ -107,10 +109,16 @@ class Grasper:
         self._jacobian: np.ndarray | None = None
         self._learned: np.ndarray | None = None  # J once a solve has scaled it (None: the model's, unscaled)
         self._key = None                        # the surface and the group the Jacobian belongs to
+        self._seen = 0                          # the vertex count at the last look (a cut appends vertices)
         self._serial = next(_SERIALS)
         self._loads = VertexLoads(solver)
 
     # ------------------------------------------------------------------------------------------------ reading
+    @property
+    def solver(self):
+        """The solver the jaws act on (fixed: make a new grasper for another)."""
+        return self._solver
+
     @property
     def holding(self) -> bool:
         return self.position is not None
@@ -162,6 +170,7 @@ class Grasper:
         self.release()
         self.held, self.position, self.rotation = held, point, np.eye(3)
         self._grip = positions[held] - point
+        self._seen = self.solver.node_count
         self._jacobian, self._learned, self.residual = None, None, 0.0
         _HOLDERS.setdefault(self.solver, weakref.WeakSet()).add(self)
         return held.copy()
@@ -246,6 +255,11 @@ class Grasper:
         group = self._group()
         self.iterations = self.steps = refused = 0
         error, misses = _errors(group)
+        if misses <= 1.0:
+            # on their targets, but perhaps not at equilibrium: a load, the support or a cut changed since the last
+            # solve, or the forces were withdrawn (a grab again, a reset)
+            self._solve(group, max_steps)
+            error, misses = _errors(group)
         self.residual = _largest(error)
         while misses > 1.0:
             if self.iterations == max_iterations:
@@ -277,17 +291,44 @@ class Grasper:
         return True
 
     def _group(self) -> list[Grasper]:
-        """This grasper, then every other one holding on its solver, oldest first."""
+        """This grasper, then every other one holding on its solver, oldest first (each having taken hold of what a
+        cut made within its reach)."""
         others = [g for g in _HOLDERS.get(self.solver, ()) if g is not self and g.holding]
-        return [self, *sorted(others, key=lambda g: g._serial)]
+        group = [self, *sorted(others, key=lambda g: g._serial)]
+        for grasper in group:
+            grasper._hold_what_a_cut_made()
+        return group
+
+    def _hold_what_a_cut_made(self) -> None:
+        """Hold the vertices a cut added within the jaws' reach (the lips of a wound through the held patch), where
+        they are: the jaws close on both sides of it. A cut appends vertices, so those beyond the count at the last
+        look are the new ones."""
+        count = self.solver.node_count
+        if count == self._seen:
+            return
+        new = np.arange(self._seen, count)
+        self._seen = count
+        grip = (self.solver.positions[new] - self.position) @ self.rotation       # Rᵀ (x − p), row by row
+        taken = np.concatenate([self.solver.fixed, _held_by_others(self)])
+        near = (np.linalg.norm(grip, axis=1) <= self.radius) & ~np.isin(new, taken)
+        if near.any():
+            self.held = np.concatenate([self.held, new[near]])
+            self._grip = np.concatenate([self._grip, grip[near]])
 
     def _apply(self, group: list[Grasper], change: np.ndarray, max_steps: int) -> None:
         """Each grasper's forces changed by its part of ``change`` ``(3K,)`` [N], and the solver's equilibrium
         under them."""
         _add_forces(group, change)
-        tolerance = min(g.tolerance for g in group)
-        self.solver.solve_static(tolerance=SOLVE_FRACTION * tolerance, max_steps=max_steps, reset=False)
-        self.steps += self.solver.last_solve.steps
+        self._solve(group, max_steps)
+
+    def _solve(self, group: list[Grasper], max_steps: int) -> None:
+        """The solver's equilibrium under the loads acting. A method that steps to it stops where a step moves
+        less than :data:`SOLVE_FRACTION` of the tolerance per :data:`SOLVE_TIME` of simulated time: a speed, so the
+        answer does not change with dt."""
+        solver = self.solver
+        tolerance = SOLVE_FRACTION * min(g.tolerance for g in group) * min(1.0, solver.dt / SOLVE_TIME)
+        solver.solve_static(tolerance=tolerance, max_steps=max_steps, reset=False)
+        self.steps += solver.last_solve.steps
         self._check_not_inverted()
 
     def _learn(self, jacobian: np.ndarray, change: np.ndarray, moved: np.ndarray) -> None:
@@ -369,9 +410,12 @@ def _asked(solver, hook: str, held: np.ndarray) -> np.ndarray | None:
 
 def _checked_rotation(rotation) -> np.ndarray:
     """``(3, 3) float64`` ``rotation`` checked to be a proper rotation matrix (RᵀR = I, det R = +1)."""
-    matrix = np.asarray(rotation, dtype=np.float64)
-    if matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-        raise SolverError(f"the jaws' rotation must be a finite (3, 3) matrix, got shape {matrix.shape}")
+    matrix = numeric_array(rotation)
+    if matrix is None or matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
+        what = ("no array of numbers" if matrix is None
+                else f"shape {matrix.shape}, all finite: {bool(np.isfinite(matrix).all())}")
+        raise SolverError(f"the jaws' rotation must be a (3, 3) matrix of finite numbers, got {what}; pass e.g. "
+                          "scipy.spatial.transform.Rotation.from_rotvec(v).as_matrix()")
     off = float(np.abs(matrix.T @ matrix - np.eye(3)).max())
     if off > ROTATION_TOLERANCE or np.linalg.det(matrix) < 0.0:
         raise SolverError(

@@ -281,3 +281,51 @@ def test_the_hybrids_compliance_after_cuts_is_still_its_static_answers(hybrid):
     expected = np.array(columns).T
     assert type(solver.statics()).__name__ in ("LayerStatics", "CutLayerStatics")
     assert np.abs(compliance - expected).max() <= 1e-8 * np.abs(expected).max()
+
+
+def test_a_move_onto_the_targets_still_solves_for_the_equilibrium(hybrid):
+    # held still on a body that gravity is about to sag, and after a grab again drops the forces: the held vertices
+    # sit on their targets, but the answer is the equilibrium, not the forces of the last solve (or none)
+    solver = make_solver("fem", hybrid, gravity=(0.0, 0.0, -9.81))
+    grasper = Grasper(solver, radius=JAWS)
+    grasper.grab(grip_point(hybrid))
+    force = grasper.move_to(grip_point(hybrid))
+    assert force[2] < 0.0                          # the jaws hold up part of the weight: the tissue pulls them down
+    solver.solve_static()
+    assert np.linalg.norm(grasper.targets() - solver.positions[grasper.held], axis=1).max() <= grasper.tolerance
+    lifted = grasper.move_to(grip_point(hybrid) + LIFT)
+    grasper.grab(grasper.position)                 # hold the lifted patch again: its forces were withdrawn
+    assert np.linalg.norm(grasper.move_to(grasper.position) - lifted) <= 1e-6 * np.linalg.norm(lifted)
+
+
+def test_the_jaws_close_on_both_lips_of_a_cut_through_what_they_hold(hybrid):
+    from tissuesim import Scalpel
+
+    solver = make_solver("hybrid", hybrid)
+    grasper = Grasper(solver, radius=JAWS)
+    grasper.grab(grip_point(hybrid))
+    grasper.move_to(grip_point(hybrid) + LIFT)
+    count = solver.node_count
+    scalpel = Scalpel(solver, depth=2e-3)
+    scalpel.press(grip_point(hybrid) + [0.0, -5e-3, LIFT[2]])
+    scalpel.move(grip_point(hybrid) + [0.0, 5e-3, LIFT[2]])
+    scalpel.release()
+    grasper.move_to(grip_point(hybrid) + LIFT)
+    made = np.arange(count, solver.node_count)
+    within = made[np.linalg.norm(solver.positions[made] - grasper.position, axis=1) <= 0.9 * JAWS]
+    assert within.size and np.all(np.isin(within, grasper.held))
+    assert np.linalg.norm(grasper.targets() - solver.positions[grasper.held], axis=1).max() <= grasper.tolerance
+
+
+def test_a_rotation_that_is_no_matrix_of_numbers_is_refused_by_name(hybrid):
+    from scipy.spatial.transform import Rotation as R
+
+    solver = make_solver("fem", hybrid)
+    grasper = Grasper(solver, radius=JAWS)
+    grasper.grab(grip_point(hybrid))
+    for rotation in ("abc", R.from_rotvec([0.0, 0.0, 0.1]), [[1, 0, 0], [0, 1]], np.full((3, 3), None)):
+        with pytest.raises(SolverError, match="rotation must be a"):
+            grasper.move_to(grip_point(hybrid), rotation)
+    assert not solver.loads and np.array_equal(grasper.rotation, np.eye(3))
+    with pytest.raises(AttributeError):
+        grasper.solver = make_solver("fem", hybrid)     # one grasper, one solver
