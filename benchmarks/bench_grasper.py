@@ -4,9 +4,9 @@ in the same run, on spheres from ``models.sphere(n)``.
     OMP_NUM_THREADS=1 python benchmarks/bench_grasper.py [--sizes 1000 10000] [--methods hybrid fem ...]
 
 For each method (and the hybrid's neo-Hookean and quadratic M_V variants): jaws of 4 mm at the top grab and lift the
-patch 5 mm (the first frame: grab plus :meth:`~tissuesim.Grasper.settle`, as the viewer does after a click), then
-are dragged 0.5 mm sideways a frame for 20 frames (:meth:`~tissuesim.Grasper.follow` and the step after it, as the
-viewer does: a static settle, or on the finite-strain hybrid one relaxed update, whose patch then lags its jaws). Beside it, the pin-head's frame
+patch 5 mm (the first frame: grab plus :meth:`~tissuesim.Grasper.follow` and a step, as the viewer does after a
+click), then are dragged 0.5 mm sideways a frame for 20 frames (``follow`` and the step after it: a static settle,
+or on the finite-strain hybrid one relaxed update, whose patch then lags its jaws). Beside it, the pin-head's frame
 (drag plus step) on a twin solver. Prints the frames' medians [ms], the iterations each needed, how far the held
 vertices are from the jaws' targets after each frame [µm] and the grasper's frame over the pin-head's. Asserts
 nothing.

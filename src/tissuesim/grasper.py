@@ -17,13 +17,13 @@ multipliers of the constraints x_i = t_i, i.e. the reactions. It iterates
 
 each iteration one static solve of the solver with the forces as its own loads (beside any other tool's), until
 every held vertex is within :attr:`Grasper.tolerance` of its target. J starts from the solver's own compliance where
-it has one (``point_compliance``: the fem reference, the embedded surface, the hybrid with quadratic M_V; exact with
-the linear material, so one iteration solves it), else from a model (the hybrid's coarse surface,
-``compliance_model``, or an elastic half-space of the solver's E and ν: Boussinesq's normal compliance on each axis,
+it has one (``point_compliance``: the fem reference, the embedded surface, the hybrid with either M_V; exact with the
+linear material, so one iteration solves it), else from a model (a method's ``compliance_model``, or an elastic
+half-space of the solver's E and ν: Boussinesq's normal compliance on each axis,
 :func:`~tissuesim.probe_contact.half_space_compliance`) that a short first step sizes, and learns from each solve by
-Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The converged answer is
-the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses or the iteration
-caps; J sets only how fast it is reached.
+Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The
+converged answer is the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses
+or the iteration caps; J sets only how fast it is reached.
 
 Refused with a reason (and then nothing changes: the solver's state and loads, and the grasper's own, are as
 before): jaws farther than their radius from the surface, a patch with a fixed vertex in it (the support holds it
@@ -39,8 +39,8 @@ import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices
 from .probe_contact import half_space_compliance
-from .solvers.checks import checked_point, numeric_array, positive_number, whole_count
-from .solvers.finite_strain import slow_static_solve
+from .grasp_model import checked_rotation, fitted_model, follows_by_updates, largest_miss, solver_compliance
+from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.load_set import VertexLoads
 from .solvers.snapshot import Snapshot, refusal_restores
 
@@ -63,8 +63,6 @@ RELAXATION = 0.3
 SOLVE_FRACTION = 0.1
 #: ... measured as the motion per this much simulated time [s] (the default step).
 SOLVE_TIME = 0.01
-#: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
-ROTATION_TOLERANCE = 1e-6
 
 #: The graspers holding each solver's vertices: two jaws may not prescribe the same vertex, and their forces are
 #: solved together.
@@ -216,7 +214,7 @@ class Grasper:
             self._place(self.position if position is None else position, rotation)
             group = self._group()
             error, misses = _errors(group)
-            self.residual = _largest(error)
+            self.residual = largest_miss(error)
             if misses > 1.0:
                 change = np.linalg.lstsq(self._current_jacobian(group), error.ravel(), rcond=SINGULAR)[0]
                 _add_forces(group, RELAXATION * change)
@@ -226,7 +224,7 @@ class Grasper:
         its jaws at the end of the frame), or on a finite-strain method whose step is no static solve but which has
         its compliance (the hybrid, whose static solve takes seconds at 10k vertices) :meth:`update` (the patch
         reaches its jaws over a few frames). The caller steps the solver after it."""
-        if _relaxed(self.solver):
+        if follows_by_updates(self.solver):
             self.update(position, rotation)
         else:
             self.settle(position, rotation)
@@ -260,7 +258,7 @@ class Grasper:
             # solve, or the forces were withdrawn (a grab again, a reset)
             self._solve(group, max_steps)
             error, misses = _errors(group)
-        self.residual = _largest(error)
+        self.residual = largest_miss(error)
         while misses > 1.0:
             if self.iterations == max_iterations:
                 return False
@@ -287,7 +285,7 @@ class Grasper:
             if trial_misses > misses:
                 _put_back(group, state, loads)
                 continue
-            error, misses, self.residual = trial, trial_misses, _largest(trial)
+            error, misses, self.residual = trial, trial_misses, largest_miss(trial)
         return True
 
     def _group(self) -> list[Grasper]:
@@ -334,7 +332,7 @@ class Grasper:
     def _learn(self, jacobian: np.ndarray, change: np.ndarray, moved: np.ndarray) -> None:
         """J from the held vertices' motion ``moved`` ``(3K,)`` [m] under the forces' ``change`` ``(3K,)`` [N]."""
         if self._learned is None:
-            jacobian = _fitted(jacobian, change, moved)
+            jacobian = fitted_model(jacobian, change, moved)
         # Broyden's update, the smallest change of J that explains the motion (a new array: a refused move puts
         # the old one back)
         self._jacobian = jacobian + np.outer(moved - jacobian @ change, change) / float(change @ change)
@@ -353,8 +351,8 @@ class Grasper:
         if self._jacobian is None or key != self._key:
             self._key = key
             held = np.concatenate([g.held for g in group])
-            exact = _asked(self.solver, "point_compliance", held)
-            model = exact if exact is not None else _asked(self.solver, "compliance_model", held)
+            exact = solver_compliance(self.solver, "point_compliance", held)
+            model = exact if exact is not None else solver_compliance(self.solver, "compliance_model", held)
             self._jacobian = np.array(model) if model is not None else self._half_space(held)
             self._learned = self._jacobian if exact is not None else None
         return self._jacobian
@@ -383,7 +381,7 @@ class Grasper:
         self._require_holding()
         self.position = checked_point(position, name="the jaws' position").copy()
         if rotation is not None:
-            self.rotation = _checked_rotation(rotation)
+            self.rotation = checked_rotation(rotation)
 
     def _require_holding(self) -> None:
         if not self.holding:
@@ -396,54 +394,11 @@ def _held_by_others(grasper: Grasper) -> np.ndarray:
     return np.concatenate(others) if others else np.zeros(0, dtype=np.int64)
 
 
-def _relaxed(solver) -> bool:
-    """Whether :meth:`Grasper.follow` updates rather than settles on ``solver``: its static solve is slow
-    (:func:`~.solvers.finite_strain.slow_static_solve`) and it has its own compliance to update by."""
-    return slow_static_solve(solver) and getattr(solver, "point_compliance", None) is not None
-
-
-def _asked(solver, hook: str, held: np.ndarray) -> np.ndarray | None:
-    """The solver's answer to an optional compliance ``hook`` for the ``held`` vertices, or None."""
-    found = getattr(solver, hook, None)
-    return None if found is None else found(held)
-
-
-def _checked_rotation(rotation) -> np.ndarray:
-    """``(3, 3) float64`` ``rotation`` checked to be a proper rotation matrix (RᵀR = I, det R = +1)."""
-    matrix = numeric_array(rotation)
-    if matrix is None or matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):
-        what = ("no array of numbers" if matrix is None
-                else f"shape {matrix.shape}, all finite: {bool(np.isfinite(matrix).all())}")
-        raise SolverError(f"the jaws' rotation must be a (3, 3) matrix of finite numbers, got {what}; pass e.g. "
-                          "scipy.spatial.transform.Rotation.from_rotvec(v).as_matrix()")
-    off = float(np.abs(matrix.T @ matrix - np.eye(3)).max())
-    if off > ROTATION_TOLERANCE or np.linalg.det(matrix) < 0.0:
-        raise SolverError(
-            f"the jaws' rotation is not a proper rotation (|RᵀR − I| = {off:.3g}, det R = "
-            f"{np.linalg.det(matrix):.3g}); pass an orthonormal matrix with determinant +1, e.g. from "
-            "scipy.spatial.transform.Rotation.as_matrix()")
-    return matrix.copy()
-
-
-def _fitted(model: np.ndarray, change: np.ndarray, moved: np.ndarray) -> np.ndarray:
-    """α J + β I with α ≥ 0, β ≥ 0 fitted (least squares) to the held vertices' motion ``moved`` ``(3k,)`` [m] in
-    the first solve under the forces' ``change`` ``(3k,)`` [N]: a model's size is E's and the mesh's, and what a
-    coarse model leaves out is mostly each vertex's own dimple (the hybrid's layer between control nodes), which
-    β I stands for; Broyden then learns the rest."""
-    predicted = model @ change
-    basis = np.column_stack([predicted, change])
-    (alpha, beta), *_ = np.linalg.lstsq(basis, moved, rcond=None)
-    if beta < 0.0 or alpha < 0.0:       # one term alone: the one that explains the motion
-        alpha = max(float(moved @ predicted) / float(predicted @ predicted), 1e-3)
-        beta = 0.0
-    return alpha * model + beta * np.eye(len(model))
-
-
 def _errors(group: list[Grasper]) -> tuple[np.ndarray, float]:
     """``(K, 3)`` [m] every held vertex's target minus its position, the ``group``'s in turn, and the largest miss
     of a grasper over its own tolerance."""
     errors = [g._error() for g in group]
-    return np.concatenate(errors), max(_largest(e) / g.tolerance for e, g in zip(errors, group))
+    return np.concatenate(errors), max(largest_miss(e) / g.tolerance for e, g in zip(errors, group))
 
 
 def _add_forces(group: list[Grasper], change: np.ndarray) -> None:
@@ -458,7 +413,3 @@ def _put_back(group: list[Grasper], state: Snapshot, loads: list[dict]) -> None:
     state.restore(group[0].solver)
     for grasper, by_node in zip(group, loads):
         grasper._loads.by_node = by_node
-
-
-def _largest(error: np.ndarray) -> float:
-    return float(np.linalg.norm(error, axis=1).max()) if error.size else 0.0

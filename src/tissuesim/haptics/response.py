@@ -84,11 +84,11 @@ def grasper_response(grasper, node: int) -> LocalResponse:
     vertices' compliance J (T: k 3×3 identities stacked).
 
     With the linear material and a solver that has its exact compliance J (``point_compliance``), from J itself.
-    Otherwise measured by the grasper's own static moves (:meth:`~tissuesim.Grasper.move_to`, the jaws' rotation kept): where
-    the jaws are, then one step along x, y and z; C_g is the inverse of the stiffness those give. The step is the
-    jaws' radius with the linear material (exact: the model is affine), a strain of :data:`TANGENT_STEP` (that
-    fraction of the radius) with a finite-strain one (the tangent), and each move goes within
-    :data:`MEASURE_FRACTION` of the step of its targets. The solver's and the grasper's state are put back
+    Otherwise measured by the grasper's own static moves (:meth:`~tissuesim.Grasper.move_to`, the jaws' rotation
+    kept): where the jaws are, then one step along x, y and z; C_g is the inverse of the stiffness those give. The
+    step is the jaws' radius with the linear material (exact: the model is affine), a strain of
+    :data:`TANGENT_STEP` (that fraction of the radius) with a finite-strain one (the tangent), and each move goes
+    within :data:`MEASURE_FRACTION` of the step of its targets. The solver's and the grasper's state are put back
     afterwards; a move the grasper refuses raises its error and changes nothing."""
     position = grasper.position.copy()
     exact = _patch_compliance(grasper)
