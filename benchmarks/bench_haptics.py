@@ -103,7 +103,8 @@ def bench(size: int, seconds: float, tool: str) -> None:
     for label, node in (("first grab", other), ("grab of a new node", top)):
         start = time.perf_counter()
         loop.grab(node)
-        print(f"{label}: {1e3 * (time.perf_counter() - start):.1f} ms (local response: 4 static solves or moves)")
+        print(f"{label}: {1e3 * (time.perf_counter() - start):.1f} ms (its local response: the pin-head's 4 static "
+              "solves; the grasper's from the solver's compliance, or 4 static moves without it)")
     compliance = loop.response.compliance
     held = "" if loop.grasper is None else f" ({loop.grasper.held.size} vertices in the jaws)"
     print(f"C at the top node{held} [mm/N]: diagonal {np.round(1e3 * np.diag(compliance), 2).tolist()}")
