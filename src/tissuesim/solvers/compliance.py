@@ -71,19 +71,17 @@ class HybridCompliance:
         prescribed = np.zeros((3 * statics.prescribed.size, 3 * k))        # the fixed nodes stay at rest
         control = (3 * self.output_nodes[: self.control_count, None] + np.arange(3)).ravel()
         prescribed[: 3 * self.control_count] = moved[control]
-        slot_of = np.full(self.node_count, -1, dtype=np.int64)
-        slot_of[statics.free_nodes] = np.arange(statics.free_nodes.size)
-        forces = np.zeros((3 * statics.free_nodes.size, 3 * k))
-        for slot, node in enumerate(nodes):
-            if slot_of[node] >= 0:
-                forces[3 * slot_of[node]:3 * slot_of[node] + 3, 3 * slot:3 * slot + 3] = np.eye(3)
-        free = statics.displacement_columns(forces, prescribed)
+        # each vertex's place among the layer's unknowns: its free nodes first, then its prescribed ones
+        free_count = statics.free_nodes.size
         place = np.full(self.node_count, -1, dtype=np.int64)
-        place[statics.prescribed] = np.arange(statics.prescribed.size)
-        rows = np.array([3 * (slot_of[j] if slot_of[j] >= 0 else place[j]) for j in nodes])
-        rows = (rows[:, None] + np.arange(3)).ravel()
-        on_layer = np.repeat(slot_of[nodes] >= 0, 3)
-        return np.where(on_layer[:, None], free[np.where(on_layer, rows, 0)], prescribed[np.where(on_layer, 0, rows)])
+        place[statics.free_nodes] = np.arange(free_count)
+        place[statics.prescribed] = free_count + np.arange(statics.prescribed.size)
+        forces = np.zeros((3 * free_count, 3 * k))
+        for slot, node in enumerate(nodes):
+            if place[node] < free_count:       # a force on a prescribed node acts on M_V alone
+                forces[3 * place[node]:3 * place[node] + 3, 3 * slot:3 * slot + 3] = np.eye(3)
+        whole = np.concatenate([statics.displacement_columns(forces, prescribed), prescribed])
+        return whole[(3 * place[nodes][:, None] + np.arange(3)).ravel()]
 
     def compliance_model(self, nodes: np.ndarray) -> np.ndarray:
         """``(3k, 3k)`` [m/N] the coarse surface's compliance among M_S vertices ``nodes``
