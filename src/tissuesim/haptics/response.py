@@ -10,12 +10,11 @@ there: exact at that load, good near it; :meth:`HapticLoop.sync <tissuesim.hapti
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..solvers.snapshot import Snapshot, refusal_restores
+from ..solvers.snapshot import Snapshot, leaves_no_trace
 
 #: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else
 #: the mean M_S edge length): a force that strains the patch by about 1e-3, small against the nonlinearity and
@@ -115,18 +114,3 @@ def _patch_compliance(grasper) -> np.ndarray | None:
         return None
     stack = np.tile(np.eye(3), (grasper.held.size, 1))
     return np.linalg.inv(stack.T @ np.linalg.solve(compliance, stack))
-
-
-class _Measured(Exception):
-    """Ends a measurement: :func:`~tissuesim.solvers.snapshot.refusal_restores` puts back what its body changed."""
-
-
-@contextmanager
-def leaves_no_trace(grasper):
-    """Put the grasper's and its solver's state back after the body, as a refused move does."""
-    try:
-        with refusal_restores(grasper, solving=True):
-            yield
-            raise _Measured
-    except _Measured:
-        pass

@@ -56,14 +56,35 @@ def refusal_restores(tool, *, solving: bool):
     with its :class:`~.load_set.VertexLoads` record) and its solver's loads, and with ``solving`` (the body steps or
     solves) the solver's whole state (:class:`Snapshot`), so a refused call leaves no load acting and no vertex
     moved."""
+    put_back = _keeper(tool, solving=solving)
+    try:
+        yield
+    except BaseException:
+        put_back()
+        raise
+
+
+@contextmanager
+def leaves_no_trace(tool):
+    """Put everything :func:`refusal_restores` keeps back after the body, whatever it does: work done to measure
+    (a grasper's measuring moves), not to keep."""
+    put_back = _keeper(tool, solving=True)
+    try:
+        yield
+    finally:
+        put_back()
+
+
+def _keeper(tool, *, solving: bool):
+    """Take what :func:`refusal_restores` keeps of ``tool`` and its solver now; returns the call that puts it
+    back."""
     solver = tool.solver
     kept = {name: copy.copy(value) if isinstance(value, dict) else value for name, value in vars(tool).items()}
     kept_loads = {name: dict(value.by_node) for name, value in vars(tool).items() if hasattr(value, "by_node")}
     state = Snapshot(solver) if solving else None
     loads = None if solving else solver.kept_loads()
-    try:
-        yield
-    except BaseException:
+
+    def put_back() -> None:
         if solving:
             state.restore(solver)
         else:
@@ -71,4 +92,5 @@ def refusal_restores(tool, *, solving: bool):
         vars(tool).update(kept)
         for name, by_node in kept_loads.items():
             getattr(tool, name).by_node = by_node
-        raise
+
+    return put_back
