@@ -21,7 +21,7 @@ def test_the_legend_says_what_each_bar_is_and_fits_the_figure():
     figure = contact_plots.error_figure(contact_results())
     legend = figure.axes[0].get_legend()
     texts = [t.get_text() for t in legend.get_texts()]
-    assert "Ours+NF: hybrid + near field" in texts and "FEM: default fine volume, linear tets" in texts
+    assert "Ours+NF: hybrid + near field" in texts and "FEM: fine-volume FEM, linear tets" in texts
     assert any(t.startswith("load rule floor (") for t in texts) and "target 0.1" in texts
     assert len(texts) == len(METHODS) + 2
     renderer = FigureCanvasAgg(figure).get_renderer()

@@ -6,7 +6,7 @@ import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from tissuesim.experiments import plots
-from tissuesim.experiments.tables import LABELS
+from tissuesim.experiments.methods import short_label
 
 # method -> scale of the reference's displacements: every method's d is this multiple of the reference's
 FACTORS = {"hybrid": 0.9, "pbd": 0.5, "mass-spring": 1.2, "embedded": 0.8, "fem": 1.0}
@@ -40,9 +40,9 @@ def test_each_case_has_a_radar_of_nodes_2_to_10_relative_to_the_reference():
     rim = plots._rim([(1.0, {"fem": REFERENCE / rms})])
     for ax in radars(figure):
         lines = lines_of(ax)
-        assert sorted(lines) == sorted(LABELS[m] for m in FACTORS)
+        assert sorted(lines) == sorted(short_label(m) for m in FACTORS)
         for method, factor in FACTORS.items():
-            x, y = lines[LABELS[method]].get_xdata(), lines[LABELS[method]].get_ydata()
+            x, y = lines[short_label(method)].get_xdata(), lines[short_label(method)].get_ydata()
             radii = np.hypot(x, y)
             # a closed polygon over the 9 nodes 2-10 (node 2 straight up), radius d / (reference RMS) / rim
             assert len(radii) == 10 and radii[-1] == pytest.approx(radii[0], rel=1e-12)

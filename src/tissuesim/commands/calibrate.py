@@ -34,9 +34,9 @@ def run(args: argparse.Namespace) -> int:
 
     from ..mesh import models
     from ..mesh.hybrid import HybridMesh
-    from ..experiments.calibration import CALIBRATION_MODEL, PARAMETERS, calibrate, calibration_case, write_calibrated
+    from ..experiments.calibration import CALIBRATION_MODEL, calibrate, calibration_case, free_scalars, write_calibrated
 
-    jobs = _jobs(args.method, args.form, PARAMETERS)
+    jobs = _jobs(args.method, args.form, free_scalars())
     cube = models.model(CALIBRATION_MODEL)
     if args.bundle is not None:
         hybrid = HybridMesh.load(args.bundle)

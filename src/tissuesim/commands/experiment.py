@@ -54,7 +54,8 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
-    from ..experiments.protocol import METHODS, REFERENCE
+    from ..experiments.methods import protocol_methods
+    from ..experiments.protocol import REFERENCE
     from ..experiments.inputs import check_model_files, check_model_specs, check_resolution
     from ..experiments.run import run_experiment
     from ..experiments.sweep_config import ExperimentConfig
@@ -75,9 +76,9 @@ def run(args) -> int:
         options["loads"] = _distinct("--loads", args.loads)
     if args.methods:
         options["methods"] = tuple(dict.fromkeys([*args.methods, REFERENCE]))
-        unknown = [m for m in args.methods if m not in METHODS]
+        unknown = [m for m in args.methods if m not in protocol_methods()]
         if unknown:
-            raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
+            raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(protocol_methods())}")
     if args.resolution is not None:
         options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["scale"] = _number(args.scale, "--scale", "factor")

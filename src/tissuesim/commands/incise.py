@@ -37,7 +37,6 @@ import numpy as np
 from .fixing import add_fix_argument
 
 HELP = "cut each model's top with the scalpel (Fig 16) on every surface method; surfaces, gaps, timings, checks"
-METHODS = ("hybrid", "pbd", "mass-spring", "embedded")
 
 
 def add_arguments(parser) -> None:
@@ -46,8 +45,8 @@ def add_arguments(parser) -> None:
                              "four models")
     parser.add_argument("--output", "-o", default="incision", metavar="DIR",
                         help="folder for the surfaces and tables, created if absent (default: incision)")
-    parser.add_argument("--methods", nargs="+", metavar="METHOD", default=list(METHODS),
-                        help=f"surface methods to cut (default: {' '.join(METHODS)})")
+    parser.add_argument("--methods", nargs="+", metavar="METHOD", default=None,
+                        help="surface methods to cut (default: every method the scalpel cuts)")
     parser.add_argument("--scale", type=float, default=1.0,
                         help="factor from a surface file's unit to metres, applied to a built-in model too (a bundle "
                              "is in metres and not scaled)")
@@ -74,15 +73,17 @@ def run(args) -> int:
     from ..mesh.hybrid import HybridMesh
     from ..mesh.models import MODELS
     from ..layer.prestress import check_prestrain
-    from ..solvers.registry import available_solvers
+    from ..solvers.registry import available_solvers, method_names
     from ..solvers.checks import positive_number
     from .fixing import check_fix
 
     # every argument is checked, and every model read, before the first (minutes long) cut
     output = check_output_folder(args.output)
+    cuttable = method_names(cuts=True)
+    args.methods = list(cuttable) if args.methods is None else args.methods
     unknown = [m for m in args.methods if m not in available_solvers()]
     if unknown:
-        raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(METHODS)}")
+        raise SolverError(f"unknown method {unknown[0]!r}; choose from {', '.join(cuttable)}")
     prestrain = check_prestrain(args.prestrain)
     check_scale(args.scale)         # for bundles too, which it does not scale: a bad value is never ignored
     check_model_names(args.models)

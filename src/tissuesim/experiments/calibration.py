@@ -23,18 +23,12 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..errors import SolverError
-from ..solvers.registry import make_solver
+from ..solvers.registry import available_solvers, make_solver, solver_class
 from .protocol import RMSE_SAMPLES, load_node, rms_displacement, rmse, sample_nodes
 
 CALIBRATION_MODEL = "cube"
 CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure
 CALIBRATION_RADIUS = 0.004  # m: the pin-head's contact radius
-#: method -> form -> (option, lower bound, upper bound): the search interval of the free scalar.
-PARAMETERS = {
-    "hybrid": {"xpbd": ("thickness_ratio", 0.6, 4.0), "pbd": ("stiffness", 1e-3, 1.0)},
-    "pbd": {"xpbd": ("thickness_ratio", 1.0, 16.0), "pbd": ("mass_scale", 1.0, 1e5)},
-    "mass-spring": {"springs": ("thickness_ratio", 10.0, 3000.0)},
-}
 #: Quasi-static step budget of every calibration solve.
 MAX_STEPS = 3000
 
@@ -58,6 +52,13 @@ class CalibrationResult:
     reference_rms: float
     evaluations: int
     elapsed: float
+
+
+def free_scalars() -> dict[str, dict[str, tuple[str, float, float]]]:
+    """method -> form -> (option, lower bound, upper bound): each registered method's free scalars and their search
+    intervals (:attr:`~tissuesim.solvers.base.Solver.free_scalars`)."""
+    return {name: dict(solver_class(name).free_scalars) for name in available_solvers()
+            if solver_class(name).free_scalars}
 
 
 def calibration_case(hybrid_mesh):
@@ -95,9 +96,10 @@ def calibrate(method: str, hybrid_mesh, *, form: str | None = None, case=None, x
     ``xatol`` is the tolerance on the natural log of the scalar (0.02 ≈ 2 %). ``progress(value, rmse)`` is called
     after each evaluation if given.
     """
-    if method not in PARAMETERS:
-        raise SolverError(f"method {method!r} has no free scalar; calibrate one of {', '.join(PARAMETERS)}")
-    forms = PARAMETERS[method]
+    scalars = free_scalars()
+    if method not in scalars:
+        raise SolverError(f"method {method!r} has no free scalar; calibrate one of {', '.join(scalars)}")
+    forms = scalars[method]
     form = form or next(iter(forms))
     if form not in forms:
         raise SolverError(f"method {method!r} has no form {form!r}; choose one of {', '.join(forms)}")

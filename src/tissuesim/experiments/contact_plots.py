@@ -9,17 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from .tables import LABELS
+from .methods import colour, label, short_label
 
-COLOURS = {"hybrid": "tab:red", "hybrid-near": "darkred", "hybrid-quadratic": "tab:purple", "pbd": "tab:blue",
-           "mass-spring": "tab:green", "embedded": "tab:orange", "fem": "grey"}
 #: The absolute target drawn across the plot (relative RMSE).
 TARGET = 0.10
 LEGEND_COLUMN_IN = 3.3
-#: What each bar is, in the legend: the short labels of the tables alone do not say.
-MEANINGS = {"hybrid": "hybrid", "hybrid-near": "hybrid + near field", "hybrid-quadratic": "hybrid, quadratic M_V",
-            "pbd": "surface PBD", "mass-spring": "mass-spring", "embedded": "embedded surface",
-            "fem": "default fine volume, linear tets"}
 
 
 def error_figure(data: dict):
@@ -38,7 +32,7 @@ def error_figure(data: dict):
     for k, method in enumerate(methods):
         medians = [_median(data, group, method) for group in groups]
         axes.bar(np.arange(len(groups)) - 0.4 + (k + 0.5) * width, medians, width,
-                 color=COLOURS.get(method, None), label=_label(method))
+                 color=colour(method), label=_label(method))
     floors = [data["metadata"]["models"][model]["references"].get(f"{radius:g}", {}).get("load_rule_floor")
               for model, radius in groups]
     shown = [(i, f) for i, f in enumerate(floors) if f]
@@ -62,8 +56,9 @@ def error_figure(data: dict):
 
 
 def _label(method: str) -> str:
-    short, meaning = LABELS.get(method, method), MEANINGS.get(method)
-    return short if meaning in (None, short) else f"{short}: {meaning}"
+    """The table's short label and what the bar is (the short labels alone do not say)."""
+    short, meaning = short_label(method), label(method)
+    return short if meaning == short else f"{short}: {meaning}"
 
 
 def _median(data: dict, group, method) -> float:

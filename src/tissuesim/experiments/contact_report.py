@@ -13,7 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .tables import LABELS, finite_validity, fmt, markdown_table
+from .methods import short_label
+from .tables import finite_validity, fmt, markdown_table
 
 METRIC_LABELS = {"rmse": "RMSE (all samples)", "rmse_outside": "RMSE (outside patch)",
                  "contact_error": "error at contact"}
@@ -26,7 +27,7 @@ def method_table(data: dict, *, role: str = "held out") -> str:
         records = [r for r in data["records"] if r["method"] == method and r["role"] == role]
         if not records:
             continue
-        row = [LABELS.get(method, method), str(len(records))]
+        row = [short_label(method), str(len(records))]
         for metric in ("rmse", "rmse_outside", "contact_error"):
             values = [r[f"relative_{metric}"] for r in records if r[f"relative_{metric}"] is not None]
             row.append(f"{fmt(float(np.median(values)), 3)} / {fmt(max(values), 3)}" if values else "–")
@@ -56,7 +57,7 @@ def ratio_table(data: dict, *, embedded_ratio: float = 0.5, pbd_ratio: float = 0
         to_pbd = np.array([c[method] / c["pbd"] for c in cases])
         own = np.array([c[method] for c in cases])
         met = (to_emb <= embedded_ratio) & (to_pbd <= pbd_ratio) & (own <= absolute)
-        rows.append([LABELS.get(method, method), str(len(cases)),
+        rows.append([short_label(method), str(len(cases)),
                      f"{fmt(float(np.median(to_emb)), 3)} / {fmt(float(to_emb.max()), 3)}",
                      f"{fmt(float(np.median(to_pbd)), 3)} / {fmt(float(to_pbd.max()), 3)}",
                      str(int((to_emb <= embedded_ratio).sum())), str(int((to_pbd <= pbd_ratio).sum())),
@@ -85,7 +86,7 @@ def case_table(data: dict) -> str:
     rows = []
     for r in data["records"]:
         rows.append([r["model"], f"{r['radius_mm']:g}", r["load"], f"{r['force_N']:g}",
-                     LABELS.get(r["method"], r["method"]), r["role"],
+                     short_label(r["method"]), r["role"],
                      *(f"{fmt(r[f'{m}_mm'], 3)} ({fmt(r[f'relative_{m}'], 3)})" for m in METRIC_LABELS),
                      "failed" if "error" in r else ("" if r["converged"] else "unsettled")])
     return markdown_table(["Model", "R (mm)", "Load", "Force (N)", "Method", "Row"]
@@ -131,7 +132,7 @@ def _summary(meta: dict, material: str) -> list[str]:
         f"Models: {', '.join(meta['models'])}. Loads: {' and '.join(meta['loads'])} at "
         f"{', '.join(f'{f:g}' for f in meta['forces_N'])} N, contact radius R = "
         f"{', '.join(f'{r:g}' for r in meta['radii_mm'])} mm. Methods: "
-        f"{', '.join(LABELS.get(m, m) for m in meta['methods'])}. {meta['wall_s']:.0f} s on {meta['cpus']} CPUs, "
+        f"{', '.join(short_label(m) for m in meta['methods'])}. {meta['wall_s']:.0f} s on {meta['cpus']} CPUs, "
         f"{meta['date']}.",
         "",
         "Material: linear elasticity (small strain), for the methods and the reference." if material == "linear"

@@ -9,9 +9,10 @@ from __future__ import annotations
 import math
 
 from . import paper
+from .methods import OURS, compared_methods, ordered, paper_methods, short_label
 from .protocol import REFERENCE
-from .tables import (LABELS, RATIOS, cases_of, finite_validity, fmt, index, markdown_table, methods_of, models_of,
-                     ratio_summary)
+from .tables import (cases_of, finite_validity, fmt, index, markdown_table, methods_of, models_of, ratio_summary,
+                     ratios)
 
 STRUCTURAL_DIFFERENCES = (
     "**Models.** The paper's four meshes (turbosquid.com) are not public. Ours are procedural stand-ins of the "
@@ -58,7 +59,7 @@ def report_markdown(data: dict) -> str:
         "# Experiment report (paper §8.3)",
         "",
         f"Models: {', '.join(models)}. Load cases: {_cases_text(data)}. Methods: "
-        f"{', '.join(LABELS.get(m, m) + f' (`{m}`)' for m in _all_methods(data))}. "
+        f"{', '.join(short_label(m) + f' (`{m}`)' for m in _all_methods(data))}. "
         f"Run on {meta['machine']['processor']} ({meta['machine']['cpus']} CPUs), {meta['date']}, "
         f"in {meta.get('wall_s', float('nan')):.1f} s of wall time.",
         "",
@@ -70,7 +71,7 @@ def report_markdown(data: dict) -> str:
     summary = ratio_summary(data)
     rows = [[model] + [f"{fmt(ours, 3)} ({fmt(theirs, 3)})" for ours, theirs in summary[model].values()]
             for model in summary]
-    parts += [markdown_table(["Model"] + [f"{name}, ours (paper)" for name in RATIOS], rows)]
+    parts += [markdown_table(["Model"] + [f"{name}, ours (paper)" for name in ratios()], rows)]
     parts += ["", "RMSE ratios below 1 mean the hybrid is more accurate; FEM/Ours above 1 means the hybrid is faster "
               "than the fine FEM; Ours/PBD step is the hybrid's time overhead over PBD.", ""]
     parts += ["## Winner of each row (lowest RMSE against FEM)", ""]
@@ -81,11 +82,11 @@ def report_markdown(data: dict) -> str:
             rmse = {m: records[(model, load, force, m)]["rmse_mm"] for m in methods
                     if (model, load, force, m) in records}
             order = sorted(rmse, key=rmse.get)
-            published = {m: paper.rmse_mm(model, load, force, m) for m in ("hybrid", "pbd", "mass-spring")}
+            published = {m: paper.rmse_mm(model, load, force, m) for m in paper_methods()}
             paper_winner = min((m for m in published if published[m] is not None), key=published.get, default=None)
-            rows.append([model, load, f"{force:g} N", LABELS[order[0]] if order else "–",
-                         " < ".join(f"{LABELS[m]} {fmt(rmse[m], 3)}" for m in order),
-                         LABELS.get(paper_winner, "–")])
+            rows.append([model, load, f"{force:g} N", short_label(order[0]) if order else "–",
+                         " < ".join(f"{short_label(m)} {fmt(rmse[m], 3)}" for m in order),
+                         short_label(paper_winner) if paper_winner else "–"])
     parts += [markdown_table(["Model", "Load", "Force", "Winner", "Ordering by RMSE (mm)", "Paper's winner"], rows)]
     parts += _divergence_section(data)
     parts += ["", "## Where our figures differ from the paper's, and why", ""]
@@ -126,7 +127,7 @@ def _divergence_section(data: dict) -> list[str]:
 
 def _all_methods(data: dict) -> list[str]:
     present = {r["method"] for r in data["records"]}
-    return [m for m in LABELS if m in present]
+    return ordered(present)
 
 
 def _cases_text(data: dict) -> str:
@@ -150,11 +151,11 @@ def _wins(data: dict, winner: str, loser: str) -> tuple[int, int]:
 
 def _verdict(data: dict) -> list[str]:
     lines = []
-    for other in ("pbd", "mass-spring", "embedded"):
-        won, total = _wins(data, "hybrid", other)
+    for other in compared_methods():
+        won, total = _wins(data, OURS, other) if other != OURS else (0, 0)
         if total:
-            lines.append(f"Ours (hybrid) is more accurate than {LABELS[other]} in {won} of {total} cases"
-                         + (" (the paper: all of its cases)" if other != "embedded" else " (not in the paper)")
+            lines.append(f"Ours (hybrid) is more accurate than {short_label(other)} in {won} of {total} cases"
+                         + (" (the paper: all of its cases)" if other in paper_methods() else " (not in the paper)")
                          + ".")
     summary = ratio_summary(data)
     steps = [(m, s["Ours/PBD step"][0], s["FEM/Ours step"][0]) for m, s in summary.items()]
@@ -171,7 +172,7 @@ def _verdict(data: dict) -> list[str]:
         cap = data["metadata"]["options"].get("max_steps")
         lines.append(f"{len(unsettled)} quasi-static solves did not settle within {cap} steps, or turned the "
                      "mass-spring surface inside out (which springs cannot undo), and are measured at their last "
-                     "positions: " + ", ".join(f"{LABELS.get(r['method'], r['method'])} on {r['model']} "
+                     "positions: " + ", ".join(f"{short_label(r['method'])} on {r['model']} "
                                                           f"{r['load']} {r['force_N']:g} N" for r in unsettled)
                      + ".")
     rel = [r["relative_rmse"] for r in data["records"] if r["method"] == "hybrid" and r["relative_rmse"] is not None]
@@ -187,7 +188,7 @@ def _differences(data: dict) -> list[str]:
     """Data-driven statements of where our figures and the paper's part."""
     lines = []
     summary = ratio_summary(data)
-    for name in RATIOS:
+    for name in ratios():
         pairs = [(m, s[name]) for m, s in summary.items() if s[name][0] is not None and s[name][1] is not None]
         if not pairs:
             continue
@@ -197,17 +198,17 @@ def _differences(data: dict) -> list[str]:
             lines.append(f"{name}: ours differs from the paper's by more than a factor 2 on {', '.join(far)}.")
         else:
             lines.append(f"{name}: ours is within a factor 2 of the paper's on every model with published figures.")
-    for method in ("hybrid", "pbd", "mass-spring"):
+    for method in paper_methods():
         scale = [r["rmse_mm"] / paper.rmse_mm(r["model"], r["load"], r["force_N"], method) for r in data["records"]
                  if r["method"] == method and paper.rmse_mm(r["model"], r["load"], r["force_N"], method)]
         if scale:
-            lines.append(f"Absolute RMSE of {LABELS[method]}: ours is {min(scale):.3g}–{max(scale):.3g}× the paper's "
+            lines.append(f"Absolute RMSE of {short_label(method)}: ours is {min(scale):.3g}–{max(scale):.3g}× the paper's "
                          "figure for the same case (different meshes, sizes and calibration: compare ratios and the "
                          "relative RMSE rather than millimetres).")
     linear = _linearity(data) if data["metadata"].get("options", {}).get("material", "linear") == "linear" else {}
     if linear:
         lines.append("RMSE per newton of the linear methods (largest / smallest over forces, 1 = exactly linear): "
-                     + ", ".join(f"{LABELS[m]} on {model} {ratio:.4g}" for (model, m), ratio in linear.items()) + ".")
+                     + ", ".join(f"{short_label(m)} on {model} {ratio:.4g}" for (model, m), ratio in linear.items()) + ".")
     return lines
 
 

@@ -13,6 +13,7 @@ from ..fem.hyperelastic import check_material
 from ..io import SURFACE_EXTENSIONS
 from ..mesh import models as builtin_models
 from . import protocol
+from .methods import protocol_methods
 from .inputs import builtin_surface, check_fine_volume, check_resolution
 
 
@@ -54,7 +55,7 @@ class ExperimentConfig:
     models: tuple = tuple(builtin_models.MODELS)
     forces: tuple = protocol.FORCES_N
     loads: tuple = protocol.LOADS
-    methods: tuple = protocol.METHODS
+    methods: tuple = field(default_factory=protocol_methods)
     resolution: int | None = None
     scale: float = 1.0
     repair: bool = False
@@ -69,9 +70,9 @@ class ExperimentConfig:
     def __post_init__(self):
         if not self.models:
             raise SolverError("no models given; name a built-in model (cube, sphere, liver, steak) or a mesh file")
-        unknown = [m for m in self.methods if m not in protocol.METHODS]
+        unknown = [m for m in self.methods if m not in protocol_methods()]
         if unknown:
-            raise SolverError(f"unknown methods {', '.join(unknown)}; choose from {', '.join(protocol.METHODS)}")
+            raise SolverError(f"unknown methods {', '.join(unknown)}; choose from {', '.join(protocol_methods())}")
         if protocol.REFERENCE not in self.methods:
             raise SolverError(f"methods must include the reference {protocol.REFERENCE!r} to compute the RMSE")
         bad_loads = [load for load in self.loads if load not in protocol.LOAD_DIRECTIONS]

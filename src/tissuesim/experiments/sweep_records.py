@@ -13,6 +13,7 @@ import numpy as np
 
 from ..mesh.table1 import ascii_size
 from . import protocol
+from .methods import protocol_methods
 from .sweep_config import ExperimentConfig
 from .sweep_measure import inverted_elements
 
@@ -56,7 +57,7 @@ def record_order(names, loads):
     """The sort key of the records: model and load in the order run, then force, then method as registered."""
     model_rank = {n: i for i, n in enumerate(names)}
     load_rank = {n: i for i, n in enumerate(loads)}
-    method_rank = {n: i for i, n in enumerate(protocol.METHODS)}
+    method_rank = {n: i for i, n in enumerate(protocol_methods())}
     return lambda r: (model_rank[r["model"]], load_rank[r["load"]], r["force_N"], method_rank[r["method"]])
 
 

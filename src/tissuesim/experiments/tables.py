@@ -16,25 +16,23 @@ import math
 import numpy as np
 
 from . import paper
+from .methods import OURS, compared_methods, ordered, paper_methods, short_label
 from .protocol import REFERENCE
-
-LABELS = {"hybrid": "Ours", "pbd": "PBD", "mass-spring": "MSM", "embedded": "Emb.", "fem": "FEM",
-          "hybrid-near": "Ours+NF", "hybrid-quadratic": "Ours-Q"}
-COMPARED = ("hybrid", "pbd", "mass-spring", "embedded")
 
 #: What Table 1's "size (kB)" is, here, in ``tissuesim build`` and in the README: the paper's Table 1 gives sizes in
 #: kB without saying of what; a file's size is what a reader can check, and these land in the paper's range.
 SIZE_DEFINITION = ("the mesh written as an ASCII file, in kB of 1000 bytes: OBJ for M_S (`v x y z` with %.8g "
                    "coordinates in metres, `f a b c`), TetGen `.node` + `.ele` for a volume")
 
-# name -> (table, numerator method, denominator method, quantity): the ratios of the closing summary.
-RATIOS = {
-    "Ours/PBD RMSE": ("rmse", "hybrid", "pbd"),
-    "Ours/MSM RMSE": ("rmse", "hybrid", "mass-spring"),
-    "Ours/Emb. RMSE": ("rmse", "hybrid", "embedded"),
-    "FEM/Ours step": ("time", "fem", "hybrid"),
-    "Ours/PBD step": ("time", "hybrid", "pbd"),
-}
+
+
+def ratios() -> dict[str, tuple[str, str, str]]:
+    """name -> (quantity, numerator method, denominator method): the ratios of the closing summary. Ours' RMSE over
+    every other compared method's; the step ratios the paper claims (:data:`.paper.STEP_CLAIMS`)."""
+    accuracy = {f"{short_label(OURS)}/{short_label(m)} RMSE": ("rmse", OURS, m)
+                for m in compared_methods() if m != OURS}
+    steps = {f"{short_label(a)}/{short_label(b)} step": ("time", a, b) for a, b in paper.STEP_CLAIMS}
+    return {**accuracy, **steps}
 
 
 def index(data: dict) -> dict:
@@ -52,7 +50,7 @@ def cases_of(data: dict, model: str) -> list[tuple[str, float]]:
 
 def methods_of(data: dict, model: str) -> list[str]:
     present = {r["method"] for r in data["records"] if r["model"] == model}
-    return [m for m in (*COMPARED, REFERENCE) if m in present]
+    return ordered(m for m in present if m in (*compared_methods(), REFERENCE))
 
 
 def measured_ratio(data: dict, model: str, quantity: str, numerator: str, denominator: str) -> float | None:
@@ -73,9 +71,9 @@ def published_ratio(model: str, quantity: str, numerator: str, denominator: str)
 
 
 def ratio_summary(data: dict) -> dict:
-    """``{model: {ratio name: (ours, paper or None)}}`` for the ratios in :data:`RATIOS`."""
+    """``{model: {ratio name: (ours, paper or None)}}`` for the ratios of :func:`ratios`."""
     return {model: {name: (measured_ratio(data, model, *spec), published_ratio(model, *spec))
-                    for name, spec in RATIOS.items()} for model in models_of(data)}
+                    for name, spec in ratios().items()} for model in models_of(data)}
 
 
 # --------------------------------------------------------------------------------------------------- Markdown
@@ -112,21 +110,24 @@ def rmse_table(data: dict, model: str) -> str:
     """Table 2/3 for one model: RMSE [mm] of each method against FEM, relative RMSE, published figures, ratios."""
     records = index(data)
     methods = [m for m in methods_of(data, model) if m != REFERENCE]
-    header = (["Load", "Force"] + [f"{LABELS[m]} (mm)" for m in methods] + [f"{LABELS[m]} rel." for m in methods]
-              + ["paper Ours", "paper PBD", "paper MSM", "Ours/PBD", "paper Ours/PBD", "Ours/MSM", "paper Ours/MSM",
-                 "best"])
+    published = paper_methods()
+    others = [m for m in published if m != OURS]
+    ours = short_label(OURS)
+    header = (["Load", "Force"] + [f"{short_label(m)} (mm)" for m in methods]
+              + [f"{short_label(m)} rel." for m in methods] + [f"paper {short_label(m)}" for m in published]
+              + [name for m in others for name in (f"{ours}/{short_label(m)}", f"paper {ours}/{short_label(m)}")]
+              + ["best"])
     rows = []
     for load, force in cases_of(data, model):
         got = {m: records.get((model, load, force, m)) for m in methods}
         rmse = {m: (r["rmse_mm"] if r else None) for m, r in got.items()}
-        pub = {m: paper.rmse_mm(model, load, force, m) for m in ("hybrid", "pbd", "mass-spring")}
+        pub = {m: paper.rmse_mm(model, load, force, m) for m in published}
         best = min((m for m in methods if rmse[m] is not None), key=lambda m: rmse[m], default=None)
         rows.append([load, f"{force:g} N"] + [fmt(rmse[m]) for m in methods]
                     + [fmt(got[m]["relative_rmse"] if got[m] else None, 3) for m in methods]
-                    + [fmt(pub[m]) for m in ("hybrid", "pbd", "mass-spring")]
-                    + [fmt(_div(rmse.get("hybrid"), rmse.get("pbd")), 3), fmt(_div(pub["hybrid"], pub["pbd"]), 3),
-                       fmt(_div(rmse.get("hybrid"), rmse.get("mass-spring")), 3),
-                       fmt(_div(pub["hybrid"], pub["mass-spring"]), 3), LABELS.get(best, "–")])
+                    + [fmt(pub[m]) for m in published]
+                    + [fmt(_div(a.get(OURS), a.get(m)), 3) for m in others for a in (rmse, pub)]
+                    + [short_label(best) if best else "–"])
     return markdown_table(header, rows)
 
 
@@ -134,19 +135,21 @@ def time_table(data: dict, model: str) -> str:
     """Table 4/5 for one model: per-step time [ms] of each method, equilibrium time, published figures, ratios."""
     records = index(data)
     methods = methods_of(data, model)
-    header = (["Load", "Force"] + [f"{LABELS[m]} step" for m in methods]
-              + ["paper Ours", "paper PBD", "paper MSM", "paper FEM", "Ours/PBD", "paper Ours/PBD", "FEM/Ours",
-                 "paper FEM/Ours"]
-              + [f"{LABELS[m]} equil." for m in methods])
+    published = (*paper_methods(), REFERENCE)
+    claims = paper.STEP_CLAIMS
+    header = (["Load", "Force"] + [f"{short_label(m)} step" for m in methods]
+              + [f"paper {short_label(m)}" for m in published]
+              + [name for a, b in claims for name in (f"{short_label(a)}/{short_label(b)}",
+                                                      f"paper {short_label(a)}/{short_label(b)}")]
+              + [f"{short_label(m)} equil." for m in methods])
     rows = []
     for load, force in cases_of(data, model):
         got = {m: records.get((model, load, force, m)) for m in methods}
         step = {m: (r["step_ms"] if r else None) for m, r in got.items()}
-        pub = {m: paper.time_ms(model, load, force, m) for m in ("hybrid", "pbd", "mass-spring", "fem")}
+        pub = {m: paper.time_ms(model, load, force, m) for m in published}
         rows.append([load, f"{force:g} N"] + [fmt(step[m], 3) for m in methods]
-                    + [fmt(pub[m], 3) for m in ("hybrid", "pbd", "mass-spring", "fem")]
-                    + [fmt(_div(step.get("hybrid"), step.get("pbd")), 3), fmt(_div(pub["hybrid"], pub["pbd"]), 3),
-                       fmt(_div(step.get("fem"), step.get("hybrid")), 3), fmt(_div(pub["fem"], pub["hybrid"]), 3)]
+                    + [fmt(pub[m], 3) for m in published]
+                    + [fmt(_div(t.get(a), t.get(b)), 3) for a, b in claims for t in (step, pub)]
                     + [fmt(got[m]["equilibrium_ms"] if got[m] else None, 3) for m in methods])
     return markdown_table(header, rows)
 
@@ -154,8 +157,9 @@ def time_table(data: dict, model: str) -> str:
 def ratio_table(data: dict) -> str:
     """The headline ratios per model, ours beside the paper's."""
     summary = ratio_summary(data)
-    header = ["Model"] + [f"{name} ({who})" for name in RATIOS for who in ("ours", "paper")]
-    rows = [[model] + [fmt(v, 3) for name in RATIOS for v in summary[model][name]] for model in summary]
+    names = ratios()
+    header = ["Model"] + [f"{name} ({who})" for name in names for who in ("ours", "paper")]
+    rows = [[model] + [fmt(v, 3) for name in names for v in summary[model][name]] for model in summary]
     return markdown_table(header, rows)
 
 

@@ -8,11 +8,12 @@ Each method lives in its own module and is imported on first use (see :mod:`tiss
 
 from .attachments import Attachment
 from .base import Solver
-from .registry import available_solvers, make_solver, register, solver_class, solver_options
+from .registry import (available_solvers, make_solver, method_names, register, solver_class, solver_options,
+                       unregister)
 from .report import SolveReport
 from .state import State
 
 __all__ = [
-    "Attachment", "SolveReport", "Solver", "State", "available_solvers", "make_solver", "register", "solver_class",
-    "solver_options",
+    "Attachment", "SolveReport", "Solver", "State", "available_solvers", "make_solver", "method_names", "register",
+    "solver_class", "solver_options", "unregister",
 ]

@@ -98,7 +98,22 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
             :attr:`warning` says when it lies beyond linear elasticity.
     """
 
+    # The method's card: everything the experiments, the viewer, the CLI, the docs and the tests list about a method
+    # is read from these (through :mod:`.registry`), so a new method is one module.
     name: ClassVar[str] = "?"
+    #: What the method is, in a figure's legend or a panel ("hybrid FEM + PBD").
+    label: ClassVar[str] = "?"
+    #: Its column in the experiments' tables ("Ours", "PBD"): a few characters.
+    short_label: ClassVar[str] = "?"
+    #: Its colour in every plot (a Matplotlib colour), and its line style where it is drawn as a line.
+    colour: ClassVar[str] = "tab:gray"
+    line_style: ClassVar[str] = "-"
+    #: One of the methods the paper compares (§8.3: its published figures are in
+    #: :mod:`tissuesim.experiments.paper`).
+    in_paper: ClassVar[bool] = False
+    #: The method's free scalar in each of its forms, which ``tissuesim calibrate`` fits once (DESIGN: one
+    #: dimensionless scalar per method, frozen in :mod:`.calibrated`): form -> (option, lower bound, upper bound).
+    free_scalars: ClassVar[dict[str, tuple[str, float, float]]] = {}
     #: The ``material`` options this method accepts.
     materials: ClassVar[tuple[str, ...]] = ("linear",)
     #: True for methods whose step is an exact static solve (one step reaches equilibrium).

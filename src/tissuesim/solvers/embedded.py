@@ -50,6 +50,11 @@ def hold_at_rest(rest, nodes, positions):
 class EmbeddedSolver(Solver):
     """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring)."""
 
+    label = "embedded surface"
+    short_label = "Emb."
+    colour = "tab:orange"
+    line_style = ":"
+
     static = True
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:EmbeddedCut"

@@ -23,6 +23,12 @@ from .registry import register
 class FineFEMSolver(Solver):
     """Static linear FEM on ``hybrid.fine_volume`` (see the module docstring)."""
 
+    label = "fine-volume FEM, linear tets"
+    short_label = "FEM"
+    colour = "grey"
+    line_style = "-"
+    in_paper = True
+
     static = True
     materials = ("linear", "corotated", "neo-hookean")
     cut_refusal = ("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing and "

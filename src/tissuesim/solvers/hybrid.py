@@ -89,6 +89,13 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         quadratic_field: the :class:`~.quadratic_field.QuadraticField` of ``element="quadratic"``, else None.
     """
 
+    label = "hybrid FEM + PBD"
+    short_label = "Ours"
+    colour = "tab:red"
+    line_style = "-"
+    in_paper = True
+    free_scalars = {"xpbd": ("thickness_ratio", 0.6, 4.0), "pbd": ("stiffness", 1e-3, 1.0)}
+
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
     body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it

@@ -208,6 +208,13 @@ class MassSpringSolver(Solver):
         damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
     """
 
+    label = "mass-spring"
+    short_label = "MSM"
+    colour = "tab:green"
+    line_style = "-."
+    in_paper = True
+    free_scalars = {"springs": ("thickness_ratio", 10.0, 3000.0)}
+
     gravity_caveat = ("springs on the surface have no volume to carry its weight and no unique rest under it (a "
                       "column's top sags 0.005-0.01 of the analytic ρgH²/(2E); the models are 85-98 % off the fine "
                       "FEM, docs/gravity-and-supports.md); use hybrid, embedded or fem for self-weight")

@@ -15,6 +15,13 @@ PBD_DAMPING = 0.1
 class PBDSolver(SurfaceLayerSolver):
     """PBD on M_S alone: fixed nodes pinned at rest, every other node projected (see the module docstring)."""
 
+    label = "surface PBD"
+    short_label = "PBD"
+    colour = "tab:blue"
+    line_style = "--"
+    in_paper = True
+    free_scalars = {"xpbd": ("thickness_ratio", 1.0, 16.0), "pbd": ("mass_scale", 1.0, 1e5)}
+
     gravity_caveat = ("a surface layer has no volume to carry its weight, so its sag is not an elastic body's (a "
                       "column's top sags 0.24 of the analytic ρgH²/(2E); the models are 22-49 % off the fine FEM, "
                       "docs/gravity-and-supports.md); use hybrid, embedded or fem for self-weight")

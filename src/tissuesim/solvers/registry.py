@@ -35,9 +35,37 @@ def register(name: str):
     return decorate
 
 
+def unregister(name: str) -> None:
+    """Remove a method registered with :func:`register` (a plug-in's, a test's); the built-in methods stay."""
+    if name in _BUILTIN:
+        raise SolverError(f"{name!r} is a built-in method and cannot be unregistered")
+    if name not in _REGISTRY:
+        raise SolverError(f"no method {name!r} is registered; registered: {', '.join(available_solvers())}")
+    del _REGISTRY[name]
+
+
 def available_solvers() -> tuple[str, ...]:
-    """Names accepted by :func:`make_solver`."""
+    """Names accepted by :func:`make_solver`: the built-in methods, then those registered since, in that order."""
     return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
+
+
+def method_names(*, in_paper: bool | None = None, cuts: bool | None = None,
+                 material: str | None = None) -> tuple[str, ...]:
+    """The registered methods (in :func:`available_solvers`' order) whose card matches every filter given:
+    ``in_paper`` (one of the paper's compared methods, :attr:`Solver.in_paper`), ``cuts`` (the scalpel can cut it:
+    it has a :attr:`Solver.cut_carrier`) and ``material`` (it accepts that ``material`` option). Every list of
+    methods in the package is one of these, so a method registered anywhere joins them all."""
+    names = []
+    for name in available_solvers():
+        cls = solver_class(name)
+        if in_paper is not None and cls.in_paper != in_paper:
+            continue
+        if cuts is not None and (cls.cut_carrier is not None) != cuts:
+            continue
+        if material is not None and material not in cls.materials:
+            continue
+        names.append(name)
+    return tuple(names)
 
 
 def solver_class(name: str) -> type:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..experiments.plots import STYLE
+from ..experiments.plots import line_of
 
 #: Inputs a study may vary, each with its axis label (a numeric column of the table).
 PARAMETERS = {"force_N": "force [N]", "youngs_modulus_Pa": "Young's modulus E [Pa]",
@@ -79,7 +79,7 @@ def _plot(rows: list[dict], column: str, label: str, path: Path) -> None:
         if not points:
             continue
         x = np.array([value for value, _ in points], dtype=np.float64)
-        colour, style, width = STYLE.get(method, ("tab:gray", "-", 1.3))     # a method with options: grey
+        colour, style, width = line_of(method)     # a method with options is no method's name: grey
         ax.plot(x, [e.mean() for _, e in points], style, color=colour, lw=width, marker="o", ms=3, label=method)
         ax.fill_between(x, [e.min() for _, e in points], [e.max() for _, e in points], color=colour, alpha=0.15)
     ax.set_xlabel(label)

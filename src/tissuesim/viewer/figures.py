@@ -24,6 +24,7 @@ import numpy as np
 from ..experiments.protocol import LOAD_DIRECTIONS, load_node
 from ..io import replaced_atomically
 from ..recording import border_edges
+from ..solvers.registry import solver_class
 from .gl import look_at_oblique, polyscope
 
 FIGURE_FORCE = 5.0  # N
@@ -32,8 +33,6 @@ OPENING_FORCE = 0.3
 PANEL_SIZE = (640, 560)  # pixels
 WALL_COLOR = (0.32, 0.06, 0.07)  # the wound's walls: dark red, darker than any colour of the map
 COLORMAP = "viridis"  # the same name in polyscope and matplotlib
-METHOD_LABELS = {"hybrid": "hybrid FEM + PBD", "pbd": "PBD", "mass-spring": "mass-spring", "embedded": "embedded "
-                 "surface", "fem": "fine-volume FEM"}
 
 
 def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None, focus=None,
@@ -138,7 +137,7 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
     captions = ["at rest", f"tension {force:g} N (up)", f"pressure {force:g} N (down)"]
     where = f"on node {node}" if radius is None else f"over {1e3 * radius:g} mm around node {node}"
     title = (f"{name}: {force:g} N {where} (pin-head at the top centre), "
-             f"{METHOD_LABELS.get(method, method)}, E = {solver.youngs_modulus:g} Pa, ν = {solver.poisson_ratio:g}")
+             f"{solver_class(method).label}, E = {solver.youngs_modulus:g} Pa, ν = {solver.poisson_ratio:g}")
     return compose(images, captions, title, vmax, path)
 
 
@@ -175,7 +174,7 @@ def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: f
     captions = [f"{1e3 * length:.0f} mm incision, {len(edges)} cut edges",
                 f"{force:g} N beside it: gap {1e3 * wound_gap(solver):.1f} mm"]
     title = (f"{name}: scalpel stroke across the top, then {force:g} N sideways on node {opened['node']}, "
-             f"{METHOD_LABELS.get(method, method)}")
+             f"{solver_class(method).label}")
     return compose(images, captions, title, vmax, path)
 
 

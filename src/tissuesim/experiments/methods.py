@@ -1,0 +1,74 @@
+"""Which methods the experiments run and how they show them, read from each method's card
+(:class:`~tissuesim.solvers.base.Solver`: ``label``, ``short_label``, ``colour``, ``line_style``, ``in_paper``) and,
+for the contact protocol's variants of a method (:data:`.contact.VARIANTS`), from :data:`VARIANT_CARDS`.
+
+A method registered anywhere (``@tissuesim.register``) joins every list here: the paper's protocol, its tables and
+figures, the contact protocol and the studies.
+"""
+
+from __future__ import annotations
+
+from ..solvers.registry import available_solvers, method_names, solver_class
+from .protocol import REFERENCE
+
+#: The paper's method, "Ours" in its tables.
+OURS = "hybrid"
+#: The contact protocol's variants of a method (its name with options): (table label, legend label, colour).
+VARIANT_CARDS = {"hybrid-near": ("Ours+NF", "hybrid + near field", "darkred"),
+                 "hybrid-quadratic": ("Ours-Q", "hybrid, quadratic M_V", "tab:purple")}
+
+
+def protocol_methods() -> tuple[str, ...]:
+    """Every registered method, the reference last: what the paper's protocol runs by default."""
+    return (*compared_methods(), REFERENCE)
+
+
+def compared_methods() -> tuple[str, ...]:
+    """Every registered method but the reference, in registration order."""
+    return tuple(name for name in available_solvers() if name != REFERENCE)
+
+
+def paper_methods() -> tuple[str, ...]:
+    """The methods the paper compares, the reference excluded (its published figures: :mod:`.paper`)."""
+    return tuple(name for name in method_names(in_paper=True) if name != REFERENCE)
+
+
+def ordered(names) -> list[str]:
+    """``names`` in the tables' order: the registered methods (reference last), then the variants, then the rest."""
+    names = set(names)
+    order = [*protocol_methods(), *VARIANT_CARDS]
+    return [n for n in order if n in names] + sorted(names - set(order))
+
+
+def _card(name: str):
+    return solver_class(name) if name in available_solvers() else None
+
+
+def short_label(name: str) -> str:
+    """A method's or variant's column in the tables ("Ours", "PBD", "Ours-Q"); an unknown name stands for itself."""
+    if name in VARIANT_CARDS:
+        return VARIANT_CARDS[name][0]
+    card = _card(name)
+    return card.short_label if card is not None else name
+
+
+def label(name: str) -> str:
+    """What a method or variant is, in a legend ("hybrid FEM + PBD")."""
+    if name in VARIANT_CARDS:
+        return VARIANT_CARDS[name][1]
+    card = _card(name)
+    return card.label if card is not None else name
+
+
+def colour(name: str) -> str:
+    """A method's or variant's colour in every plot (grey for a name nobody registered)."""
+    if name in VARIANT_CARDS:
+        return VARIANT_CARDS[name][2]
+    card = _card(name)
+    return card.colour if card is not None else "tab:gray"
+
+
+def line_style(name: str) -> str:
+    """A method's line style ("-" for a variant or a name nobody registered)."""
+    card = _card(name)
+    return card.line_style if card is not None else "-"
