@@ -13,7 +13,7 @@ from tissuesim.solvers.cut_carry import SolverCut
 from tissuesim.experiments.wound import incision_line
 from tissuesim.mesh import models
 from tissuesim.solvers.base import Solver
-from tissuesim.solvers.registry import _REGISTRY, register
+from tissuesim.solvers.registry import register, unregister
 
 STIFFNESS = 50.0  # N/m, each vertex's spring
 
@@ -39,7 +39,7 @@ class Winkler(Solver):
 def winkler():
     register("winkler")(Winkler)
     yield
-    _REGISTRY.pop("winkler")
+    unregister("winkler")
 
 
 def test_a_registered_method_is_cut_by_the_scalpel_and_steps_on_the_cut_mesh(winkler):

@@ -111,6 +111,9 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     #: One of the methods the paper compares (§8.3: its published figures are in
     #: :mod:`tissuesim.experiments.paper`).
     in_paper: ClassVar[bool] = False
+    #: With the linear material, the static answer is linear in the loads (superposition holds); False where the
+    #: method is geometrically nonlinear whatever its material (springs between moving vertices).
+    linear_in_load: ClassVar[bool] = True
     #: The method's free scalar in each of its forms, which ``tissuesim calibrate`` fits once (DESIGN: one
     #: dimensionless scalar per method, frozen in :mod:`.calibrated`): form -> (option, lower bound, upper bound).
     free_scalars: ClassVar[dict[str, tuple[str, float, float]]] = {}

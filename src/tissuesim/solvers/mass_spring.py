@@ -214,6 +214,7 @@ class MassSpringSolver(Solver):
     line_style = "-."
     in_paper = True
     free_scalars = {"springs": ("thickness_ratio", 10.0, 3000.0)}
+    linear_in_load = False      # a spring's force turns with it
 
     gravity_caveat = ("springs on the surface have no volume to carry its weight and no unique rest under it (a "
                       "column's top sags 0.005-0.01 of the analytic ρgH²/(2E); the models are 85-98 % off the fine "
