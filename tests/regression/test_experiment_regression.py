@@ -31,11 +31,13 @@ import pytest
 
 from tissuesim.cli import main
 from tissuesim.experiments import protocol
-from tissuesim.experiments.methods import protocol_methods
+from tissuesim.experiments.methods import compared_methods, protocol_methods
 from tissuesim.experiments.run import reference_config, reference_numbers, run_experiment
 from tissuesim.experiments.schema import check_results
 from tissuesim.experiments.sweep_config import load_model
 from tissuesim.solvers import make_solver
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
 
 REFERENCE_FILE = Path(__file__).with_name("experiment_reference.json")
 # Relative tolerance on stored RMSE and displacements: the sweep is deterministic; this absorbs BLAS/SuperLU
@@ -175,7 +177,7 @@ def layer_residual(solver, x) -> np.ndarray:
     return residual
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver)))
 def test_layer_answers_are_the_linearised_equilibrium_of_the_constraint_energy(hybrid, method):
     """Where the stored figures of hybrid and pbd have no independent reference, their physics has one: the static
     answer solves the layer's constraint energy linearised at rest, so the residual of the full energy is of second
@@ -273,7 +275,7 @@ def test_contact_claims(better_beyond_the_reference):
     from tissuesim.experiments.reference import default_cache_dir
 
     config = contact.ContactConfig(models=("cube",), forces=(1.0,), loads=protocol.LOADS, radii_mm=(4.0, 8.0),
-                                   methods=("hybrid", "pbd", "embedded", "mass-spring"),
+                                   methods=compared_methods(),
                                    cache_dir=str(default_cache_dir()))
     run = contact.run_contact(config, progress=False)
     references = run["metadata"]["models"]["cube"]["references"]
@@ -281,5 +283,5 @@ def test_contact_claims(better_beyond_the_reference):
         assert references[f"{radius:g}"]["converged"]
         errors = {(r["method"], r["load"]): r["relative_rmse"] for r in run["records"] if r["radius_mm"] == radius}
         change = references[f"{radius:g}"]["levels"][-1]["change"]
-        for baseline in ("pbd", "embedded", "mass-spring"):
+        for baseline in compared_methods()[1:]:
             better_beyond_the_reference(errors, "hybrid", baseline, change)

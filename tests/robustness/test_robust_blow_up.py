@@ -4,6 +4,11 @@ import numpy as np
 import pytest
 
 from tissuesim import PinHead, SolverError, make_solver
+from tissuesim.solvers import method_names
+
+#: the methods whose static answer is linear in the load (the mass-spring method's springs are not: 1e6 N turns
+#: its surface inside out, an InversionError, not a linear answer)
+LINEAR_IN_LOAD = method_names(where=lambda cls: cls.linear_in_load)
 
 
 def test_a_stiff_pin_head_blow_up_raises_and_reset_recovers(small_cube, small_cube_top):
@@ -54,7 +59,7 @@ def test_solve_static_calls_a_divergence_a_divergence(small_cube):
     assert "max_steps" not in str(caught.value)
 
 
-@pytest.mark.parametrize("method", ["hybrid", "fem"])
+@pytest.mark.parametrize("method", LINEAR_IN_LOAD)
 def test_a_huge_linear_answer_is_flagged_invalid_not_called_a_divergence(small_cube, method):
     """A static linear solve cannot diverge: 1e6 N gives the linear answer, which the report flags as far outside
     linear elasticity."""

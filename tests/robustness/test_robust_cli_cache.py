@@ -3,7 +3,6 @@ is checked before any work, a write that fails names the folder and leaves no pa
 is refused at once, and an interrupt while the command line is read is one line."""
 
 import errno
-import os
 import subprocess
 import sys
 import tempfile

@@ -4,8 +4,12 @@ import meshio
 import pytest
 
 from tissuesim.cli import main
+from tissuesim.solvers import method_names
 
 CUBE = ["cube", "--resolution", "300"]   # a coarse cube: the scripted incision takes well under a second
+#: the methods a run cuts beside pbd: those the scalpel cuts whose step is the static answer (no settling by steps,
+#: so the scripted incision stays well under a second; the hybrid's ``static`` depends on its options)
+STATIC_CUTTING = method_names(cuts=True, where=lambda cls: cls.static_by_default())
 
 
 def _snapshot(folder):
@@ -17,7 +21,7 @@ def test_an_interrupted_incise_leaves_the_earlier_folder_as_it_was(tmp_path, mon
     out = tmp_path / "cut"
     assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(out)]) == 0
     before = _snapshot(out)
-    # a different run (finer cube, two methods), interrupted while writing its first VTU: its OBJ is written by then
+    # a different run (finer cube, more methods), interrupted while writing its first VTU: its OBJ is written by then
     calls = []
 
     def interrupted(*args, **kwargs):
@@ -25,7 +29,7 @@ def test_an_interrupted_incise_leaves_the_earlier_folder_as_it_was(tmp_path, mon
         raise KeyboardInterrupt
 
     monkeypatch.setattr(meshio, "write", interrupted)
-    code = main(["incise", "cube", "--resolution", "400", "--methods", "pbd", "embedded", "--output", str(out)])
+    code = main(["incise", "cube", "--resolution", "400", "--methods", "pbd", *STATIC_CUTTING, "--output", str(out)])
     assert code == 130 and calls                      # the interruption happened, while writing
     assert _snapshot(out) == before                   # no new, truncated or replaced file
     assert sorted(p.name for p in tmp_path.iterdir()) == ["cut"]     # no staging folder left beside it
@@ -34,15 +38,17 @@ def test_an_interrupted_incise_leaves_the_earlier_folder_as_it_was(tmp_path, mon
 
 def test_incise_replaces_an_earlier_run_as_a_whole_and_says_so(tmp_path, capsys):
     out = tmp_path / "cut"
-    assert main(["incise", *CUBE, "--methods", "pbd", "embedded", "--output", str(out)]) == 0
+    assert STATIC_CUTTING
+    assert main(["incise", *CUBE, "--methods", "pbd", *STATIC_CUTTING, "--output", str(out)]) == 0
     (out / "notes.txt").write_text("the user's own file")
     capsys.readouterr()
     assert main(["incise", *CUBE, "--methods", "pbd", "--output", str(out)]) == 0
     names = sorted(p.name for p in out.iterdir())
     assert names == ["cube_pbd.obj", "cube_pbd.vtu", "incision.json", "incision.md", "notes.txt"]
     note = [line for line in capsys.readouterr().err.splitlines() if "earlier results" in line]
+    others = sorted(f"cube_{method}.{ext}" for method in STATIC_CUTTING for ext in ("obj", "vtu"))
     assert note == [f"{out}: earlier results replaced 4 (cube_pbd.obj, cube_pbd.vtu, incision.json, incision.md); "
-                    "removed 2 not written by this run (cube_embedded.obj, cube_embedded.vtu)"]
+                    f"removed {len(others)} not written by this run ({', '.join(others)})"]
 
 
 def test_experiment_says_which_earlier_files_it_removes(tmp_path, monkeypatch, capsys, synthetic_results):

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 from tissuesim import PinHead, SolverError, make_solver
+from tissuesim.solvers import available_solvers
 
-METHODS = ["hybrid", "pbd", "mass-spring", "embedded", "fem"]
+METHODS = available_solvers()
 
 
 @pytest.mark.slow

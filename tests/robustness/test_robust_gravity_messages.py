@@ -10,9 +10,10 @@ from tissuesim import make_solver
 from tissuesim.errors import InversionError, SolverError
 from tissuesim.scene import SceneError, read_scene
 from tissuesim.scene.build import check_method
+from tissuesim.solvers import available_solvers
 from tissuesim.solvers.checks import MAX_GRAVITY, gravity_vector
 
-METHODS = ["hybrid", "pbd", "mass-spring", "embedded", "fem"]
+METHODS = available_solvers()
 
 
 @pytest.mark.parametrize("gravity", [(0.0, 0.0, -1e30), (0.0, 0.0, -1.0001 * MAX_GRAVITY), (1e200, 1e200, 0.0),

@@ -18,6 +18,11 @@ from tissuesim.errors import BundleError
 from tissuesim.experiments.wound import scripted_incision
 from tissuesim.mesh import models
 from tissuesim.mesh.hybrid import SURFACE_EDGE_KEY, SURFACE_VERTICES_KEY
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+#: the methods with a surface layer (stretch and bending rows with their compliances)
+SURFACE_LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))
 
 
 @pytest.fixture(scope="module")
@@ -50,7 +55,7 @@ def _reloaded(hybrid, tmp_path):
     return tissuesim.HybridMesh.load(path)
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", SURFACE_LAYER)
 def test_a_fresh_layer_on_a_cut_mesh_has_the_cutting_solvers_compliances(cube, method, tmp_path):
     cutting = tissuesim.make_solver(method, cube)
     scripted_incision(cutting)

@@ -12,6 +12,11 @@ import pytest
 import tissuesim
 from tissuesim.errors import TissuesimWarning
 from tissuesim.mesh import models
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+#: the methods with a surface layer: the layer's projection takes the integrator option
+SURFACE_LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))
 
 
 @pytest.fixture(scope="module")
@@ -19,7 +24,7 @@ def cube():
     return tissuesim.HybridMesh.build(models.cube(), fine_volume=False)
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", SURFACE_LAYER)
 def test_choosing_the_xpbd_integrator_warns_that_it_does_not_rest_at_the_equilibrium(cube, method):
     with pytest.warns(TissuesimWarning, match=r"integrator='xpbd' does not rest at the layer's elastic equilibrium.*"
                                               r"integrator='implicit' for answers"):

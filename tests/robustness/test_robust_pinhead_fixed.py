@@ -5,8 +5,9 @@ import pytest
 
 from tissuesim import PinHead, make_solver
 from tissuesim.errors import BoundaryConditionError, SolverError
+from tissuesim.solvers import available_solvers
 
-METHODS = ["hybrid", "pbd", "mass-spring", "embedded", "fem"]
+METHODS = available_solvers()
 
 
 def highest_fixed(solver) -> int:
@@ -77,7 +78,7 @@ def test_grab_on_a_fixed_node_holds_the_nearest_free_node_and_the_drag_moves_it(
     assert moved @ force > 0.0                           # the held node follows the pull
 
 
-@pytest.mark.parametrize("method", ["hybrid", "embedded"])
+@pytest.mark.parametrize("method", METHODS)
 def test_grab_with_a_tip_passes_over_nodes_whose_patch_reaches_the_support(small_cube, method):
     solver = make_solver(method, small_cube)
     tip = 0.012      # the cube's edges are 10 mm: the lowest free row's tips reach the fixed row, the next row's do not

@@ -7,8 +7,9 @@ import pytest
 
 from tissuesim import Scalpel, make_solver
 from tissuesim.probe import Probe
+from tissuesim.solvers import method_names
 
-CUTTING = ["hybrid", "pbd", "mass-spring", "embedded"]
+CUTTING = method_names(cuts=True)
 RADIUS = 0.012      # [m] the probe: larger than the small cube's triangles
 TOP = 0.08          # [m] the cube's top
 

@@ -9,8 +9,9 @@ import pytest
 from tissuesim import SolverError, make_solver
 from tissuesim.cli import main
 from tissuesim.probe import Probe
+from tissuesim.solvers import available_solvers
 
-METHODS = ["fem", "hybrid", "pbd", "mass-spring", "embedded"]
+METHODS = available_solvers()
 RADIUS = 0.012      # [m] larger than the small cube's triangles
 TOP = 0.08          # [m] the small cube's top; its centre is (0, 0, 0.04)
 
@@ -60,7 +61,7 @@ def test_a_probe_enclosing_the_body_is_refused(small_cube):
         probe.press_static([0.0, 0.0, 0.04])
 
 
-@pytest.mark.parametrize("method", ["fem", "hybrid", "pbd"])
+@pytest.mark.parametrize("method", METHODS)
 def test_a_press_deeper_than_the_radius_is_refused_not_mirrored(small_cube, method):
     solver, probe = held(small_cube, method)
     before = record(solver, probe)

@@ -8,8 +8,10 @@ import pytest
 
 from tissuesim import SolverError, make_solver
 from tissuesim.probe import Probe
+from tissuesim.solvers import available_solvers
 
-METHODS = ["fem", "hybrid", "pbd", "mass-spring", "embedded"]
+#: every method: the probe presses each through its own solve_static
+METHODS = available_solvers()
 RADIUS = 0.012      # [m] larger than the small cube's triangles
 TOP = 0.08          # [m] the small cube's top
 #: [m] how far two twins may differ after the same steps: round-off of one solve (both take the very same operations
@@ -65,7 +67,7 @@ def test_a_press_that_does_not_converge_changes_nothing(small_cube, method, mate
 
 
 @pytest.mark.filterwarnings("ignore:the surface's triangles under the probe")
-@pytest.mark.parametrize("method", ["hybrid", "embedded"])
+@pytest.mark.parametrize("method", METHODS)
 def test_a_press_the_solver_cannot_carry_changes_nothing(small_cube, method, monkeypatch):
     # the solver refuses the third iteration's forces after it moved (as a finite-strain solve with no stable
     # equilibrium or a blow-up does): its error is raised, and the probe is no longer withdrawn with the state left

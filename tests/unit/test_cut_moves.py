@@ -9,8 +9,9 @@ from tissuesim.cutting.invariants import check_cut_invariants
 from tissuesim.experiments.wound import lip_deviation
 from tissuesim.mesh import models
 from tissuesim.solvers.cut_carry import anchored_nodes, cut_updater
+from tissuesim.solvers import method_names
 
-METHODS = ["hybrid", "pbd", "mass-spring", "embedded"]
+METHODS = method_names(cuts=True)
 #: a stroke 1.3 mm off a row of the 386-vertex cube's 10 mm grid (0.13 of an edge: it snapped onto the row before)
 Y = 0.0013
 STROKE = [[x, Y, 0.081] for x in (-0.0101, -0.0052, 0.0007, 0.0061, 0.0113)]

@@ -12,6 +12,10 @@ import tissuesim
 from tissuesim.cutting.invariants import check_cut_invariants
 from tissuesim.errors import SolverError
 from tissuesim.mesh import models
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))     # the surface-layer methods
 
 SHARED = {"liver2": ("sofa/liver2.obj", 0.01), "softbodyliver": ("softbodyliver/liver.obj", 0.01)}
 _HYBRIDS = {}
@@ -129,7 +133,7 @@ def _fuzz(meshes_dir, examples, rng_seed):
 
     @seed(rng_seed)
     @settings(max_examples=examples, deadline=None)
-    @given(model=st.sampled_from(MODELS), method=st.sampled_from(["hybrid", "pbd"]), plan=strokes())
+    @given(model=st.sampled_from(MODELS), method=st.sampled_from(LAYER), plan=strokes())
     def run(model, method, plan):
         solver = tissuesim.make_solver(method, _hybrid(model, meshes_dir))
         tally[:] += _run(solver, plan, solver.mass.sum())

@@ -11,6 +11,10 @@ from tissuesim.errors import SolverError
 from tissuesim.mesh import models
 from tissuesim.layer.compliance import relative_shell_compliance
 from tissuesim.layer.topology import SurfaceConstraints
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))     # the surface-layer methods
 
 
 @pytest.fixture(scope="module")
@@ -160,8 +164,8 @@ def test_control_nodes_on_the_cut_are_released_on_both_sides(cube):
 
 def test_embedded_surface_is_cut_but_cannot_open_while_the_hybrid_does(cube):
     gaps = {}
-    for method in ("embedded", "hybrid"):
-        solver = tissuesim.make_solver(method, cube, **({"form": "xpbd"} if method == "hybrid" else {}))
+    for method, options in {"embedded": {}, "hybrid": {"form": "xpbd"}}.items():
+        solver = tissuesim.make_solver(method, cube, **options)
         run = scripted_incision(solver)
         start, end = run["line"]
         node = int(np.argmin(np.linalg.norm(solver.rest_positions - (0.5 * (start + end) + [0, 0.005, 0]),
@@ -268,7 +272,7 @@ def test_new_vertices_get_the_load_map_and_the_embedding_so_a_pin_head_can_pull_
     assert solver.positions[pin.node, 2] > h.surface.vertices[pin.node, 2] + 1e-4
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", LAYER)
 def test_arrays_edited_per_move_equal_a_fresh_computation(cube, method):
     from tissuesim.loads import lumped_areas
 
@@ -327,7 +331,7 @@ def test_a_cut_mesh_that_released_control_nodes_saves_and_loads(tmp_path):
     assert loaded.built_edge_length == cut.built_edge_length
 
 
-@pytest.mark.parametrize("method", ["pbd", "hybrid"])
+@pytest.mark.parametrize("method", LAYER)
 def test_a_held_contact_patch_is_carried_across_cuts_as_a_fresh_search_finds_it(cube, method):
     # the patch is carried locally (only the new vertices are searched): it must equal the whole-surface search,
     # nodes, order and shares, after cuts that run through it

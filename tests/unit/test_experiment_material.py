@@ -11,11 +11,12 @@ from tissuesim.experiments.report import report_markdown
 from tissuesim.experiments.reference import RefinementSettings
 from tissuesim.experiments.run import run_experiment
 from tissuesim.experiments.sweep_config import ExperimentConfig
+from tissuesim.solvers import method_names
 
 
 @pytest.fixture(scope="module")
 def finite_run():
-    config = ExperimentConfig(models=("cube",), resolution=400, forces=(1.0,), methods=("fem", "embedded"),
+    config = ExperimentConfig(models=("cube",), resolution=400, forces=(1.0,), methods=method_names(where=lambda cls: cls.static_by_default()),
                               material="neo-hookean", warmup_steps=0, timing_steps=1, point_load_levels=0)
     return run_experiment(config, progress=False)
 
@@ -64,7 +65,7 @@ def test_the_contact_protocol_runs_the_methods_that_have_the_material_against_a_
         finite_contact_run):
     meta = finite_contact_run["metadata"]
     assert meta["material"] == "neo-hookean"
-    assert set(meta["methods"]) == {"hybrid", "fem", "embedded", "hybrid-near", "hybrid-quadratic"}     # pbd, mass-spring: linear only
+    assert set(meta["methods"]) == {*method_names(material="neo-hookean"), "hybrid-near", "hybrid-quadratic"}
     records = finite_contact_run["records"]
     assert {(r["method"], r["load"]) for r in records} == {(m, "tension") for m in meta["methods"]}
     assert all(r["inverted_elements"] == 0 and r["relative_rmse"] is not None for r in records)
@@ -83,8 +84,10 @@ def test_the_contact_report_names_the_material_and_the_presses_it_did_not_run(fi
 
 
 def test_a_contact_method_without_the_material_is_refused_up_front(tmp_path, capsys):
-    with pytest.raises(SolverError, match="pbd has no neo-hookean material; choose among hybrid"):
-        contact.ContactConfig(methods=("hybrid", "pbd"), material="neo-hookean")
+    lacking = method_names(where=lambda cls: "neo-hookean" not in cls.materials)
+    with pytest.raises(SolverError, match=f"{', '.join(lacking)} ha(s|ve) no neo-hookean material; choose among "
+                                          f"{', '.join(method_names(material='neo-hookean'))}"):
+        contact.ContactConfig(methods=(*method_names(material="neo-hookean"), *lacking), material="neo-hookean")
     assert main(["experiment", "--protocol", "contact", "--material", "neo-hookean", "--methods", "mass-spring",
                  "--output", str(tmp_path / "out")]) != 0
     error = capsys.readouterr().err.strip()

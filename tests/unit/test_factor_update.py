@@ -10,6 +10,10 @@ import tissuesim
 from tissuesim.fem.factor_update import CorrectedSolve, ExplicitFactor, SparseColumns
 from tissuesim.mesh import models
 from tissuesim.layer.cut_statics import CutLayerStatics
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))     # the surface-layer methods
 
 RNG = np.random.default_rng(7)
 
@@ -87,7 +91,7 @@ def _cut_session(method: str, moves: int = 6):
         yield solver
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", LAYER)
 def test_the_step_after_each_cutting_move_equals_a_freshly_factorised_layers(method):
     corrected = 0
     for solver in _cut_session(method):

@@ -5,6 +5,7 @@ import pytest
 
 import tissuesim
 from tissuesim.experiments.wound import incision_line
+from tissuesim.solvers import method_names
 
 
 @pytest.fixture(scope="module")
@@ -12,7 +13,7 @@ def cube():
     return tissuesim.HybridMesh.build(tissuesim.models.cube())
 
 
-@pytest.mark.parametrize("method", ["hybrid", "embedded"])
+@pytest.mark.parametrize("method", method_names(cuts=True, material="neo-hookean"))
 def test_a_held_pull_and_an_incision_beside_it_keep_a_finite_strain_model_finite(cube, method):
     solver = tissuesim.make_solver(method, cube, material="neo-hookean")
     start, end = incision_line(solver.rest_positions)

@@ -13,9 +13,10 @@ from tissuesim.fem.linear import LinearFEM
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes
 from tissuesim.mesh.tetmesh import TetMesh, structured_box
+from tissuesim.solvers import available_solvers, method_names
 
-METHODS = ("hybrid", "pbd", "mass-spring", "embedded", "fem")
-STATIC = ("hybrid", "pbd", "embedded", "fem")       # a direct static solve: exact to round-off
+METHODS = available_solvers()
+STATIC = method_names(where=lambda cls: cls.solves_statics())       # a direct static solve: exact to round-off
 G = (0.0, 0.0, -9.81)
 
 
@@ -112,7 +113,7 @@ def step_to_rest(solver, max_steps=20000):
     raise AssertionError(f"{solver.name} did not come to rest: last motion {motion:.3g} m")
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", method_names(where=lambda cls: not cls.static_by_default() and cls.solves_statics()))
 def test_stepping_to_rest_ends_where_the_static_solve_does_for_any_dt(cube, top, method):
     """The weight's equilibrium does not depend on dt, the masses' dynamics or the number of steps once settled."""
     static = sag(make_solver(method, cube, gravity=G), top)
@@ -176,13 +177,13 @@ def test_bad_gravity_is_refused(cube, gravity):
 
 def test_finite_strain_sags_as_linear_for_a_small_sag(cube, top):
     """A stiff body's sag is small, where finite strain and linear elasticity agree."""
-    for method in ("fem", "embedded", "hybrid"):
+    for method in method_names(material="corotated"):
         linear = sag(make_solver(method, cube, gravity=G, youngs_modulus=5.5e5), top)
         finite = sag(make_solver(method, cube, gravity=G, youngs_modulus=5.5e5, material="corotated"), top)
         assert np.abs(finite - linear).max() <= 0.02 * np.abs(linear).max(), method
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "embedded"])
+@pytest.mark.parametrize("method", method_names(cuts=True, where=lambda cls: cls.solves_statics()))
 def test_a_cut_keeps_the_weight(cube, top, method):
     """After an incision the carried solver's answer under gravity is a fresh solver's on the cut mesh, and the
     weight is the body's: the top's sag, away from the cut, is the uncut one's (measured: 0.9997, 1.006 and 1.0)."""
@@ -234,7 +235,7 @@ def test_the_finite_strain_hybrid_steps_to_its_static_sag(cube, top):
     assert np.abs(solver.displacements - static).max() <= 1e-7 * np.abs(static).max()
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring"])
+@pytest.mark.parametrize("method", method_names(where=lambda cls: not cls.static_by_default()))      # a step of their own
 def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, method, step_allocation):
     """DESIGN: nothing allocated per step, the weight and the ligaments included (an (n, 3) array: 9,264 bytes)."""
     from tissuesim.solvers import Attachment
@@ -247,7 +248,7 @@ def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, metho
     assert peak < 2048 and held < 2048
 
 
-@pytest.mark.parametrize("method", ["pbd", "mass-spring"])
+@pytest.mark.parametrize("method", method_names(where=lambda cls: cls.gravity_caveat is not None))
 def test_a_surface_method_under_gravity_says_its_weight_is_not_an_elastic_bodys(method):
     from tissuesim import HybridMesh, make_solver
     from tissuesim.errors import TissuesimWarning

@@ -7,6 +7,7 @@ import pytest
 from tissuesim import HybridMesh, SolverError, make_solver
 from tissuesim.loads import contact_patch, lumped_areas
 from tissuesim.mesh import models
+from tissuesim.solvers import available_solvers
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +36,7 @@ def test_no_radius_is_the_single_node_load(sphere):
     assert nodes.tolist() == [7] and shares.tolist() == [1.0]
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring", "embedded", "fem"])
+@pytest.mark.parametrize("method", available_solvers())
 def test_every_method_gets_the_same_nodal_forces(sphere, method):
     top = int(np.argmax(sphere.surface.vertices[:, 2]))
     solver = make_solver(method, sphere)

@@ -6,12 +6,13 @@ import pytest
 
 from tissuesim import HybridMesh, PinHead, make_solver
 from tissuesim.mesh import models
+from tissuesim.solvers import method_names
 
 #: Methods whose static answer is linear in the load (a linear solve; pbd's static solve is the linearised layer), and
 #: the mass-spring model, whose springs act along the current edge directions, so that superposition holds to second
 #: order in the displacement only.
-LINEAR = ("hybrid", "embedded", "fem", "pbd")
-NONLINEAR = ("mass-spring",)
+LINEAR = method_names(where=lambda cls: cls.linear_in_load)
+NONLINEAR = method_names(where=lambda cls: not cls.linear_in_load)
 PULL = 0.002  # m of cursor travel: with k = 5 N/m, 10 mN, displacements far below the model's size
 
 

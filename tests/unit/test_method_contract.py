@@ -89,7 +89,7 @@ def displacement(solver, node, force=FORCE) -> np.ndarray:
 
 
 def tolerance(method) -> float:
-    return DIRECT if solver_class(method).static else STEPPED
+    return DIRECT if solver_class(method).solves_statics() else STEPPED
 
 
 def agree(a, b, method) -> bool:

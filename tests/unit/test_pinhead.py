@@ -5,6 +5,7 @@ import pytest
 
 from tissuesim import HybridMesh, PinHead, SolverError, make_solver
 from tissuesim.mesh import models
+from tissuesim.solvers import available_solvers
 
 
 @pytest.fixture(scope="module")
@@ -12,7 +13,7 @@ def hybrid():
     return HybridMesh.build(models.sphere(resolution=200))
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd", "mass-spring", "embedded", "fem"])
+@pytest.mark.parametrize("method", available_solvers())
 def test_grab_drag_release_drives_any_solver(hybrid, method):
     solver = make_solver(method, hybrid)
     pin = PinHead(solver, stiffness=20.0)

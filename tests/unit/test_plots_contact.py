@@ -4,8 +4,9 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 
 from tissuesim.experiments import contact_plots
+from tissuesim.experiments.methods import protocol_methods
 
-METHODS = ["hybrid", "pbd", "mass-spring", "embedded", "fem", "hybrid-near"]
+METHODS = [*protocol_methods(), "hybrid-near"]
 
 
 def contact_results() -> dict:

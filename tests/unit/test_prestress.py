@@ -10,6 +10,10 @@ from tissuesim.errors import SolverError
 from tissuesim.mesh import models
 from tissuesim.layer.prestress import area_gradient, copy_origin, release_forces
 from tissuesim.loads import triangle_areas
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
+
+LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))     # the surface-layer methods
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +53,7 @@ def test_release_is_zero_without_copies_and_balanced_at_the_lips(cube):
     assert np.abs(group_sum).max() < 1e-12 * np.abs(forces).max() * 10
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", LAYER)
 def test_uncut_prestrained_surface_does_not_move(cube, method):
     plain = tissuesim.make_solver(method, cube)
     tense = tissuesim.make_solver(method, cube, prestrain=0.1)
@@ -65,7 +69,7 @@ def test_uncut_prestrained_surface_does_not_move(cube, method):
     assert np.abs(tense.positions - tense.rest_positions).max() <= 1e-12 * size
 
 
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", LAYER)
 def test_wound_gapes_without_force_and_stepping_rests_there_for_any_dt_and_e(cube, method):
     """The static gap is linear in ε and free of E by construction (the tension and the layer both scale with E); the
     stepped path, where dt and E also set the dynamics, must come to rest at it. rel 1e-6: 400 implicit steps settle

@@ -119,7 +119,7 @@ def test_a_serial_run_is_elastic_scales_with_the_material_and_resumes(tmp_path):
     summary = run_study(cases, store, progress=False)
     assert (summary.done, summary.failed, summary.skipped) == (8, 0, 0)
     rows = list(_rows(store.combine()).values())
-    for method in ("hybrid", "embedded"):
+    for method in {r["method"] for r in rows}:
         by = {(r["youngs_modulus_Pa"], r["force_N"]): r for r in rows if r["method"] == method}
         base = by[(5500.0, 0.5)]["max_displacement_m"]
         assert by[(5500.0, 1.0)]["max_displacement_m"] == pytest.approx(2 * base, rel=1e-9)      # linear in load
@@ -282,7 +282,7 @@ def test_a_grasper_pull_has_a_reaction_linear_in_its_travel_for_the_linear_mater
     store = Store(tmp_path / "out")
     assert run_study(cases, store, progress=False).done == 12
     rows = store.combine().to_pylist()
-    for method in ("hybrid", "fem"):
+    for method in {r["method"] for r in rows}:
         for direction in (0.0, 1.0):                  # tension (up, on the top face's load node), then along x
             group = sorted((r for r in rows if r["method"] == method and r["direction_x"] == direction),
                            key=lambda r: r["depth_m"])

@@ -13,8 +13,9 @@ from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_nodes
 from tissuesim.mesh.tetmesh import structured_box
 from tissuesim.solvers.attachments import Attachment, check_supports_hold
+from tissuesim.solvers import available_solvers
 
-METHODS = ("hybrid", "pbd", "mass-spring", "embedded", "fem")
+METHODS = available_solvers()
 
 
 @pytest.fixture(scope="module")

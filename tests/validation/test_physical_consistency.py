@@ -26,6 +26,8 @@ from tissuesim import HybridMesh, make_solver
 from tissuesim.experiments.contact import VARIANTS
 from tissuesim.experiments.protocol import load_node
 from tissuesim.mesh import models
+from tissuesim.solvers import method_names
+from tissuesim.solvers.surface_layer import SurfaceLayerSolver
 
 RADIUS = 0.008  # m
 #: Small load: the largest displacement stays below 2 % of the cube's 6 cm (checked below).
@@ -38,8 +40,10 @@ MAX_STEPS = 5000
 #: Variants of the stepped run that must not move its rest state (E × 10 goes with the load × 10: same strain).
 VARIANTS_OF_STEP = {"dt 2.5 ms": {"dt": 0.0025}, "dt 20 ms": {"dt": 0.02}, "density x0.1": {"density": 100.0},
                     "density x10": {"density": 10000.0}, "E x10 at fixed strain": {"youngs_modulus": 55000.0}}
-LINEAR = ["hybrid", "pbd", "hybrid-near"]       # the implicit integrator: stepped to the static answer
-STATIC_METHODS = ["hybrid", "pbd", "embedded", "fem", "hybrid-near"]
+#: Stepped by the implicit integrator to the static answer (and the hybrid's near-field variant).
+LINEAR = [*method_names(where=lambda cls: not cls.static_by_default() and cls.solves_statics()), "hybrid-near"]
+STATIC_METHODS = [*method_names(where=lambda cls: cls.solves_statics()), "hybrid-near"]
+LAYER = method_names(where=lambda cls: issubclass(cls, SurfaceLayerSolver))     # the surface-layer methods
 
 
 @pytest.fixture(scope="module")
@@ -104,7 +108,7 @@ def test_equilibrium_responds_to_poisson_ratio(cube, static, method):
 
 
 # ------------------------------------------------------------------------------- the stepped path: linear methods
-@pytest.mark.parametrize("method", LINEAR + ["embedded", "fem"])
+@pytest.mark.parametrize("method", STATIC_METHODS)
 def test_stepping_comes_to_rest_at_the_static_answer(cube, static, method):
     assert off(rest_displacement(cube, method), static[method]) < AGREE
 
@@ -152,7 +156,7 @@ XPBD_REASON = ("the XPBD projection (multipliers reset each step, a fixed number
 @pytest.mark.xfail(strict=True, raises=AssertionError, reason=XPBD_REASON)
 @pytest.mark.parametrize("options", [*VARIANTS_OF_STEP.values(), {"iterations": 2}, {"iterations": 40}],
                          ids=[*VARIANTS_OF_STEP.keys(), "2 sweeps", "40 sweeps"])
-@pytest.mark.parametrize("method", ["hybrid", "pbd"])
+@pytest.mark.parametrize("method", LAYER)
 def test_xpbd_integrator_rest_state_does_not_move_with_dt_mass_or_sweeps(cube, method, options):
     u = rest_displacement(cube, method, integrator="xpbd")
     assert off(rest_displacement(cube, method, integrator="xpbd", **options), u) < AGREE

@@ -328,6 +328,18 @@ class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
     def _on_load_changed(self) -> None:
         """Called after the load changed (set, cleared, reset)."""
 
+    @classmethod
+    def static_by_default(cls) -> bool:
+        """Whether a step of the method built with its default options is the static answer (a method whose options
+        decide it, as the hybrid's ``element``, makes :attr:`static` a property: False here)."""
+        return cls.static is True
+
+    @classmethod
+    def solves_statics(cls) -> bool:
+        """Whether :meth:`solve_static` solves the equilibrium directly (exact to round-off) instead of stepping
+        until the surface settles."""
+        return cls.static_by_default() or cls._static_solve is not Solver._static_solve
+
     def _static_solve(self) -> int | None:
         """Put ``self.state`` at the static equilibrium under the current load and return the iterations taken,
         or None where the method has no static solver (``solve_static`` then steps to equilibrium)."""

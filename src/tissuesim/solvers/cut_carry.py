@@ -368,7 +368,7 @@ def cut_updater(solver) -> SolverCut:
         reason = refusal(solver)
         if reason is not None:
             raise SolverError(reason)
-        updater = _carrier(type(solver))(solver)
+        updater = carrier_class(type(solver))(solver)
         solver._cut_updater = updater
     return updater
 
@@ -397,7 +397,7 @@ def anchored_nodes(solver) -> np.ndarray | None:
     return updater.held_nodes()
 
 
-def _carrier(cls) -> type:
+def carrier_class(cls) -> type:
     """The :class:`SolverCut` subclass of solver class ``cls``: its ``cut_carrier``, a class or ``"module:Class"``
     (the built-in methods name theirs, which import the solver modules they carry)."""
     carrier = cls.cut_carrier

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from importlib import import_module
 
 from ..errors import SolverError
@@ -49,12 +50,13 @@ def available_solvers() -> tuple[str, ...]:
     return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
 
 
-def method_names(*, in_paper: bool | None = None, cuts: bool | None = None,
-                 material: str | None = None) -> tuple[str, ...]:
+def method_names(*, in_paper: bool | None = None, cuts: bool | None = None, material: str | None = None,
+                 where: Callable[[type], bool] | None = None) -> tuple[str, ...]:
     """The registered methods (in :func:`available_solvers`' order) whose card matches every filter given:
     ``in_paper`` (one of the paper's compared methods, :attr:`Solver.in_paper`), ``cuts`` (the scalpel can cut it:
-    it has a :attr:`Solver.cut_carrier`) and ``material`` (it accepts that ``material`` option). Every list of
-    methods in the package is one of these, so a method registered anywhere joins them all."""
+    it has a :attr:`Solver.cut_carrier`), ``material`` (it accepts that ``material`` option) and ``where`` (a test
+    of the class, e.g. ``lambda cls: cls.gravity_caveat is None``). Every list of methods in the package is one of
+    these, so a method registered anywhere joins them all."""
     names = []
     for name in available_solvers():
         cls = solver_class(name)
@@ -63,6 +65,8 @@ def method_names(*, in_paper: bool | None = None, cuts: bool | None = None,
         if cuts is not None and (cls.cut_carrier is not None) != cuts:
             continue
         if material is not None and material not in cls.materials:
+            continue
+        if where is not None and not where(cls):
             continue
         names.append(name)
     return tuple(names)
