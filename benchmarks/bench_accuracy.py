@@ -27,8 +27,8 @@ import numpy as np
 import resource
 
 from tissuesim import HybridMesh, make_solver, models
-from tissuesim.experiments import contact, protocol
-from tissuesim.experiments.contact import contact_metrics
+from tissuesim.experiments import contact_protocol, protocol
+from tissuesim.experiments.contact_protocol import contact_metrics
 from tissuesim.experiments.reference import contact_references
 from tissuesim.experiments.sweep_config import ExperimentConfig, load_model
 
@@ -57,10 +57,10 @@ def model_rows(spec: str, scale: float, steps: int) -> list[str]:
     hybrid = load_model(spec, ExperimentConfig(models=(spec,), scale=scale))
     rest = np.array(hybrid.surface.vertices)
     node = protocol.load_node(rest, hybrid.surface.triangles)
-    radii = [1e-3 * r for r in contact.RADII_MM]
+    radii = [1e-3 * r for r in contact_protocol.RADII_MM]
     references = contact_references(hybrid, node, radii, progress=lambda line: None)
     solvers = {name: make_solver(method, hybrid, **options) for name, (method, options) in METHODS.items()}
-    name = contact._names([spec])[0]
+    name = contact_protocol._names([spec])[0]
     lines = []
     for radius, reference in zip(radii, references):
         patch = solvers["fem"].contact_patch(node, radius)
@@ -126,8 +126,8 @@ def main(argv=None) -> int:
             for line in size_rows(vertices):
                 print(line, flush=True)
         return 0
-    livers = contact.shared_livers()
-    specs = args.models or [*contact.ContactConfig().models, *livers]
+    livers = contact_protocol.shared_livers()
+    specs = args.models or [*contact_protocol.ContactConfig().models, *livers]
     print("relative RMSE against the converged contact references (one pull per R: linear), and the dragged step "
           "(CPU ms)")
     print(f"{'model':22} {'R mm':>4}  {'quadratic':>9}  {'paper':>9}  {'fem':>9}  {'Q <= fem':>9}  "

@@ -3,7 +3,7 @@
     python benchmarks/contact_references.py            # every default model (the shared livers where present)
     python benchmarks/contact_references.py cube       # one model
 
-Each model runs the contact protocol's own path (:func:`tissuesim.experiments.contact.run_contact`, the cheap
+Each model runs the contact protocol's own path (:func:`tissuesim.experiments.contact_protocol.run_contact`, the cheap
 ``embedded`` method and one load, which every reference serves: a reference is the response to a unit force) with a
 fresh cache folder and nothing shipped, so each reference is computed here; its cache entry is then written to
 ``src/tissuesim/experiments/data/references/<key>.npz`` (:func:`tissuesim.experiments.reference_cache.ship_entry`:
@@ -21,7 +21,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from tissuesim.experiments import contact, reference
+from tissuesim.experiments import contact_protocol, reference
 from tissuesim.experiments.reference_cache import SHIPPED_DIR, load_entry, ship_entry
 from tissuesim.mesh import models as builtin_models
 
@@ -31,12 +31,12 @@ def main() -> int:
     parser.add_argument("models", nargs="*", help="built-in models or shared liver paths (default: the protocol's)")
     parser.add_argument("--clean", action="store_true", help="remove every shipped entry first")
     args = parser.parse_args()
-    livers = contact.shared_livers()
+    livers = contact_protocol.shared_livers()
     specs = args.models or [*builtin_models.MODELS, *livers]
     if args.clean:
         for path in SHIPPED_DIR.glob("*.npz"):
             path.unlink()
-    config = contact.ContactConfig()
+    config = contact_protocol.ContactConfig()
     for spec in specs:
         start = time.perf_counter()
         written = ship_model(spec, livers.get(spec, 1.0), config.settings)
@@ -49,7 +49,7 @@ def main() -> int:
 def ship_model(spec: str, scale: float, settings) -> list:
     """Compute the references of one model into a fresh cache folder, then ship each entry; returns the paths."""
     with tempfile.TemporaryDirectory() as cache:
-        run = contact.run_contact(contact.ContactConfig(
+        run = contact_protocol.run_contact(contact_protocol.ContactConfig(
             models=(spec,), scales={spec: scale}, forces=(1.0,), loads=("pressure",), methods=("embedded",),
             cache_dir=cache, shipped=False), progress=True)
         (name, info), = run["metadata"]["models"].items()
@@ -67,7 +67,7 @@ def ship_model(spec: str, scale: float, settings) -> list:
 
 def _portable(spec: str) -> str:
     """A built-in name as is; a shared mesh as its path inside the shared mesh folder."""
-    for rel, _ in contact.SHARED_LIVERS:
+    for rel, _ in contact_protocol.SHARED_LIVERS:
         if spec.endswith(rel):
             return rel
     return spec

@@ -20,8 +20,8 @@ every held vertex is within :attr:`Grasper.tolerance` of its target. J starts fr
 it has one (``point_compliance``: the fem reference, the embedded surface, the hybrid with either M_V; exact with the
 linear material, so one iteration solves it), else from a model (a method's ``compliance_model``, or an elastic
 half-space of the solver's E and ν: Boussinesq's normal compliance on each axis,
-:func:`~tissuesim.probe_contact.half_space_compliance`) that a short first step sizes, and learns from each solve by
-Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The
+:func:`~tissuesim.probe_complementarity.half_space_compliance`) that a short first step sizes, and learns from each
+solve by Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The
 converged answer is the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses
 or the iteration caps; J sets only how fast it is reached.
 
@@ -38,7 +38,7 @@ import weakref
 import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices
-from .probe_contact import half_space_compliance
+from .probe_complementarity import half_space_compliance
 from .grasp_model import checked_rotation, fitted_model, follows_by_updates, largest_miss, solver_compliance
 from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.load_set import VertexLoads

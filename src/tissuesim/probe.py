@@ -16,9 +16,9 @@ conditions λ ≥ 0, g ≥ 0, λ·g = 0, to :attr:`Probe.tolerance` [m] in the r
 Algorithm (a semi-smooth Newton iteration with an approximate Jacobian): each iteration takes the gaps of the
 vertices near the probe (the active set is found again each time), predicts their motion under a change of the
 forces by the normal compliance W of an elastic half-space of the solver's E and ν (Boussinesq,
-:func:`~tissuesim.probe_contact.half_space_compliance`, times a scalar learned by secant from the solver's own
-answers), solves that linear complementarity problem exactly (:func:`~tissuesim.probe_contact.complementary_forces`)
-and applies the forces; one solve of the solver then gives the true gaps. The converged answer is the solver's own
+:func:`~tissuesim.probe_complementarity.half_space_compliance`, times a scalar learned by secant from the solver's own
+answers), solves that linear complementarity problem exactly
+(:func:`~tissuesim.probe_complementarity.complementary_forces`) and applies the forces; one solve of the solver then gives the true gaps. The converged answer is the solver's own
 equilibrium under contact: the model only sets how fast it is reached, so it does not change with dt, the
 iteration caps or the masses. :meth:`Probe.press_static` iterates to the tolerance (methods whose step is a static
 solve take one step per iteration; the others step until settled). The interactive path is one contact update per
@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
-from .probe_contact import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
+from .probe_complementarity import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
                             undetected_depth, vertex_spans, winding_numbers)
 from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.load_set import VertexLoads

@@ -271,13 +271,13 @@ def test_contact_claims(better_beyond_the_reference):
     converge (changes 0.034-0.042) and the claim fails there: mass-spring is ahead at R = 8 mm under pressure (0.471
     against 0.489), and the lead on the embedded surface (0.045) is within twice the change. The fast sibling is
     test_hybrid_beats_surface_only_pbd (against the fine linear FEM)."""
-    from tissuesim.experiments import contact
+    from tissuesim.experiments import contact_protocol
     from tissuesim.experiments.reference import default_cache_dir
 
-    config = contact.ContactConfig(models=("cube",), forces=(1.0,), loads=protocol.LOADS, radii_mm=(4.0, 8.0),
+    config = contact_protocol.ContactConfig(models=("cube",), forces=(1.0,), loads=protocol.LOADS, radii_mm=(4.0, 8.0),
                                    methods=compared_methods(),
                                    cache_dir=str(default_cache_dir()))
-    run = contact.run_contact(config, progress=False)
+    run = contact_protocol.run_contact(config, progress=False)
     references = run["metadata"]["models"]["cube"]["references"]
     for radius in (4.0, 8.0):
         assert references[f"{radius:g}"]["converged"]

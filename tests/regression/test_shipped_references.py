@@ -13,11 +13,11 @@ import json
 import numpy as np
 import pytest
 
-from tissuesim.experiments import contact, protocol, reference
+from tissuesim.experiments import contact_protocol, protocol, reference
 from tissuesim.experiments.reference_cache import SHIPPED_DIR, SHIPPED_SCHEMA, load_shipped
 from tissuesim.mesh import models
 
-SETTINGS = contact.ContactConfig().settings
+SETTINGS = contact_protocol.ContactConfig().settings
 #: What the shipped references may weigh in the repository (measured: 1.2 MB).
 SIZE_BUDGET_MB = 5.0
 
@@ -46,7 +46,7 @@ def _surface(parameters: dict, meshes_dir):
 def test_every_protocol_model_and_radius_is_shipped_in_a_small_folder():
     shipped = {(meta["parameters"]["model"], meta["parameters"]["radius_mm"]) for meta, _ in ENTRIES.values()}
     names = [*models.MODELS, "liver2", "softbodyliver-liver"]
-    assert shipped == {(name, radius) for name in names for radius in contact.RADII_MM}
+    assert shipped == {(name, radius) for name in names for radius in contact_protocol.RADII_MM}
     size = sum(path.stat().st_size for path in SHIPPED_DIR.glob("*.npz")) / 1e6
     assert size < SIZE_BUDGET_MB
 
@@ -101,8 +101,8 @@ def test_the_cube_references_recomputed_whole_equal_the_shipped_ones_to_float32(
     """Both radii on their shared meshes, as a run computes them (about 15 s on 2 cores)."""
     surface = models.model("cube")
     node = protocol.load_node(surface.vertices, surface.triangles)
-    radii = [1e-3 * r for r in contact.RADII_MM]
-    for radius_mm, again in zip(contact.RADII_MM, reference.contact_references(surface, node, radii,
+    radii = [1e-3 * r for r in contact_protocol.RADII_MM]
+    for radius_mm, again in zip(contact_protocol.RADII_MM, reference.contact_references(surface, node, radii,
                                                                                 settings=SETTINGS)):
         shipped = _shipped("cube", radius_mm)
         assert [row.tets for row in again.levels] == [row.tets for row in shipped.levels]

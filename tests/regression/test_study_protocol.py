@@ -40,7 +40,7 @@ CONTACT = EXAMPLE.with_name("contact_protocol_quick.toml")
 
 
 def test_the_quick_contact_protocol_reproduces_the_experiment(tmp_path):
-    from tissuesim.experiments.contact import METRICS, QUICK, ContactConfig, run_contact
+    from tissuesim.experiments.contact_protocol import METRICS, QUICK, ContactConfig, run_contact
 
     store = Store(tmp_path / "out")
     assert run_study(expand(read_study(CONTACT)), store, progress=False).failed == 0

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.experiments import contact, reference_cache
+from tissuesim.experiments import contact_protocol, reference_cache
 from tissuesim.experiments.reference import ContactReference, RefinementSettings
 
 KEY = "0123456789abcdef0123456789abcdef"
@@ -36,7 +36,7 @@ def test_a_truncated_entry_is_recomputed_not_raised(tmp_path):
 def _no_run(monkeypatch):
     def run_contact(*args, **kwargs):
         raise AssertionError("the run started before the cache folder was checked")
-    monkeypatch.setattr(contact, "run_contact", run_contact)
+    monkeypatch.setattr(contact_protocol, "run_contact", run_contact)
 
 
 def test_a_cache_path_that_is_a_file_is_refused_before_the_run(tmp_path, monkeypatch, capsys):

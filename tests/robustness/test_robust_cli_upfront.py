@@ -109,10 +109,10 @@ def test_a_cut_bundle_is_refused_for_its_cut(tmp_path, capsys):
 
 @pytest.mark.parametrize("protocol", ["paper", "contact"])
 def test_a_bad_later_model_file_is_refused_before_the_run(protocol, tmp_path, monkeypatch, capsys):
-    from tissuesim.experiments import contact
+    from tissuesim.experiments import contact_protocol
 
     _no_run(monkeypatch)
-    monkeypatch.setattr(contact, "run_contact", lambda *args, **kwargs: pytest.fail("the run started"))
+    monkeypatch.setattr(contact_protocol, "run_contact", lambda *args, **kwargs: pytest.fail("the run started"))
     bad = tmp_path / "open.obj"
     bad.write_text("v 0 0 0\nv 0.05 0 0\nv 0 0.05 0\nf 1 2 3\n")        # one triangle: not a closed surface
     assert main(["experiment", "cube", str(bad), "--quick", "-q", "--protocol", protocol, "--no-cache",

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tissuesim.cli import main
-from tissuesim.experiments import contact
+from tissuesim.experiments import contact_protocol
 from tissuesim.experiments.contact_report import contact_report_markdown, method_table, ratio_table
 from tissuesim.experiments.output import write_contact_outputs
 from tissuesim.experiments.reference import RefinementSettings
@@ -22,29 +22,29 @@ def test_metrics_by_hand():
     rest = np.zeros((4, 3))
     reference = np.array([[0, 0, -2.0], [0, 0, -1.0], [0, 0, -1.0], [0, 0, 0.0]]) * 1e-3
     positions = reference + np.array([[0, 0, 1.0], [0, 0, -1.0], [0, 0, 0.0], [0, 0, 2.0]]) * 1e-3
-    m = contact.contact_metrics(positions, reference, rest, [0, 1, 2, 3], [0, 1], [0.75, 0.25])
+    m = contact_protocol.contact_metrics(positions, reference, rest, [0, 1, 2, 3], [0, 1], [0.75, 0.25])
     assert m["rmse_mm"] == pytest.approx(np.sqrt((1 + 1 + 0 + 4) / 4))
     assert m["rmse_outside_mm"] == pytest.approx(np.sqrt((0 + 4) / 2))
     assert m["contact_error_mm"] == pytest.approx(abs(0.75 * 1.0 - 0.25 * 1.0))
     assert m["reference_rms_mm"] == pytest.approx(np.sqrt((4 + 1 + 1 + 0) / 4))
     assert m["relative_rmse"] == pytest.approx(m["rmse_mm"] / m["reference_rms_mm"])
     assert m["relative_contact_error"] == pytest.approx(m["contact_error_mm"] / m["reference_rms_mm"])
-    covered = contact.contact_metrics(positions, reference, rest, [0, 1], [0, 1], [0.5, 0.5])
+    covered = contact_protocol.contact_metrics(positions, reference, rest, [0, 1], [0, 1], [0.5, 0.5])
     assert covered["rmse_outside_mm"] is None and covered["relative_rmse_outside"] is None
 
 
 def test_roles():
-    assert contact.role("cube", "pressure", 1.0, 4.0) == "calibration"
-    assert contact.role("cube", "tension", 1.0, 4.0) == "held out"
-    assert contact.role("liver", "pressure", 1.0, 4.0) == "held out"
+    assert contact_protocol.role("cube", "pressure", 1.0, 4.0) == "calibration"
+    assert contact_protocol.role("cube", "tension", 1.0, 4.0) == "held out"
+    assert contact_protocol.role("liver", "pressure", 1.0, 4.0) == "held out"
 
 
 @pytest.fixture(scope="module")
 def small_run():
-    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0, 2.0), loads=("pressure",),
+    config = contact_protocol.ContactConfig(models=("cube",), resolution=400, forces=(1.0, 2.0), loads=("pressure",),
                                    radii_mm=(8.0,), methods=(*LINEAR, "hybrid-near"),
                                    settings=RefinementSettings(max_levels=1))
-    return contact.run_contact(config, progress=False)
+    return contact_protocol.run_contact(config, progress=False)
 
 
 def reference_change(run) -> float:
@@ -94,7 +94,7 @@ def test_report_prints_convergence_table_and_method_table(small_run, tmp_path):
 
     image = imread(tmp_path / "out" / "errors.png")
     assert image.shape[0] > 300 and image.shape[1] > 600 and image[..., :3].std() > 0.05   # drawn, not blank
-    assert json.loads((tmp_path / "out" / "results.json").read_text())["schema"] == contact.SCHEMA
+    assert json.loads((tmp_path / "out" / "results.json").read_text())["schema"] == contact_protocol.SCHEMA
 
 
 def test_cli_contact_protocol(tmp_path, capsys):
@@ -133,10 +133,10 @@ def test_paper_report_shows_the_single_node_load_diverging():
 
 
 def test_a_radius_reaching_the_support_is_skipped_before_its_reference(tmp_path):
-    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), loads=("pressure",),
+    config = contact_protocol.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), loads=("pressure",),
                                    radii_mm=(1e6,), methods=("embedded",), cache_dir=str(tmp_path),
                                    settings=RefinementSettings(max_levels=1))
-    run = contact.run_contact(config, progress=False)
+    run = contact_protocol.run_contact(config, progress=False)
     cube = run["metadata"]["models"]["cube"]
     assert run["records"] == [] and "fixed region" in cube["skipped"]["1e+06"]
     assert cube["references"] == {} and len(cube["samples"]) == 50

@@ -5,7 +5,7 @@ import pytest
 
 from tissuesim.cli import main
 from tissuesim.errors import MaterialError, SolverError
-from tissuesim.experiments import contact
+from tissuesim.experiments import contact_protocol
 from tissuesim.experiments.contact_report import contact_report_markdown
 from tissuesim.experiments.report import report_markdown
 from tissuesim.experiments.reference import RefinementSettings
@@ -56,9 +56,9 @@ def test_an_unknown_material_is_refused_up_front(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def finite_contact_run():
-    config = contact.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), radii_mm=(8.0,),
+    config = contact_protocol.ContactConfig(models=("cube",), resolution=400, forces=(1.0,), radii_mm=(8.0,),
                                    material="neo-hookean", settings=RefinementSettings(max_levels=0))
-    return contact.run_contact(config, progress=False)
+    return contact_protocol.run_contact(config, progress=False)
 
 
 def test_the_contact_protocol_runs_the_methods_that_have_the_material_against_a_finite_reference(
@@ -87,7 +87,8 @@ def test_a_contact_method_without_the_material_is_refused_up_front(tmp_path, cap
     lacking = method_names(where=lambda cls: "neo-hookean" not in cls.materials)
     with pytest.raises(SolverError, match=f"{', '.join(lacking)} ha(s|ve) no neo-hookean material; choose among "
                                           f"{', '.join(method_names(material='neo-hookean'))}"):
-        contact.ContactConfig(methods=(*method_names(material="neo-hookean"), *lacking), material="neo-hookean")
+        contact_protocol.ContactConfig(methods=(*method_names(material="neo-hookean"), *lacking),
+                                       material="neo-hookean")
     assert main(["experiment", "--protocol", "contact", "--material", "neo-hookean", "--methods", "mass-spring",
                  "--output", str(tmp_path / "out")]) != 0
     error = capsys.readouterr().err.strip()

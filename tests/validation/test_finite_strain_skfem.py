@@ -19,7 +19,7 @@ import skfem
 from skfem.helpers import ddot, det, grad, identity, inv, mul, transpose
 
 from tissuesim.errors import SolverError
-from tissuesim.experiments import contact, protocol
+from tissuesim.experiments import contact_protocol, protocol
 from tissuesim.experiments.finite_reference import FORCES_N, load_finite_reference
 from tissuesim.experiments.inputs import builtin_surface
 from tissuesim.fem.nonlinear import NonlinearFEM
@@ -294,7 +294,8 @@ def test_shipped_reference_matches_the_contact_protocol():
     surface = builtin_surface("cube")
     node = protocol.load_node(surface.vertices, surface.triangles)
     # The same model, load node, samples and radius as the contact protocol's cases (assigned values: exact).
-    assert reference.model == "cube" and reference.load_node == node and reference.radius_mm in contact.RADII_MM
+    assert reference.model == "cube" and reference.load_node == node
+    assert reference.radius_mm in contact_protocol.RADII_MM
     assert np.array_equal(reference.samples, protocol.sample_nodes(surface.vertices, node, protocol.RMSE_SAMPLES))
     assert reference.forces == FORCES_N
     assert (reference.youngs_modulus, reference.poisson_ratio) == (E, NU)

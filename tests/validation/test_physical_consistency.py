@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from tissuesim import HybridMesh, make_solver
-from tissuesim.experiments.contact import VARIANTS
+from tissuesim.experiments.contact_protocol import VARIANTS
 from tissuesim.experiments.protocol import load_node
 from tissuesim.mesh import models
 from tissuesim.solvers import method_names

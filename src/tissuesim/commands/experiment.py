@@ -106,7 +106,7 @@ def _run_contact(args, output) -> int:
     from dataclasses import replace
 
     from ..errors import SolverError
-    from ..experiments import contact
+    from ..experiments import contact_protocol
     from ..experiments.output import earlier_outputs, write_contact_outputs
     from ..experiments.reference import default_cache_dir
     from ..experiments.reference_cache import check_cache_dir
@@ -118,14 +118,14 @@ def _run_contact(args, output) -> int:
     if args.cache is not None and not args.cache.strip():
         raise SolverError("--cache is empty; give the folder of the cached references, or --no-cache to recompute "
                           "them")
-    options = dict(contact.QUICK) if args.quick else {}
+    options = dict(contact_protocol.QUICK) if args.quick else {}
     if args.models:
         scale = _number(args.scale, "--scale", "factor")
         check_model_files(args.models, scale=scale)
         options["models"] = tuple(args.models)
         options["scales"] = dict.fromkeys(args.models, scale)    # built-in models are scaled like files
     elif not args.quick:
-        livers = contact.shared_livers()
+        livers = contact_protocol.shared_livers()
         options["models"] = tuple(MODELS) + tuple(livers)
         options["scales"] = livers
     if args.forces:
@@ -139,17 +139,17 @@ def _run_contact(args, output) -> int:
     if args.resolution is not None:
         options["resolution"] = check_resolution(_number(args.resolution, "--resolution", "vertices", integer=True))
     options["material"] = check_material(args.material)
-    settings = options.get("settings", contact.ContactConfig().settings)
+    settings = options.get("settings", contact_protocol.ContactConfig().settings)
     if args.levels is not None:
         options["settings"] = replace(settings, max_levels=int(_number(args.levels, "--levels", "levels",
                                                                        integer=True)))
     elif options["material"] != "linear":
-        options["settings"] = replace(settings, max_levels=min(settings.max_levels, contact.FINITE_MAX_LEVELS))
+        options["settings"] = replace(settings, max_levels=min(settings.max_levels, contact_protocol.FINITE_MAX_LEVELS))
     options["shipped"] = not args.no_cache
     options["cache_dir"] = None if args.no_cache else str(check_cache_dir(default_cache_dir() if args.cache is None
                                                                           else args.cache))
     start = time.perf_counter()
-    data = contact.run_contact(contact.ContactConfig(**options), progress=not args.quiet)
+    data = contact_protocol.run_contact(contact_protocol.ContactConfig(**options), progress=not args.quiet)
     _refuse_empty(data)
     earlier = earlier_outputs(output)
     paths = write_contact_outputs(data, output)

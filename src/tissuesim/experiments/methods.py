@@ -1,6 +1,6 @@
 """Which methods the experiments run and how they show them, read from each method's card
 (:class:`~tissuesim.solvers.base.Solver`: ``label``, ``short_label``, ``colour``, ``line_style``, ``in_paper``) and,
-for the contact protocol's variants of a method (:data:`.contact.VARIANTS`), from :data:`VARIANT_CARDS`.
+for the contact protocol's variants of a method (:data:`.contact_protocol.VARIANTS`), from :data:`VARIANT_CARDS`.
 
 A method registered anywhere (``@tissuesim.register``) joins every list here: the paper's protocol, its tables and
 figures, the contact protocol and the studies.

@@ -95,7 +95,7 @@ def results_files(folder: Path) -> set[str]:
     """Names of the files an earlier ``tissuesim experiment`` wrote into ``folder``, as its ``results.json`` says
     (paper protocol: the tables, report and one radar plot per model; contact: the report and ``errors.png``);
     empty when there is no readable ``results.json`` of ours."""
-    from .contact import SCHEMA as CONTACT_SCHEMA
+    from .contact_protocol import SCHEMA as CONTACT_SCHEMA
 
     data = read_index(folder / "results.json")
     if not isinstance(data, dict):

@@ -51,7 +51,7 @@ from ..errors import BoundaryConditionError, SolverError, first_indices, warn
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from ..fem.rigid_modes import connected_pieces
-from .contact import ContactPatches
+from .load_patches import LoadPatches
 from .attachments import attachment_springs, check_supports_hold
 from .checks import fraction, gravity_vector, is_integer, node_set, positive_number, time_step
 from .finite_strain import check_method_material, unstable_load_error, volume_range
@@ -71,7 +71,7 @@ DEFAULT_DT = 0.01  # s
 RUNAWAY_SIZES = 100.0
 
 
-class Solver(ContactPatches, LoadSet, QuasiStaticSolve, ABC):
+class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
     """Base class of every method: state, load and stepping (the quasi-static solve: :class:`QuasiStaticSolve`).
 
     Subclasses implement :meth:`_step` (one time step on ``self.state`` under ``self.forces``) and may override

@@ -178,7 +178,7 @@ def _metrics(case: Case, solver, node: int, force, positions, reference: dict) -
         nodes = protocol.sample_nodes(rest, node, min(case.record.samples, len(rest)))
         return {"rmse_m": protocol.rmse(positions, reference["positions"], nodes),
                 "relative_rmse": protocol.relative_rmse(positions, reference["positions"], rest, nodes)}
-    from ..experiments.contact import METRICS, contact_metrics
+    from ..experiments.contact_protocol import METRICS, contact_metrics
 
     target = rest + reference["response"] @ np.asarray(force, dtype=np.float64)
     found = contact_metrics(positions, target, rest, reference["samples"], *solver.contact_patch(node, case.radius))

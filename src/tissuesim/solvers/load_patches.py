@@ -10,7 +10,7 @@ import numpy as np
 from ..errors import BoundaryConditionError, SolverError, first_indices
 
 
-class ContactPatches:
+class LoadPatches:
     """Where a solver's load goes (see the module docstring)."""
 
     def contact_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
