@@ -89,7 +89,7 @@ class _Pending:
         return None if self._error is not None else self._result
 
 
-def prepare(statics) -> None:
+def prepare(statics: LayerStatics) -> None:
     """Start building, in the background, what the first cut of a layer ``statics`` needs (its explicit factor:
     a second factorisation), so that the first move does not wait for it. Nothing to prepare for a layer not
     stepped yet, or factorised without CHOLMOD (then each cut refactorises the layer, as without this module)."""
@@ -120,7 +120,8 @@ class _Successor(_Pending):
         return corrected if corrected.modified_count <= MAX_MODIFIED else None
 
 
-def after_cut(statics, *, change: sp.csr_matrix, mass: np.ndarray, prescribed: np.ndarray):
+def after_cut(statics: LayerStatics, *, change: sp.csr_matrix, mass: np.ndarray,
+              prescribed: np.ndarray) -> LayerStatics:
     """The layer after a cut: ``statics`` (before it) corrected by ``change`` ``(3n, 3n)`` [N/m] (the stiffness the
     cut added minus what it removed, n the vertices after it), the lumped ``mass`` ``(n,)`` [kg] and the
     ``prescribed`` nodes after it. Past :data:`MAX_MODIFIED` touched dofs the layer is factorised again here, its
@@ -230,7 +231,8 @@ class CutLayerStatics(LayerStatics):
         nodes = np.sort(nodes[nodes >= 0])
         return _dofs(nodes)
 
-    def implicit_step(self, positions, velocities, rest, forces, targets, mass, dt, damping) -> None:
+    def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
+                      targets: np.ndarray, mass: np.ndarray, dt: float, damping: float) -> None:
         """:meth:`LayerStatics.implicit_step` with the corrected solve (a changed dt factorises the layer anew)."""
         from .static import implicit_rhs, implicit_update
 

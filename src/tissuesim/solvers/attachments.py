@@ -17,13 +17,18 @@ surface where the volume still joins it).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..fem.rigid_modes import connected_pieces, free_rigid_modes
 from .checks import finite_triple
+
+if TYPE_CHECKING:
+    from ..mesh.tetmesh import TetMesh
 
 
 @dataclass(frozen=True)
@@ -73,7 +78,8 @@ class Attachment:
         object.__setattr__(self, "anchor", anchor)
 
 
-def attachment_springs(attachments, rest_positions: np.ndarray):
+def attachment_springs(attachments: Sequence[Attachment],
+                       rest_positions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The springs of ``attachments`` on a surface with rest positions ``(n, 3)`` [m]: ``(nodes (p,) int64,
     stiffness (p,) [N/m], anchors (p, 3) [m])``, one row per attached node of each attachment in turn.
 
@@ -101,7 +107,7 @@ def attachment_springs(attachments, rest_positions: np.ndarray):
     return np.concatenate(nodes), np.concatenate(stiffness), np.array(np.concatenate(anchors))
 
 
-def volume_pieces(volume, carriers: np.ndarray) -> np.ndarray:
+def volume_pieces(volume: TetMesh, carriers: np.ndarray) -> np.ndarray:
     """``(n,) int`` the piece of ``volume`` (a :class:`~tissuesim.mesh.tetmesh.TetMesh`) that carries each M_S vertex,
     through ``carriers`` ``(n,) int``, one volume node per vertex (a node of its tet, or the vertex's own node)."""
     return connected_pieces(volume.tets, volume.node_count)[1][np.asarray(carriers, dtype=np.int64)]

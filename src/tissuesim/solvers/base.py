@@ -43,9 +43,11 @@ a BoundaryConditionError. ``fixed`` may be empty where attachments hold the body
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import ClassVar
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, SolverError, first_indices, warn
 from ..mesh.regions import bottom_height, nodes_below
@@ -59,6 +61,10 @@ from .load_set import Load, LoadSet
 from .quasi_static import QuasiStaticSolve
 from .report import SolveReport, validity_warning
 from .state import State, farthest_node
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from .attachments import Attachment
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, §8.2
 DEFAULT_POISSON_RATIO = 0.3  # §8.2
@@ -132,17 +138,17 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
 
     def __init__(
         self,
-        hybrid_mesh,
+        hybrid_mesh: HybridMesh,
         *,
         youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
         poisson_ratio: float = DEFAULT_POISSON_RATIO,
-        fixed=None,
+        fixed: ArrayLike | None = None,
         density: float = DEFAULT_DENSITY,
         dt: float = DEFAULT_DT,
         damping: float = 0.0,
         material: str = "linear",
-        gravity=None,
-        attachments=(),
+        gravity: ArrayLike | None = None,
+        attachments: Sequence[Attachment] = (),
     ):
         from ..fem.material import Material  # validates E and ν with MaterialError
 
@@ -233,7 +239,7 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         return self._dt
 
     @dt.setter
-    def dt(self, value) -> None:
+    def dt(self, value: float) -> None:
         self._dt = time_step(value)
 
     # -------------------------------------------------------------------------------------------------- stepping
@@ -270,7 +276,7 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         self._on_load_changed()
         self._on_reset()
 
-    def set_fixed_positions(self, positions) -> None:
+    def set_fixed_positions(self, positions: ArrayLike) -> None:
         """Move the fixed set: ``positions`` ``(k, 3)`` [m] of the vertices in :attr:`fixed`, in that order (a base
         carried or turned by a grasper or retractor; the next step or static solve follows). A finite-strain
         ``material`` moves an unloaded body rigidly with a rigid motion of its base; linear elasticity would inflate

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, SolverError, first_indices
 from ..loads import number_fix, real_number
@@ -31,7 +32,7 @@ def _number(name: str, value, unit: str, example: str = "0.01") -> float:
     return number
 
 
-def flag(name: str, value) -> bool:
+def flag(name: str, value: object) -> bool:
     """``value`` as a bool, or a :class:`SolverError` naming the switch ``name`` unless True or False (any non-empty
     text, "no" too, would be true; scene files refuse it alike)."""
     if isinstance(value, (bool, np.bool_)):
@@ -39,7 +40,7 @@ def flag(name: str, value) -> bool:
     raise SolverError(f"{name} is True or False, got {value!r}; pass {name}=False or {name}=True")
 
 
-def numeric_array(value) -> np.ndarray | None:
+def numeric_array(value: object) -> np.ndarray | None:
     """``value`` as a ``float64`` array (the caller's own where it is one: copy what you keep), or None unless every
     element is a real number (no text, bool or None: ``np.asarray`` would read ``"1"`` as 1.0 and ``True`` as 1.0)."""
     try:
@@ -56,7 +57,7 @@ def numeric_array(value) -> np.ndarray | None:
     return array.astype(np.float64, copy=False)
 
 
-def positive_number(name: str, value, unit: str, example: str = "1") -> float:
+def positive_number(name: str, value: object, unit: str, example: str = "1") -> float:
     """``value`` as a float, or a :class:`SolverError` naming ``name`` and its ``unit`` unless positive and finite
     (``example``: a valid value, for the message's fix)."""
     value = _number(name, value, unit, example)
@@ -65,7 +66,7 @@ def positive_number(name: str, value, unit: str, example: str = "1") -> float:
     return value
 
 
-def time_step(value, name: str = "time step dt") -> float:
+def time_step(value: object, name: str = "time step dt") -> float:
     """``value`` as a float [s], or a :class:`SolverError` naming ``name`` and the valid range [MIN_DT, ∞)."""
     value = _number(name, value, "s")
     if not (np.isfinite(value) and value >= MIN_DT):
@@ -76,7 +77,7 @@ def time_step(value, name: str = "time step dt") -> float:
     return value
 
 
-def is_integer(value) -> bool:
+def is_integer(value: object) -> bool:
     """True for an int or NumPy integer (not a bool: True would otherwise mean node 1), or an integral float."""
     if isinstance(value, (bool, np.bool_)):
         return False
@@ -85,7 +86,7 @@ def is_integer(value) -> bool:
     return isinstance(value, (float, np.floating)) and float(value).is_integer()
 
 
-def whole_count(name: str, value) -> int:
+def whole_count(name: str, value: object) -> int:
     """``value`` as an int of at least 1 (a count of steps or iterations), or a :class:`SolverError` naming ``name``
     (:func:`is_integer`: 2.5 or True is no count)."""
     if not is_integer(value) or value < 1:
@@ -93,7 +94,7 @@ def whole_count(name: str, value) -> int:
     return int(value)
 
 
-def fraction(name: str, value) -> float:
+def fraction(name: str, value: object) -> float:
     """``value`` as a float in [0, 1), or a :class:`SolverError` naming ``name``."""
     value = _number(name, value, "1")
     if not (0.0 <= value < 1.0):
@@ -101,7 +102,7 @@ def fraction(name: str, value) -> float:
     return value
 
 
-def check_force(force) -> np.ndarray:
+def check_force(force: ArrayLike) -> np.ndarray:
     """``force`` as a ``(3,) float64`` array [N], or a :class:`SolverError` unless 3 finite numbers whose squared
     magnitude is finite too (the solvers take |f|: 1e200 N would overflow it)."""
     given, force = force, numeric_array(force)
@@ -117,7 +118,7 @@ def check_force(force) -> np.ndarray:
     return force
 
 
-def gravity_vector(value) -> np.ndarray | None:
+def gravity_vector(value: ArrayLike | None) -> np.ndarray | None:
     """``value`` as a read-only ``(3,) float64`` acceleration [m/s²], None for None, or a :class:`SolverError` unless
     3 finite numbers of magnitude at most :data:`MAX_GRAVITY`."""
     if value is None:
@@ -136,7 +137,7 @@ def gravity_vector(value) -> np.ndarray | None:
     return vector
 
 
-def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.ndarray:
+def node_set(name: str, nodes: ArrayLike, count: int, *, allow_empty: bool = False) -> np.ndarray:
     """``(k,) int32`` sorted unique vertex indices from indices or a ``(count,)`` bool mask; BoundaryConditionError
     for bad ones, or an empty set unless ``allow_empty`` (attachments hold the body)."""
     nodes = np.asarray(nodes)
@@ -161,7 +162,7 @@ def node_set(name: str, nodes, count: int, *, allow_empty: bool = False) -> np.n
     return np.unique(nodes).astype(np.int32)
 
 
-def checked_point(point, *, name: str = "a point") -> np.ndarray:
+def checked_point(point: ArrayLike, *, name: str = "a point") -> np.ndarray:
     """``point`` as a ``(3,) float64`` array [m] (possibly the caller's own: copy what you keep), or a SolverError
     naming it (``name``, e.g. "the probe centre")."""
     given, point = point, numeric_array(point)
@@ -172,7 +173,7 @@ def checked_point(point, *, name: str = "a point") -> np.ndarray:
     return point
 
 
-def finite_triple(value) -> np.ndarray | None:
+def finite_triple(value: object) -> np.ndarray | None:
     """``value`` as a new read-only ``(3,) float64`` array, or None where it is not 3 finite numbers (the caller
     says what it should have been)."""
     vector = numeric_array(value)
@@ -187,7 +188,7 @@ def finite_triple(value) -> np.ndarray | None:
 ELEMENTS = ("linear", "quadratic")
 
 
-def check_element(element, near_field) -> str:
+def check_element(element: object, near_field: float | None) -> str:
     """``element`` checked against :data:`ELEMENTS`, and against the near field, which the quadratic M_V replaces
     (SolverError with the fix)."""
     if not isinstance(element, str) or element not in ELEMENTS:

@@ -8,13 +8,18 @@ exact for the embedded surface, and the coarse surface's part for the hybrid, wh
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..fem.linear import LinearFEM
 
 #: The most memory [bytes] the hybrid's exact compliance may take (its columns over M_V and over the layer).
 LAYERED_BYTES = 512 * 2**20
 
 
-def mapped_compliance(fem, nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
+def mapped_compliance(fem: LinearFEM, nodes: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``(3k, 3k) float64`` [m/N], node-major, of ``k`` vertices on the volume nodes ``nodes`` ``(k, r) int`` of
     ``fem`` (a :class:`~tissuesim.fem.linear.LinearFEM`) with ``weights`` ``(k, r)``: ``[3a + d, 3b + c]`` is vertex
     a's motion along d under a unit force on vertex b along c."""

@@ -23,8 +23,10 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..cutting.buffers import CutSurface
 from ..cutting.edges import edge_owners, touched_edges
@@ -35,6 +37,10 @@ from ..cutting.rows import EdgeRows, Rows
 from ..cutting.warm import load_cut_kernels
 from ..errors import SolverError, TissuesimError
 from ..loads import lumped_areas, triangle_areas
+
+if TYPE_CHECKING:
+    from ..cutting.sweep import Sweep
+    from .base import Solver
 
 #: Vertices the local loose-piece search visits (plus 16 per vertex of the changed triangles) before it leaves the
 #: question to the whole-surface count.
@@ -77,7 +83,7 @@ class SolverCut:
     _moved = False
     _rescaled = False
 
-    def __init__(self, solver):
+    def __init__(self, solver: Solver):
         self.solver = solver
         triangles = solver.hybrid.surface.triangles
         self.surface = CutSurface(solver.rest_positions, solver.positions, solver.velocities, triangles)
@@ -95,7 +101,7 @@ class SolverCut:
         kernels loaded (:mod:`.warm`); subclasses add their own."""
         load_cut_kernels()
 
-    def apply(self, sweep, *, snap: float, seeds=()) -> tuple[CutReport, int]:
+    def apply(self, sweep: Sweep, *, snap: float, seeds: ArrayLike = ()) -> tuple[CutReport, int]:
         """Cut along ``sweep`` near the vertices ``seeds`` and carry the solver over: a report of what changed, and
         the vertex where the cut stopped (−1 if nothing was cut).
 
@@ -292,7 +298,7 @@ class SolverCut:
         s = self.solver
         return np.unique(np.concatenate([np.asarray(s.fixed, dtype=np.int64), s.attached_nodes]))
 
-    def update(self, result, n, released, touched) -> None:
+    def update(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         """Method-specific arrays (subclasses); ``touched`` are the vertices whose triangles changed."""
         raise NotImplementedError
 
@@ -360,7 +366,7 @@ def members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
     return sorted_set[where] == values
 
 
-def cut_updater(solver) -> SolverCut:
+def cut_updater(solver: Solver) -> SolverCut:
     """The updater that carries ``solver`` over cuts (created on first use and kept on the solver): its class's
     :attr:`~tissuesim.solvers.base.Solver.cut_carrier`."""
     updater = getattr(solver, "_cut_updater", None)
@@ -373,7 +379,7 @@ def cut_updater(solver) -> SolverCut:
     return updater
 
 
-def refusal(solver_or_class) -> str | None:
+def refusal(solver_or_class: Solver | type | str) -> str | None:
     """Why a solver (or its class, or its method's name) cannot be cut, or None if it can."""
     from .registry import solver_class
 
@@ -385,7 +391,7 @@ def refusal(solver_or_class) -> str | None:
     return None
 
 
-def anchored_nodes(solver) -> np.ndarray | None:
+def anchored_nodes(solver: Solver) -> np.ndarray | None:
     """``(a,) int64`` the vertices that hold ``solver``'s surface in place (fixed, and the hybrid's control nodes):
     every piece of a cut surface must hold one (pass them to ``check_cut_invariants(anchored=...)``); None for a
     method that holds every vertex by its embedding (embedded), or that cannot be cut."""

@@ -13,6 +13,8 @@ warm-started from the last answer, and the mapping carries its displacement.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import njit
 
@@ -23,9 +25,13 @@ from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
 
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+
 
 @njit(cache=True)
-def map_embedded(rest, tets, tet_of, weights, node_slot, u_nodes, positions):
+def map_embedded(rest: np.ndarray, tets: np.ndarray, tet_of: np.ndarray, weights: np.ndarray, node_slot: np.ndarray,
+                 u_nodes: np.ndarray, positions: np.ndarray) -> None:
     """positions[i] = rest[i] + Σ_j weights[i, j] u_nodes[node_slot[tets[tet_of[i], j]]] in place (eq: mapping)."""
     for i in range(rest.shape[0]):
         t = tet_of[i]
@@ -39,7 +45,7 @@ def map_embedded(rest, tets, tet_of, weights, node_slot, u_nodes, positions):
 
 
 @njit(cache=True)
-def hold_at_rest(rest, nodes, positions):
+def hold_at_rest(rest: np.ndarray, nodes: np.ndarray, positions: np.ndarray) -> None:
     """positions[nodes] = rest[nodes] in place: a prescribed node is where it was, exactly, not by interpolation."""
     for i in nodes:
         for k in range(3):
@@ -59,7 +65,7 @@ class EmbeddedSolver(Solver):
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:EmbeddedCut"
 
-    def __init__(self, hybrid_mesh, **common):
+    def __init__(self, hybrid_mesh: HybridMesh, **common: object):
         super().__init__(hybrid_mesh, **common)
         from ..fem.linear import LinearFEM
 

@@ -9,6 +9,8 @@ height. With a finite-strain ``material`` each step is a Newton solve of the fin
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import SolverError
@@ -17,6 +19,9 @@ from .finite_strain import finite_volume, move_supports, solve_volume
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .registry import register
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 
 @register("fem")
@@ -35,7 +40,7 @@ class FineFEMSolver(Solver):
                    "re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, mass-spring or "
                    "embedded solver")
 
-    def __init__(self, hybrid_mesh, **common):
+    def __init__(self, hybrid_mesh: HybridMesh, **common: object):
         super().__init__(hybrid_mesh, **common)
         from ..fem.linear import LinearFEM
 

@@ -11,15 +11,24 @@ scattered) is refused where it is given.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, SolverError
 from ..fem.hyperelastic import MATERIALS, check_material
 from ..fem.nonlinear import UnstableLoadError
 from .report import FINITE_RANGE_J
 
+if TYPE_CHECKING:
+    from ..fem.linear import LinearFEM
+    from ..fem.nonlinear import NonlinearFEM
+    from ..mesh.tetmesh import TetMesh
+    from .base import Solver
 
-def check_method_material(cls, material) -> str:
+
+def check_method_material(cls: type[Solver], material: object) -> str:
     """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
     material = check_material(material)
     if material not in cls.materials:
@@ -30,7 +39,7 @@ def check_method_material(cls, material) -> str:
     return material
 
 
-def check_fixed_positions(positions, fixed: np.ndarray) -> np.ndarray:
+def check_fixed_positions(positions: ArrayLike, fixed: np.ndarray) -> np.ndarray:
     """``(k, 3) float64`` copy of ``positions`` [m] for the ``fixed`` ``(k,)`` M_S vertices, checked: finite and
     one row per vertex."""
     kind = getattr(np.asarray(positions), "dtype", np.dtype(object)).kind
@@ -95,7 +104,7 @@ def check_support_motion(rest: np.ndarray, positions: np.ndarray, size: float) -
             "move the whole base together, e.g. rest positions turned and shifted")
 
 
-def affine_fit(rest: np.ndarray, moved: np.ndarray):
+def affine_fit(rest: np.ndarray, moved: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(A (3, 3), b (3,))`` minimising Σ |A x + b − y|² over rest points ``rest`` ``(k, 3)`` → ``moved`` ``(k, 3)``
     [m]: exact for a rigid or affine motion; the fixed set's points must not all lie on one line."""
     if len(rest) == 0:      # no fixed vertex (attachments hold the body): nothing moved
@@ -111,7 +120,7 @@ def affine_fit(rest: np.ndarray, moved: np.ndarray):
     return solution[:3].T, solution[3]
 
 
-def support_displacement(solver, positions: np.ndarray) -> np.ndarray:
+def support_displacement(solver: Solver, positions: np.ndarray) -> np.ndarray:
     """``(N, 3)`` displacement [m] of ``solver``'s finite-strain volume at its fixed nodes (zero elsewhere) when its
     fixed M_S vertices move to ``positions`` ``(k, 3)``: exactly where a volume node is one of those vertices (the
     mesh as it is now: a cut adds fixed vertices that are none), by the affine map that best fits the motion
@@ -136,7 +145,7 @@ def support_displacement(solver, positions: np.ndarray) -> np.ndarray:
     return displacement
 
 
-def move_supports(solver, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def move_supports(solver: Solver, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Carry a finite-strain ``solver``'s fixed volume nodes to where its fixed vertices go, ``positions``
     ``(k, 3)`` [m], and its volume's displacement with them by the affine map that fits the base's motion from
     where it is now: the solves start from the body carried with its base, not from a body left behind, whose
@@ -152,7 +161,7 @@ def move_supports(solver, positions: np.ndarray) -> tuple[np.ndarray, np.ndarray
     return matrix, shift
 
 
-def carried_rest(solver) -> np.ndarray:
+def carried_rest(solver: Solver) -> np.ndarray:
     """``(N, 3)`` the displacement [m] of a finite-strain ``solver``'s unloaded volume carried with its base as it
     is now (:func:`move_supports`'s map from rest): where a solve from rest starts; zero with the base at rest."""
     rest = solver.rest_positions[solver.fixed]
@@ -166,7 +175,7 @@ def carried_rest(solver) -> np.ndarray:
     return carried
 
 
-def unstable_load_error(solver, error) -> SolverError:
+def unstable_load_error(solver: Solver, error: UnstableLoadError) -> SolverError:
     """The SolverError a solver raises for ``error`` (:class:`~tissuesim.fem.nonlinear.UnstableLoadError`): what acts
     (the loads, with the patch's mean traction, a press's or a pull's, against the shear modulus μ; else the weight,
     the ligaments or the moved base: no load is never called an unstable one), and the fix."""
@@ -209,7 +218,7 @@ def _other_fixes(solver) -> str:
     return f": try {' or '.join(fixes)}, then reset()" if fixes else ": call reset()"
 
 
-def solve_volume(solver, forces: np.ndarray) -> np.ndarray:
+def solve_volume(solver: Solver, forces: np.ndarray) -> np.ndarray:
     """``(N, 3)`` a finite-strain ``solver``'s volume displacement [m] at equilibrium under ``forces`` ``(N, 3)``
     [N], warm-started from its last one; where that start leads nowhere (a state tangled by an earlier load, e.g.
     a contact's, now withdrawn), again from the body at rest carried with its base, before calling the load
@@ -223,14 +232,14 @@ def solve_volume(solver, forces: np.ndarray) -> np.ndarray:
         return solver.finite.solve(forces, initial=start)
 
 
-def inverted_element_count(solver) -> int | None:
+def inverted_element_count(solver: Solver) -> int | None:
     """How many of a finite-strain solver's volume elements are turned inside out now (None for linear)."""
     if getattr(solver, "finite", None) is None:
         return None
     return int(np.count_nonzero(np.any(solver.finite.volume_ratios(solver.volume_displacement) <= 0.0, axis=1)))
 
 
-def volume_range(solver) -> dict:
+def volume_range(solver: Solver) -> dict:
     """What a :class:`~.report.SolveReport` and ``Solver.warning`` need to judge ``solver``'s state: its material
     and, with a finite-strain one, ``smallest_volume_ratio`` (the smallest J = det F of its volume's elements) and
     ``crushed`` (how many are below :data:`~.report.FINITE_RANGE_J`)."""
@@ -241,7 +250,7 @@ def volume_range(solver) -> dict:
             "crushed": int(np.count_nonzero(ratios < FINITE_RANGE_J))}
 
 
-def finite_volume(solver, mesh, linear):
+def finite_volume(solver: Solver, mesh: TetMesh, linear: LinearFEM) -> NonlinearFEM | None:
     """The :class:`~tissuesim.fem.nonlinear.NonlinearFEM` of ``mesh`` for ``solver``'s finite-strain material (sharing
     the factor of its LinearFEM ``linear``), or None for the linear material."""
     if solver.material == "linear":
@@ -258,7 +267,7 @@ def finite_volume(solver, mesh, linear):
 PRESS_LIMIT = 1.0
 
 
-def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
+def check_dead_press(solver: Solver, node: int, force: np.ndarray, radius: float | None) -> None:
     """Refuse (SolverError) a finite-strain dead load at ``node`` that presses into the surface with a mean pressure
     above :data:`PRESS_LIMIT` μ over its contact patch; pulls and shears of any size pass."""
     if solver.material == "linear":
@@ -285,7 +294,7 @@ def check_dead_press(solver, node: int, force: np.ndarray, radius) -> None:
             "driven by displacement (the pin-head's force is a fixed force too)")
 
 
-def slow_static_solve(solver) -> bool:
+def slow_static_solve(solver: Solver) -> bool:
     """Whether ``solver``'s static solve is a Newton solve its step only approaches (a finite-strain material on a
     method whose step is no static solve: the hybrid's takes seconds at 10k vertices): a tool that follows a hand
     then updates its forces once a frame and lets the steps relax, rather than solve each frame."""

@@ -23,13 +23,20 @@ back-substitution) and added to each response, since the volume is linear.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..fem.assembly import body_force
 from ..fem.quadratic import quadratic_body_force
 
+if TYPE_CHECKING:
+    from ..mesh.tetmesh import TetMesh
+    from .base import Solver
 
-def volume_springs(solver, nodes_of: np.ndarray, weights_of: np.ndarray):
+
+def volume_springs(solver: Solver, nodes_of: np.ndarray,
+                   weights_of: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """``springs`` for :class:`~tissuesim.fem.linear.LinearFEM` (None without attachments): each attached M_S vertex
     held through volume nodes ``nodes_of`` ``(n, r) int`` with ``weights_of`` ``(n, r)`` (its embedding, per M_S
     vertex)."""
@@ -40,7 +47,8 @@ def volume_springs(solver, nodes_of: np.ndarray, weights_of: np.ndarray):
             np.asarray(weights_of, dtype=np.float64)[nodes].reshape(nodes.size, -1), solver.attached_stiffness)
 
 
-def volume_constant_load(solver, mesh, springs, *, quadratic=None) -> np.ndarray | None:
+def volume_constant_load(solver: Solver, mesh: TetMesh, springs: tuple[np.ndarray, np.ndarray, np.ndarray] | None, *,
+                         quadratic: tuple[np.ndarray, int] | None = None) -> np.ndarray | None:
     """``(N, 3) float64`` [N] the volume ``mesh``'s loads that never change: the weight, plus the attachments' pull
     toward anchors away from the nodes' rest positions through ``springs`` (:func:`volume_springs`); None when there
     are none (the paper's model, bit-identical). ``quadratic``: ``(elements (m, 10), N)`` of the mesh's quadratic
@@ -63,7 +71,7 @@ def volume_constant_load(solver, mesh, springs, *, quadratic=None) -> np.ndarray
     return load
 
 
-def surface_constant_load(solver, mass: np.ndarray) -> np.ndarray | None:
+def surface_constant_load(solver: Solver, mass: np.ndarray) -> np.ndarray | None:
     """``(n, 3) float64`` [N] a surface method's loads that never change: the weight m_i g of the node masses
     ``mass`` ``(n,)`` [kg], plus the attachments' pull k_i (a_i − X_i) at rest; None when there are none."""
     load = None if solver.gravity is None else mass[:, None] * solver.gravity[None, :]

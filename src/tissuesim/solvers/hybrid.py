@@ -48,6 +48,8 @@ and is switched off by a cut.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from functools import partial
 
 import numpy as np
@@ -61,6 +63,9 @@ from .finite_strain import carried_rest, finite_volume, move_supports, solve_vol
 from .attachments import volume_pieces
 from .gravity import volume_constant_load, volume_springs
 from .surface_layer import SurfaceLayerSolver
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 DEFAULT_WARM_START = True
 #: Default per-step velocity damping: settles 1 N on the cube in 15 steps (0.2: 21; 0.1: 22), 20 N in 31 (0.2: 45),
@@ -100,8 +105,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
     body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it
 
-    def __init__(self, hybrid_mesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
-                 near_field: float | None = None, element: str = "linear", **options):
+    def __init__(self, hybrid_mesh: HybridMesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
+                 near_field: float | None = None, element: str = "linear", **options: object):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
 

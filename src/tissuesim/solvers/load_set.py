@@ -10,11 +10,16 @@ replacing all the others, none.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from .checks import check_force
+
+if TYPE_CHECKING:
+    from .base import Solver
 
 #: :meth:`LoadSet.move_load`'s default: keep the load's radius.
 KEEP = object()
@@ -71,7 +76,7 @@ class LoadSet:
         """``(k,) float64`` each of :attr:`load_nodes`' share of its own load's force."""
         return np.concatenate([load.shares for load in self._loads]) if self._loads else np.zeros(0)
 
-    def add_load(self, node: int, force, *, radius: float | None = None) -> Load:
+    def add_load(self, node: int, force: ArrayLike, *, radius: float | None = None) -> Load:
         """Add ``force`` ``(3,)`` [N] at M_S vertex ``node`` beside the loads already acting; returns its handle.
 
         ``radius`` None loads that node alone; a radius R [m] spreads the force area-weighted over the M_S nodes
@@ -85,7 +90,8 @@ class LoadSet:
         self._on_load_changed()
         return load
 
-    def move_load(self, load: Load, *, node: int | None = None, force=None, radius=KEEP) -> None:
+    def move_load(self, load: Load, *, node: int | None = None, force: ArrayLike | None = None,
+                  radius: float | None | object = KEEP) -> None:
         """Change a load of this solver: its ``node``, ``force`` ``(3,)`` [N] or ``radius`` [m] (None: one node);
         what is not given stays. Refused as :meth:`add_load` refuses, changing nothing."""
         self._check_held(load)
@@ -104,7 +110,7 @@ class LoadSet:
         self._refresh_forces(load.nodes)
         self._on_load_changed()
 
-    def set_load(self, node: int, force, *, radius: float | None = None) -> Load:
+    def set_load(self, node: int, force: ArrayLike, *, radius: float | None = None) -> Load:
         """Apply ``force`` ``(3,)`` [N] at M_S vertex ``node`` (:meth:`add_load`), replacing every load acting;
         returns its handle. A refused load changes nothing."""
         load = self._checked_load(node, force, radius)
@@ -177,7 +183,7 @@ class ToolLoad:
     withdrawn when it lets go, beside any other load. A reset, or a :meth:`~LoadSet.set_load` elsewhere, withdraws
     it; the next :meth:`apply` adds it again."""
 
-    def __init__(self, solver):
+    def __init__(self, solver: Solver):
         self.solver = solver
         self._load: Load | None = None
 
@@ -185,7 +191,7 @@ class ToolLoad:
     def acting(self) -> bool:
         return self._load is not None and any(self._load is load for load in self.solver.loads)
 
-    def apply(self, node: int, force, *, radius: float | None) -> None:
+    def apply(self, node: int, force: ArrayLike, *, radius: float | None) -> None:
         """The tool's load at ``node``: ``force`` ``(3,)`` [N] over a patch of ``radius`` [m] (None: one node)."""
         if self.acting:
             self.solver.move_load(self._load, node=node, force=force, radius=radius)
@@ -207,7 +213,7 @@ class VertexLoads:
         by_node: ``{vertex: Load}`` the loads acting (read it after :meth:`forget_withdrawn`).
     """
 
-    def __init__(self, solver):
+    def __init__(self, solver: Solver):
         self.solver = solver
         self.by_node: dict[int, Load] = {}
 

@@ -51,6 +51,7 @@ step as in the other methods, spread evenly over the substeps.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
@@ -62,6 +63,9 @@ from ..layer.compliance import thickness_lengths
 from .base import Solver
 from .checks import positive_number, time_step
 from .registry import register
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 #: Most substeps one step may take: beyond it the step is refused (a stiff material at a large dt would otherwise
 #: run for hours: 5.7e7 substeps at E = 1e15 Pa).
@@ -75,9 +79,11 @@ DEFAULT_DAMPING = 0.3
 
 
 @njit(cache=True)
-def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, rest, stiffness, dt, substeps,
-                     keep, attached=np.zeros(0, np.int64), attached_stiffness=np.zeros(0),
-                     anchors=np.zeros((0, 3)), gravity=np.zeros(3), weighed=False):
+def mass_spring_step(positions: np.ndarray, velocities: np.ndarray, accel: np.ndarray, inv_mass: np.ndarray,
+                     forces: np.ndarray, springs: np.ndarray, rest: np.ndarray, stiffness: np.ndarray, dt: float,
+                     substeps: int, keep: np.ndarray, attached: np.ndarray = np.zeros(0, np.int64),
+                     attached_stiffness: np.ndarray = np.zeros(0), anchors: np.ndarray = np.zeros((0, 3)),
+                     gravity: np.ndarray = np.zeros(3), weighed: bool = False) -> None:
     """One time step ``dt`` [s] of ``substeps`` symplectic-Euler substeps, in place, allocating nothing.
 
     Args:
@@ -134,7 +140,7 @@ def mass_spring_step(positions, velocities, accel, inv_mass, forces, springs, re
 
 
 @njit(cache=True)
-def inverted_triangles(rest, positions, triangles) -> tuple[int, int]:
+def inverted_triangles(rest: np.ndarray, positions: np.ndarray, triangles: np.ndarray) -> tuple[int, int]:
     """``(count, first)`` of the triangles whose normal now points against their rest normal (first: −1 if none)."""
     count, first = 0, -1
     for t in range(triangles.shape[0]):
@@ -154,7 +160,7 @@ def inverted_triangles(rest, positions, triangles) -> tuple[int, int]:
     return count, first
 
 
-def spring_network(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def spring_network(surface: SurfaceMesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Springs of M_S and the area each spans: ``(s, 2) int32`` nodes, ``(s,)`` rest lengths [m], ``(s,)`` Σ A_T [m²].
 
     Stretch springs first (every edge, with the area of its adjacent triangles), then one bending spring per edge
@@ -186,7 +192,7 @@ def spring_network(surface) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return springs, rest, span
 
 
-def surface_lumped_mass(surface, density: float) -> np.ndarray:
+def surface_lumped_mass(surface: SurfaceMesh, density: float) -> np.ndarray:
     """``(n,) float64`` node masses [kg]: density × enclosed volume, spread by each node's lumped area."""
     lumped = lumped_areas(surface.vertices, surface.triangles)
     total = density * abs(surface.signed_volume)
@@ -222,8 +228,8 @@ class MassSpringSolver(Solver):
 
     cut_carrier = "tissuesim.solvers.mass_spring_cut:MassSpringCut"
 
-    def __init__(self, hybrid_mesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
-                 **common):
+    def __init__(self, hybrid_mesh: HybridMesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
+                 **common: object):
         super().__init__(hybrid_mesh, damping=damping, **common)
         if thickness_ratio is None:
             from .calibrated import MASS_SPRING_THICKNESS as thickness_ratio
@@ -243,7 +249,7 @@ class MassSpringSolver(Solver):
         self._gravity = np.zeros(3) if self.gravity is None else np.array(self.gravity)
 
     @Solver.dt.setter
-    def dt(self, value) -> None:
+    def dt(self, value: float) -> None:
         """The default step [s], refused (SolverError, nothing changed) where it needs more than MAX_SUBSTEPS."""
         value = time_step(value)
         if getattr(self, "omega_max", None) is not None:    # None while the common options are set up
@@ -336,7 +342,7 @@ def _omega_bound(springs, stiffness, inv_mass, attached=np.zeros(0, np.int64), a
 
 
 @njit(cache=True)
-def gershgorin_rows(springs, stiffness, inv_mass):
+def gershgorin_rows(springs: np.ndarray, stiffness: np.ndarray, inv_mass: np.ndarray) -> np.ndarray:
     """``(n,) float64`` each vertex's Gershgorin row sum Σ k (w_i + √(w_i w_j)) over its springs [1/s²] (one
     compiled pass; a cut keeps them and recomputes only the vertices it touched)."""
     row = np.zeros(inv_mass.size)

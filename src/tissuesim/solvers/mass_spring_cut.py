@@ -11,6 +11,8 @@ triangles and their spring neighbours.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..cutting.edges import touched_edges
@@ -20,11 +22,15 @@ from .cut_carry import SolverCut, members
 from .mass_spring import gershgorin_rows
 from .surface_layer_cut import new_edge_constraints, new_hinges
 
+if TYPE_CHECKING:
+    from ..cutting.result import CutResult
+    from .mass_spring import MassSpringSolver
+
 
 class MassSpringCut(SolverCut):
     """Updater of :class:`~tissuesim.solvers.mass_spring.MassSpringSolver`."""
 
-    def __init__(self, solver):
+    def __init__(self, solver: MassSpringSolver):
         super().__init__(solver)
         self.mass_total = float(solver.mass.sum())
         springs = np.array(solver.springs)
@@ -48,7 +54,7 @@ class MassSpringCut(SolverCut):
         s, a = self.solver, self.rows.arrays
         s.springs, s.rest_lengths, s.stiffness = a["springs"], a["rest"], a["stiffness"]
 
-    def update(self, result, n, released, touched) -> None:
+    def update(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         s = self.solver
         keys, owners = self.touched_edges(result)
         self.rows.retire(self.stretch_row.pop(keys) + self.bend_row.pop(keys))

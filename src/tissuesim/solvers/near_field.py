@@ -27,11 +27,19 @@ the contact.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from ..fem.hyperelastic import check_material
 from ..loads import lumped_areas
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.tetmesh import TetMesh
 
 #: W [m] of the contact protocol's ``hybrid-near`` (``make_solver("hybrid", mesh, near_field=W)``), chosen on its
 #: calibration row (cube, 1 N, R = 4 mm): relative RMSE 0.254 / 0.190 / 0.187 / 0.183 at W = 8 / 12 / 16 / 24 mm,
@@ -61,7 +69,7 @@ class NearField:
             iterations that have not reached it yet): a stepping caller repeats them until it is.
     """
 
-    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed,
+    def __init__(self, hybrid_mesh: HybridMesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
                  material: str = "linear"):
         from ..fem.quadratic import QuadraticFEM
 
@@ -104,7 +112,7 @@ class NearField:
             self._key, self._response = key, response
         return self._response
 
-    def displacement(self, load_nodes: np.ndarray, load_shares: np.ndarray, force, nodes: np.ndarray, *,
+    def displacement(self, load_nodes: np.ndarray, load_shares: np.ndarray, force: ArrayLike, nodes: np.ndarray, *,
                      iterations: int | None = None) -> np.ndarray:
         """``(k, 3) float64`` [m]: M_S nodes ``nodes``' displacement under ``force`` ``(3,)`` [N] shared as
         ``load_shares`` ``(p,)`` by the M_S nodes ``load_nodes`` ``(p,)``. Linear: exactly ``response(...) @ force``
@@ -145,7 +153,8 @@ class NearField:
         return self.fem.linear_traction_weights(self.surface_nodes[triangles], density[triangles])
 
 
-def fixed_corners(volume, fixed_volume: np.ndarray, *, edges: np.ndarray | None = None):
+def fixed_corners(volume: TetMesh, fixed_volume: np.ndarray, *,
+                  edges: np.ndarray | None = None) -> Callable[[np.ndarray], np.ndarray]:
     """The ``fixed`` of the quadratic elements on ``volume`` (a :class:`~tissuesim.mesh.tetmesh.TetMesh`) whose fixed
     corner nodes are ``fixed_volume`` ``(k,) int``: those corners, and every midside node whose edge has both ends
     fixed. ``edges``: the midside nodes' edges, ``(e, 2) int64`` of

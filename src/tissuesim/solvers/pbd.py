@@ -3,8 +3,13 @@ nodes pinned at rest and every other node projected; no FEM."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .registry import register
 from .surface_layer import SurfaceLayerSolver
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 #: The pbd method's default: settles 1 N on the cube in 104 steps (0.2: 157; 0.4: 286) and 20 N in 1261 (0.2: not
 #: within 1500).
@@ -26,6 +31,6 @@ class PBDSolver(SurfaceLayerSolver):
                       "column's top sags 0.24 of the analytic ρgH²/(2E); the models are 22-49 % off the fine FEM, "
                       "docs/gravity-and-supports.md); use hybrid, embedded or fem for self-weight")
 
-    def __init__(self, hybrid_mesh, *, damping: float = PBD_DAMPING, **options):
+    def __init__(self, hybrid_mesh: HybridMesh, *, damping: float = PBD_DAMPING, **options: object):
         super().__init__(hybrid_mesh, damping=damping, **options)
         self._set_prescribed(self.fixed)

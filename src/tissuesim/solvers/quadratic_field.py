@@ -27,12 +27,21 @@ third of its nodes as corners, and its field is curved between the control nodes
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import copy
 from collections import OrderedDict
 
 import numpy as np
 
 from ..fem.quadratic import QuadraticFEM, shape_values
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.tetmesh import TetMesh
+    from .hybrid import HybridSolver
+    from .load_set import Load
 
 #: Contact patches whose responses are kept (pin-heads grabbed in turn).
 KEPT_RESPONSES = 16
@@ -70,8 +79,10 @@ class QuadraticField:
         constant_load: ``(N, 3) float64`` [N] the loads that never change, or None.
     """
 
-    def __init__(self, hybrid_mesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
-                 material: str = "linear", springs=None, constant_load: np.ndarray | None = None, topology=None):
+    def __init__(self, hybrid_mesh: HybridMesh, *, youngs_modulus: float, poisson_ratio: float, fixed: np.ndarray,
+                 material: str = "linear", springs: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+                 constant_load: np.ndarray | None = None,
+                 topology: tuple[np.ndarray, np.ndarray] | None = None):
         volume = hybrid_mesh.volume
         self.fem = QuadraticFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                                 fixed=lambda points: fixed, springs=springs, topology=topology)
@@ -87,7 +98,7 @@ class QuadraticField:
         self._responses: OrderedDict = OrderedDict()
         self._points: OrderedDict = OrderedDict()
 
-    def extended(self, hybrid_mesh, moved: np.ndarray) -> "QuadraticField":
+    def extended(self, hybrid_mesh: HybridMesh, moved: np.ndarray) -> "QuadraticField":
         """This field for ``hybrid_mesh`` after a cut (M_V is not cut): the same volume and factor, the embedding
         rows of the vertices it appended and of those it ``moved`` ``(k,) int`` onto the cut read anew, no
         response kept (each was of the vertices before). A new object, so that a cut taken back keeps the old
@@ -114,7 +125,7 @@ class QuadraticField:
         """``(n, 3) float64`` [m] every M_S vertex's displacement from M_V's ``(N, 3)`` [m]."""
         return np.einsum("ik,ikd->id", self.values, displacement[self.nodes])
 
-    def volume_forces(self, loads) -> np.ndarray:
+    def volume_forces(self, loads: Sequence[Load]) -> np.ndarray:
         """``(N, 3) float64`` [N] M_V's nodal forces of ``loads`` (each with ``nodes``, ``shares``, ``force``), the
         weight included."""
         forces = np.zeros((self.node_count, 3)) if self.constant_load is None else self.constant_load.copy()
@@ -123,7 +134,7 @@ class QuadraticField:
             np.add.at(forces, self.nodes[load.nodes].ravel(), shares.ravel()[:, None] * np.asarray(load.force))
         return forces
 
-    def linear_displacement(self, loads) -> np.ndarray:
+    def linear_displacement(self, loads: Sequence[Load]) -> np.ndarray:
         """``(n, 3) float64`` [m] every M_S vertex's small-strain displacement under ``loads`` and the weight."""
         if len(loads) > KEPT_LOADS:     # a probe's many contacts: one solve, cheaper than a response for each
             return self.surface(self.fem.solve(self.volume_forces(loads)))
@@ -212,7 +223,7 @@ class QuadraticField:
         return result
 
 
-def surface_embedding(hybrid_mesh, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def surface_embedding(hybrid_mesh: HybridMesh, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(nodes (n, 10) int64, values (n, 10) float64)``: the ten quadratic nodes of each M_S vertex's embedding tet
     (``elements`` ``(m, 10)`` of :func:`~tissuesim.fem.quadratic.quadratic_elements`) and their shape functions
     there."""
@@ -220,7 +231,7 @@ def surface_embedding(hybrid_mesh, elements: np.ndarray) -> tuple[np.ndarray, np
             shape_values(hybrid_mesh.embedding_barycentric))
 
 
-def quadratic_supports(solver, edges: np.ndarray) -> np.ndarray:
+def quadratic_supports(solver: HybridSolver, edges: np.ndarray) -> np.ndarray:
     """``(N,) bool`` the fixed nodes of ``solver``'s quadratic M_V, whose midside nodes sit on ``edges`` ``(e, 2)``:
     with the default bottom, every corner and midside node at or below its height (as every volume's); else the
     fixed corners and the midsides between them."""
@@ -236,7 +247,7 @@ def quadratic_supports(solver, edges: np.ndarray) -> np.ndarray:
     return fixed
 
 
-def midside_points(volume, edges: np.ndarray) -> np.ndarray:
+def midside_points(volume: TetMesh, edges: np.ndarray) -> np.ndarray:
     """``(e, 3) float64`` [m] the midside nodes of ``volume`` on ``edges`` ``(e, 2)`` (of
     :func:`~tissuesim.fem.quadratic.quadratic_elements`, in its order: after the corners)."""
     return 0.5 * (volume.points[edges[:, 0]] + volume.points[edges[:, 1]])

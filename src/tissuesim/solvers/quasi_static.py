@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import InversionError, SolverError, TissuesimError
 from ..fem.nonlinear import UnstableLoadError
@@ -30,7 +31,7 @@ class QuasiStaticSolve:
     def solve_static(
         self,
         node: int | None = None,
-        force=None,
+        force: ArrayLike | None = None,
         *,
         radius: float | None = None,
         tolerance: float | None = None,

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import inspect
 from collections.abc import Callable
 from importlib import import_module
 
 from ..errors import SolverError
 from .base import Solver
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 # name -> (module, class): imported on first use, so one method's missing dependency does not break the others.
 _BUILTIN = {
@@ -20,7 +25,7 @@ _BUILTIN = {
 _REGISTRY: dict[str, type] = {}
 
 
-def register(name: str):
+def register(name: str) -> Callable[[type], type]:
     """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
 
     if not isinstance(name, str) or not name:
@@ -97,7 +102,7 @@ def solver_options(name: str) -> dict[str, object]:
     return options
 
 
-def make_solver(name: str, hybrid_mesh, **options) -> Solver:
+def make_solver(name: str, hybrid_mesh: HybridMesh, **options: object) -> Solver:
     """A solver of method ``name`` (hybrid, pbd, mass-spring, embedded, fem) over ``hybrid_mesh``.
 
     ``options`` are the keyword options of that method (see each class); an unknown option is a SolverError

@@ -4,8 +4,14 @@ grabbed region, a probe's press that is refused. Everything a step reads is kept
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from typing import TYPE_CHECKING
+
 import copy
 from contextlib import contextmanager
+
+if TYPE_CHECKING:
+    from .base import Solver
 
 #: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
 #: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
@@ -22,7 +28,7 @@ class Snapshot:
     """A solver's state (positions, velocities, loads, the hybrid's warm start and finite-strain volume with what
     its iterations have learnt, what it reports of them), taken when made and put back by :meth:`restore`."""
 
-    def __init__(self, solver):
+    def __init__(self, solver: Solver):
         self.positions = solver.positions.copy()
         self.velocities = solver.velocities.copy()
         self.loads = solver.kept_loads()
@@ -35,7 +41,7 @@ class Snapshot:
         self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW + _REPORTS
                       if hasattr(solver, name)}
 
-    def restore(self, solver) -> None:
+    def restore(self, solver: Solver) -> None:
         solver.put_back_loads(self.loads)
         if self.volume is not None:
             solver.volume_displacement = self.volume
@@ -51,7 +57,7 @@ class Snapshot:
 
 
 @contextmanager
-def refusal_restores(tool, *, solving: bool):
+def refusal_restores(tool: object, *, solving: bool) -> Iterator[None]:
     """Put everything back as it was when the body raises: the ``tool``'s own attributes (a probe's, a grasper's,
     with its :class:`~.load_set.VertexLoads` record) and its solver's loads, and with ``solving`` (the body steps or
     solves) the solver's whole state (:class:`Snapshot`), so a refused call leaves no load acting and no vertex
@@ -65,7 +71,7 @@ def refusal_restores(tool, *, solving: bool):
 
 
 @contextmanager
-def leaves_no_trace(tool):
+def leaves_no_trace(tool: object) -> Iterator[None]:
     """Put everything :func:`refusal_restores` keeps back after the body, whatever it does: work done to measure
     (a grasper's measuring moves), not to keep."""
     put_back = _keeper(tool, solving=True)

@@ -40,7 +40,7 @@ The ``pbd`` method prescribes the fixed nodes only; the hybrid adds its control 
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
@@ -50,6 +50,11 @@ from ..fem.nonlinear import in_fractions
 from .base import Solver
 from .checks import flag, is_integer, positive_number
 from .mass_spring import surface_lumped_mass
+
+if TYPE_CHECKING:
+    from ..layer.finite_layer import FiniteLayer
+    from ..layer.static import LayerStatics
+    from ..mesh.hybrid import HybridMesh
 
 FORMS = ("xpbd", "pbd")
 #: Time integrators of the xpbd form (the pbd form always steps with the paper's projection).
@@ -117,11 +122,11 @@ class SurfaceLayerSolver(Solver):
     #: (the pbd method); the hybrid's M_V carries them instead (:mod:`.gravity`).
     body_on_layer: ClassVar[bool] = True
 
-    def __init__(self, hybrid_mesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
+    def __init__(self, hybrid_mesh: HybridMesh, *, form: str = DEFAULT_FORM, iterations: int = DEFAULT_ITERATIONS,
                  thickness_ratio: float | None = None, stiffness: float | None = None,
                  mass_scale: float | None = None, signed_bending: bool | None = None,
                  integrator: str = DEFAULT_INTEGRATOR, prestrain: float = 0.0, damping: float = DEFAULT_DAMPING,
-                 **common):
+                 **common: object):
         super().__init__(hybrid_mesh, damping=damping, **common)
         from ..layer.topology import SurfaceConstraints
         from . import calibrated as frozen
@@ -329,7 +334,7 @@ class SurfaceLayerSolver(Solver):
         self.statics().implicit_step(s.positions, s.velocities, self.rest_positions, self.applied_forces(),
                                      self.targets, self.mass, dt, self.damping, **options)
 
-    def statics(self):
+    def statics(self) -> LayerStatics | FiniteLayer:
         """The static solver of this layer and its prescribed nodes (built on first use: one sparse factorisation):
         :class:`~tissuesim.layer.static.LayerStatics` with the linear material, else the finite-strain layer."""
         if self._statics is None and self.material != "linear":
@@ -344,7 +349,7 @@ class SurfaceLayerSolver(Solver):
             self._statics = self._new_linear_statics()
         return self._statics
 
-    def linear_statics(self):
+    def linear_statics(self) -> LayerStatics:
         """The layer's small-strain :class:`~tissuesim.layer.static.LayerStatics`: :meth:`statics` with the linear
         material; with a finite-strain one its tangent at rest, kept until the prescribed nodes or the surface
         change."""

@@ -15,6 +15,8 @@ as built (:func:`~tissuesim.layer.compliance.thickness_lengths`, the rule a solv
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from types import SimpleNamespace
 
 import numpy as np
@@ -26,13 +28,17 @@ from ..layer.topology import ConstraintCounts
 from ..loads import triangle_areas
 from .cut_carry import SolverCut, members
 
+if TYPE_CHECKING:
+    from ..cutting.result import CutResult
+    from .surface_layer import SurfaceLayerSolver
+
 
 class CutConstraints(ConstraintCounts, SimpleNamespace):
     """The mutable stand-in of :class:`~tissuesim.layer.topology.SurfaceConstraints` a cut solver steps with:
     the same array names, with retired rows as no-ops (:mod:`.rows`)."""
 
 
-def new_edge_constraints(result, keys, owners):
+def new_edge_constraints(result: CutResult, keys: np.ndarray, owners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Stretch data of the edges ``keys`` ``(k, 2)`` of the cut mesh, held by rows ``owners`` ``(k, 2)`` (−1 for
     none; each has a first): ``(rest lengths (k,) [m], areas (k,) [m²])``; rest lengths by eq 19–23 in the parent
     triangle of the first owner."""
@@ -43,14 +49,14 @@ def new_edge_constraints(result, keys, owners):
     return barycentric_distance(side, bary[0], bary[1]), adjacent_area(result, owners)
 
 
-def adjacent_area(result, owners) -> np.ndarray:
+def adjacent_area(result: CutResult, owners: np.ndarray) -> np.ndarray:
     """``(k,) float64`` rest area [m²] of the (one or two) triangles ``owners`` ``(k, 2)`` (−1 for none) around
     each edge."""
     area = triangle_areas(result.rest, result.triangles[np.maximum(owners, 0).ravel()]).reshape(-1, 2)
     return np.where(owners >= 0, area, 0.0).sum(axis=1)
 
 
-def new_hinges(triangles, keys, owners):
+def new_hinges(triangles: np.ndarray, keys: np.ndarray, owners: np.ndarray) -> np.ndarray:
     """Hinges ``(h, 4) int64`` (P1, P2 in the first triangle's winding, P3, P4 opposite) of edges ``keys``
     ``(h, 2)`` held by two rows ``owners`` ``(h, 2)``."""
     first, second = (triangles[owners[:, j]].astype(np.int64) for j in (0, 1))
@@ -78,7 +84,7 @@ def _in_corners(result, vertices, corners):
 class SurfaceLayerCut(SolverCut):
     """Updater of :class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver` (the pbd and hybrid methods)."""
 
-    def __init__(self, solver):
+    def __init__(self, solver: SurfaceLayerSolver):
         super().__init__(solver)
         c = solver.constraints
         xpbd = solver.form == "xpbd"
@@ -112,7 +118,7 @@ class SurfaceLayerCut(SolverCut):
             s.stretch_compliance, s._lambda_stretch = a["compliance"], a["multiplier"]
             s.bend_compliance, s._lambda_bend = b["compliance"], b["multiplier"]
 
-    def update(self, result, n, released, touched) -> None:
+    def update(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         s = self.solver
         keys, owners = self.touched_edges(result)
         retired = self.stretch_row.pop(keys), self.hinge_row.pop(keys)
@@ -219,7 +225,7 @@ class SurfaceLayerCut(SolverCut):
             s.targets = self.spare.extend("targets", s.targets, s.rest_positions[nodes])
             self.is_prescribed[nodes] = True
 
-    def prescribe(self, result, n, released, touched) -> None:
+    def prescribe(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         """pbd: the fixed nodes (the new vertices that are fixed are appended); the hybrid overrides this."""
         s = self.solver
         self.prescribe_more(_new_of(s.fixed, n))
@@ -233,7 +239,7 @@ class HybridCut(SurfaceLayerCut):
         control = np.unique(self.solver.hybrid.control)
         return np.concatenate([super().held_nodes(), control.astype(np.int64)])
 
-    def prescribe(self, result, n, released, touched) -> None:
+    def prescribe(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         s, h, spare = self.solver, self.solver.hybrid, self.spare
         if s.element == "quadratic":
             self._free_cut(touched, released)
@@ -303,7 +309,7 @@ class EmbeddedCut(SolverCut):
 
     keeps_loose = True
 
-    def update(self, result, n, released, touched) -> None:
+    def update(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         s, h = self.solver, self.solver.hybrid
         s.tet_of = self.spare.extend("tet_of", s.tet_of, h.embedding_tet[n:].astype(np.int64))
         s.weights = h.embedding_barycentric
