@@ -4,29 +4,36 @@ compliance, whether it follows by relaxed updates)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .errors import SolverError
 from .solvers.checks import numeric_array
 from .solvers.finite_strain import slow_static_solve
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .solvers.base import Solver
+
 #: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
 ROTATION_TOLERANCE = 1e-6
 
 
-def follows_by_updates(solver) -> bool:
+def follows_by_updates(solver: Solver) -> bool:
     """Whether :meth:`~tissuesim.grasper.Grasper.follow` updates rather than settles on ``solver``: its static
     solve is slow (:func:`~.solvers.finite_strain.slow_static_solve`) and it has its own compliance to update by."""
     return slow_static_solve(solver) and getattr(solver, "point_compliance", None) is not None
 
 
-def solver_compliance(solver, hook: str, held: np.ndarray) -> np.ndarray | None:
+def solver_compliance(solver: Solver, hook: str, held: np.ndarray) -> np.ndarray | None:
     """The solver's answer to an optional compliance ``hook`` for the ``held`` vertices, or None."""
     found = getattr(solver, hook, None)
     return None if found is None else found(held)
 
 
-def checked_rotation(rotation) -> np.ndarray:
+def checked_rotation(rotation: ArrayLike) -> np.ndarray:
     """``(3, 3) float64`` ``rotation`` checked to be a proper rotation matrix (RᵀR = I, det R = +1)."""
     matrix = numeric_array(rotation)
     if matrix is None or matrix.shape != (3, 3) or not np.all(np.isfinite(matrix)):

@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import itertools
 import weakref
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -43,6 +44,11 @@ from .grasp_model import checked_rotation, fitted_model, follows_by_updates, lar
 from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.load_set import VertexLoads
 from .solvers.snapshot import Snapshot, refusal_restores
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .solvers.base import Solver
 
 #: Default tolerance: the largest distance of a held vertex from its target, as a fraction of the jaws' radius.
 TOLERANCE_FRACTION = 1e-3
@@ -90,7 +96,7 @@ class Grasper:
             held vertex from its target [m].
     """
 
-    def __init__(self, solver, *, radius: float, tolerance: float | None = None):
+    def __init__(self, solver: Solver, *, radius: float, tolerance: float | None = None):
         for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads",
                        "solve_static"):
             if not hasattr(solver, needed):
@@ -113,7 +119,7 @@ class Grasper:
 
     # ------------------------------------------------------------------------------------------------ reading
     @property
-    def solver(self):
+    def solver(self) -> Solver:
         """The solver the jaws act on (fixed: make a new grasper for another)."""
         return self._solver
 
@@ -140,7 +146,7 @@ class Grasper:
         return self.position + self._grip @ self.rotation.T
 
     # ----------------------------------------------------------------------------------------------- driving
-    def grab(self, point) -> np.ndarray:
+    def grab(self, point: ArrayLike) -> np.ndarray:
         """Take hold of the surface vertices within :attr:`radius` of ``point`` ``(3,)`` [m] at the current
         positions, where they are (a grab moves nothing); returns them ``(k,) int64``. A grasper that held a
         patch lets it go first. Refused (nothing changes) where no vertex lies within reach, where the patch
@@ -173,8 +179,8 @@ class Grasper:
         _HOLDERS.setdefault(self.solver, weakref.WeakSet()).add(self)
         return held.copy()
 
-    def move_to(self, position, rotation=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
-                max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
+    def move_to(self, position: ArrayLike, rotation: ArrayLike | None = None, *,
+                max_iterations: int = DEFAULT_MAX_ITERATIONS, max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
         """Carry the held patch to the jaws at ``position`` ``(3,)`` [m] turned by ``rotation`` ``(3, 3)`` (a
         proper rotation matrix about the jaws, from the grab; None: as they are) and return :attr:`force`, at the
         static equilibrium with every held vertex within :attr:`tolerance` of its target and every other load
@@ -191,7 +197,8 @@ class Grasper:
                     "changed; raise max_iterations or the tolerance")
         return self.force
 
-    def settle(self, position=None, rotation=None, *, max_iterations: int = FRAME_ITERATIONS) -> bool:
+    def settle(self, position: ArrayLike | None = None, rotation: ArrayLike | None = None, *,
+               max_iterations: int = FRAME_ITERATIONS) -> bool:
         """A frame's worth of :meth:`move_to`: the jaws to ``position`` (None: where they are) and ``rotation``,
         then at most ``max_iterations`` iterations, leaving the solver at its equilibrium under the last forces;
         returns whether the held vertices reached their targets (if not, the next call goes on from there). Refused
@@ -202,7 +209,7 @@ class Grasper:
             self._place(self.position if position is None else position, rotation)
             return self._iterate(max_iterations, DEFAULT_MAX_STEPS)
 
-    def update(self, position=None, rotation=None) -> None:
+    def update(self, position: ArrayLike | None = None, rotation: ArrayLike | None = None) -> None:
         """One force update toward the jaws at ``position`` (None: where they are) and ``rotation``, from the
         current positions and without a solve (the caller's ``solver.step()`` follows): :data:`RELAXATION` of the
         Newton change with J as it is (a frame's positions are no equilibrium to learn from). What a viewer or a
@@ -219,7 +226,7 @@ class Grasper:
                 change = np.linalg.lstsq(self._current_jacobian(group), error.ravel(), rcond=SINGULAR)[0]
                 _add_forces(group, RELAXATION * change)
 
-    def follow(self, position=None, rotation=None) -> None:
+    def follow(self, position: ArrayLike | None = None, rotation: ArrayLike | None = None) -> None:
         """A frame's worth of following the jaws, whichever way keeps the frame short: :meth:`settle` (the patch on
         its jaws at the end of the frame), or on a finite-strain method whose step is no static solve but which has
         its compliance (the hybrid, whose static solve takes seconds at 10k vertices) :meth:`update` (the patch

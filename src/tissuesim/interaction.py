@@ -18,11 +18,18 @@ the nearest one that it would, within the snap radius, and :attr:`PinHead.notice
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .errors import SolverError
 from .solvers.checks import checked_point, positive_number
 from .solvers.load_set import ToolLoad
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .solvers.base import Solver
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0
@@ -47,7 +54,8 @@ class PinHead:
             its tip reached the fixed region) and holds a farther one; "" otherwise.
     """
 
-    def __init__(self, solver, *, stiffness: float, snap_radius: float | None = None, radius: float | None = None):
+    def __init__(self, solver: Solver, *, stiffness: float, snap_radius: float | None = None,
+                 radius: float | None = None):
         for needed in ("positions", "add_load", "move_load", "remove_load"):
             if not hasattr(solver, needed):
                 raise SolverError(f"PinHead needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
@@ -69,7 +77,7 @@ class PinHead:
     def grabbed(self) -> bool:
         return self.node is not None
 
-    def grab(self, point) -> int:
+    def grab(self, point: ArrayLike) -> int:
         """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions that a load would move;
         returns its index.
 
@@ -114,13 +122,13 @@ class PinHead:
             return "is fixed"
         return f"has a tip of radius {self.radius:g} m that reaches the fixed region"
 
-    def force(self, point) -> np.ndarray:
+    def force(self, point: ArrayLike) -> np.ndarray:
         """``(3,) float64`` eq 24's f = k (x − x0) [N] for cursor ``point`` x [m]."""
         if self.node is None:
             raise SolverError("the pin-head holds no node; call grab(point) first")
         return self.stiffness * (checked_point(point) - self.anchor)
 
-    def drag(self, point) -> np.ndarray:
+    def drag(self, point: ArrayLike) -> np.ndarray:
         """Move the cursor to ``point`` [m]: the grabbed node gets f = k (x − x0) (eq 24); returns f [N]."""
         force = self.force(point)
         self._load.apply(self.node, force, radius=self.radius)

@@ -38,6 +38,8 @@ and the probe's own are put back as they were.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .errors import BoundaryConditionError, SolverError, first_indices, warn
@@ -46,6 +48,11 @@ from .probe_complementarity import (complementary_forces, core_samples, gaps_and
 from .solvers.checks import checked_point, positive_number, whole_count
 from .solvers.load_set import VertexLoads
 from .solvers.snapshot import refusal_restores
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .solvers.base import Solver
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -83,7 +90,7 @@ class Probe:
             final residual [m].
     """
 
-    def __init__(self, solver, *, radius: float, tolerance: float | None = None):
+    def __init__(self, solver: Solver, *, radius: float, tolerance: float | None = None):
         for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads", "step"):
             if not hasattr(solver, needed):
                 raise SolverError(f"Probe needs a solver (from tissuesim.make_solver), got {type(solver).__name__}")
@@ -118,7 +125,7 @@ class Probe:
         return gaps_and_normals(self.solver.positions, self.center, self.end, self.radius)[0]
 
     # ----------------------------------------------------------------------------------------------- driving
-    def move_to(self, center, end=None) -> np.ndarray:
+    def move_to(self, center: ArrayLike, end: ArrayLike | None = None) -> np.ndarray:
         """Move the probe: a sphere at ``center`` ``(3,)`` [m], or with ``end`` ``(3,)`` [m] a capsule from
         ``center`` to ``end``; one contact update at the current positions (call ``solver.step()`` next). Returns
         :attr:`force`. Refused (SolverError, nothing changed) where the probe is no larger than the triangles
@@ -135,8 +142,8 @@ class Probe:
         with refusal_restores(self, solving=False):
             self._relaxed_update()
 
-    def press_static(self, center, end=None, *, max_iterations: int = DEFAULT_MAX_ITERATIONS,
-                     max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
+    def press_static(self, center: ArrayLike, end: ArrayLike | None = None, *,
+                     max_iterations: int = DEFAULT_MAX_ITERATIONS, max_steps: int = DEFAULT_MAX_STEPS) -> np.ndarray:
         """``(n, 3) float64`` the surface at static equilibrium with the probe held at ``center`` (a capsule to
         ``end``) [m], every other load acting too; the probe's loads stay applied (read :attr:`force`).
 
@@ -156,7 +163,8 @@ class Probe:
                     "max_iterations or the tolerance")
         return self.solver.positions.copy()
 
-    def settle(self, center, end=None, *, max_iterations: int = FRAME_ITERATIONS) -> bool:
+    def settle(self, center: ArrayLike, end: ArrayLike | None = None, *,
+               max_iterations: int = FRAME_ITERATIONS) -> bool:
         """A frame's worth of :meth:`press_static`: the probe at ``center`` (a capsule to ``end``) [m] and at most
         ``max_iterations`` contact iterations, each a solve of the solver, leaving the solver at its equilibrium
         under the last iteration's forces; returns whether the contact converged (if not, the next call goes on

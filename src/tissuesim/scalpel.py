@@ -28,6 +28,7 @@ Choices where the paper is silent:
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +37,11 @@ from .solvers.cut_carry import CutReport, cut_updater
 from .cutting.sweep import Sweep, check_snap, triangles_in_box
 from .errors import SolverError
 from .solvers.checks import checked_point, numeric_array, positive_number
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from .solvers.base import Solver
 
 #: Default blade length in mean rest edge lengths of M_S.
 DEPTH_EDGES = 2.0
@@ -61,7 +67,7 @@ class Scalpel:
         size: the model's size [m]: the diagonal of the surface's bounding box when the scalpel was made.
     """
 
-    def __init__(self, solver, *, depth: float | None = None, snap: float = DEFAULT_SNAP):
+    def __init__(self, solver: Solver, *, depth: float | None = None, snap: float = DEFAULT_SNAP):
         self.solver = solver
         self._updater = cut_updater(solver)
         surface = solver.hybrid.surface
@@ -90,7 +96,7 @@ class Scalpel:
         move needs (the layer's explicit factor) is built in the background from now. :meth:`press` does it too."""
         self._updater.prepare()
 
-    def press(self, point, direction=None) -> CutReport:
+    def press(self, point: ArrayLike, direction: ArrayLike | None = None) -> CutReport:
         """Put the tool tip at ``point`` ``(3,)`` [m]; the blade points along ``direction`` ``(3,)``, a vector of
         any finite, non-zero length (default: the inward normal there); SolverError for anything else."""
         start = time.perf_counter()
@@ -126,7 +132,7 @@ class Scalpel:
                               f"blade depth {self.depth:.4g} m; press on the surface or pass a larger depth")
         return int(tri), bary
 
-    def move(self, point) -> CutReport:
+    def move(self, point: ArrayLike) -> CutReport:
         """Move the tip to ``point`` ``(3,)`` [m], cutting the surface the blade sweeps on the way."""
         if self.tip is None:
             raise SolverError("the scalpel is not pressed; call press(point) first")

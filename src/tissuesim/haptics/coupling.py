@@ -18,12 +18,18 @@ import math
 import time
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from ..errors import SolverError
 from ..solvers.checks import positive_number
 from .tools import make_tool
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..solvers.base import Solver
 
 DEFAULT_RATE = 1000.0  # Hz: what haptic devices need for hard contact to feel crisp
 #: Ticks whose start times the statistics keep (a minute at 1 kHz).
@@ -71,7 +77,7 @@ class Coupler(ABC):
             held, or a node grabbed by index before the servo loop read the tool: nothing pulls until it has).
     """
 
-    def __init__(self, solver, *, stiffness: float, radius: float | None, rate: float, tool: str):
+    def __init__(self, solver: Solver, *, stiffness: float, radius: float | None, rate: float, tool: str):
         if not hasattr(solver, "solve_static"):
             raise SolverError(f"{type(self).__name__} needs a solver (from tissuesim.make_solver), got "
                               f"{type(solver).__name__}")
@@ -175,7 +181,7 @@ def coupling_force(coupling: Coupling | None, tool: np.ndarray, pulled: np.ndarr
                           "the position callback must return finite metres")
 
 
-def read_tool(position, tool: np.ndarray) -> None:
+def read_tool(position: Callable[[], ArrayLike], tool: np.ndarray) -> None:
     """``position()`` into ``tool`` ``(3,)`` [m], or a SolverError naming what it returned."""
     value = position()  # once: a second call may return something else, or fail
     try:
@@ -184,7 +190,8 @@ def read_tool(position, tool: np.ndarray) -> None:
         raise SolverError(f"the position callback must return 3 coordinates [m], got {value!r}") from None
 
 
-def serve(tick, stamp, stopping, period: float) -> None:
+def serve(tick: Callable[[], object], stamp: Callable[[float, bool], None], stopping: Callable[[], bool],
+          period: float) -> None:
     """Call ``stamp(now, late)`` then ``tick()`` every ``period`` [s] until ``stopping()``: sleep most of each
     period, spin the last :data:`SPIN` on the clock; a tick more than a period late restarts the schedule from
     now (no burst of catch-up ticks) and is stamped late."""

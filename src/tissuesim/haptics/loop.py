@@ -18,11 +18,18 @@ from __future__ import annotations
 
 import threading
 import time
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from ..errors import SolverError
 from .coupling import DEFAULT_RATE, HISTORY, Coupler, Coupling, coupling_force, read_tool, serve, statistics
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..solvers.base import Solver
+    from .coupling import HapticStatistics
 
 #: How long [s] a grab waits for a just started servo thread's first reading of the tool.
 FIRST_TICK_TIMEOUT = 5.0
@@ -49,7 +56,8 @@ class HapticLoop(Coupler):
         ticks: ticks of the servo thread since :meth:`start` (direct :meth:`tick` calls are not counted).
     """
 
-    def __init__(self, solver, *, position, apply_force, stiffness: float, radius: float | None = None,
+    def __init__(self, solver: Solver, *, position: Callable[[], ArrayLike],
+                 apply_force: Callable[[np.ndarray], object], stiffness: float, radius: float | None = None,
                  rate: float = DEFAULT_RATE, tool: str = "pin-head"):
         for name, callback in (("position", position), ("apply_force", apply_force)):
             if not callable(callback):
@@ -118,7 +126,7 @@ class HapticLoop(Coupler):
     def __exit__(self, *exc) -> None:
         self.stop()
 
-    def statistics(self):
+    def statistics(self) -> HapticStatistics:
         """:class:`~.coupling.HapticStatistics` of the ticks so far (needs at least 2)."""
         return statistics(self._times, self.ticks, self._late)
 

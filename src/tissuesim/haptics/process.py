@@ -19,11 +19,24 @@ import multiprocessing
 import pickle
 import time
 from multiprocessing.reduction import ForkingPickler
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from ..errors import SolverError
 from .coupling import DEFAULT_RATE, HISTORY, Coupler, Coupling, coupling_force, read_tool, serve, statistics
+
+if TYPE_CHECKING:
+    import ctypes
+    from multiprocessing.queues import SimpleQueue
+
+    from numpy.typing import ArrayLike
+
+    from ..solvers.base import Solver
+    from .coupling import HapticStatistics
+
+    #: What a device callable returns: its ``(position, apply_force)`` callbacks.
+    DeviceCallbacks = tuple[Callable[[], ArrayLike], Callable[[np.ndarray], object]]
 
 # The shared block: [sequence, held, grab, anchor (3), gain (9)] [sequence, report: force (3), tool (3), grab]
 # [ticks, late, stop] [tick start times (HISTORY)].
@@ -55,8 +68,8 @@ class HapticProcess(Coupler):
             per second [Hz]; tool: ``"pin-head"`` or ``"grasper"``, as :class:`~.loop.HapticLoop`'s.
     """
 
-    def __init__(self, solver, *, device, stiffness: float, radius: float | None = None,
-                 rate: float = DEFAULT_RATE, tool: str = "pin-head"):
+    def __init__(self, solver: Solver, *, device: Callable[[], DeviceCallbacks], stiffness: float,
+                 radius: float | None = None, rate: float = DEFAULT_RATE, tool: str = "pin-head"):
         if not callable(device):
             raise SolverError(f"device must be a picklable callable returning (position, apply_force), got "
                               f"{type(device).__name__}; pass a module-level function or class")
@@ -119,7 +132,7 @@ class HapticProcess(Coupler):
     def __exit__(self, *exc) -> None:
         self.stop()
 
-    def statistics(self):
+    def statistics(self) -> HapticStatistics:
         """:class:`~.coupling.HapticStatistics` of the ticks so far (needs at least 2)."""
         return statistics(self._shared[TIMES], self.ticks, int(self._shared[LATE]))
 
@@ -150,7 +163,7 @@ class HapticProcess(Coupler):
             raise SolverError(f"the haptic process stopped: {self._errors.get()}")
 
 
-def check_picklable(device) -> None:
+def check_picklable(device: object) -> None:
     """SolverError unless ``device`` can be sent to the servo process: it runs in its own process (``spawn``), which
     receives the device pickled, as ``multiprocessing`` pickles it."""
     try:
@@ -173,7 +186,8 @@ def read_consistent(shared: np.ndarray, sequence: int, part: slice) -> np.ndarra
             return value
 
 
-def serve_device(block, device, period: float, errors) -> None:
+def serve_device(block: ctypes.Array[ctypes.c_double], device: Callable[[], DeviceCallbacks], period: float,
+                 errors: SimpleQueue[str]) -> None:
     """The servo process: open ``device``, then tick every ``period`` [s] until the block's stop flag is set; an
     error is put on ``errors`` as one line. Each tick reports its force, the tool position it read and the grab its
     coupling belongs to (0: none held)."""

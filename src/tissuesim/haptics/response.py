@@ -11,10 +11,17 @@ there: exact at that load, good near it; :meth:`HapticLoop.sync <tissuesim.hapti
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..solvers.snapshot import Snapshot, leaves_no_trace
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..grasper import Grasper
+    from ..solvers.base import Solver
 
 #: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else
 #: the mean M_S edge length): a force that strains the patch by about 1e-3, small against the nonlinearity and
@@ -46,7 +53,8 @@ class LocalResponse:
     around: np.ndarray
 
 
-def local_response(solver, node: int, *, radius: float | None, around=(0.0, 0.0, 0.0)) -> LocalResponse:
+def local_response(solver: Solver, node: int, *, radius: float | None,
+                   around: ArrayLike = (0.0, 0.0, 0.0)) -> LocalResponse:
     """Measure :class:`LocalResponse` at ``node`` with contact ``radius`` [m] around force ``around`` ``(3,)`` [N].
 
     Four :meth:`Solver.solve_static` calls on ``solver``; its positions, velocities and load are put back afterwards,
@@ -66,7 +74,7 @@ def local_response(solver, node: int, *, radius: float | None, around=(0.0, 0.0,
     return LocalResponse(int(node), radius, base - compliance @ around, compliance, around)
 
 
-def tangent_step(solver, radius: float | None) -> float:
+def tangent_step(solver: Solver, radius: float | None) -> float:
     """The forward-difference step [N] of a finite-strain tangent: :data:`TANGENT_STEP` × E ℓ²."""
     if radius is None:
         surface = solver.hybrid.surface
@@ -75,7 +83,7 @@ def tangent_step(solver, radius: float | None) -> float:
     return TANGENT_STEP * solver.youngs_modulus * radius ** 2
 
 
-def grasper_response(grasper, node: int) -> LocalResponse:
+def grasper_response(grasper: Grasper, node: int) -> LocalResponse:
     """The jaws' translational response x_j(f) = x0 + C_g f where they are, as a :class:`LocalResponse` (``node``:
     the M_S vertex the jaws were put on; ``origin``: x0 [m], where the jaws hold the patch with no force;
     ``compliance``: C_g ``(3, 3)`` [m/N]; ``around``: the force f [N] at the jaws' position). f is the sum of the

@@ -5,6 +5,8 @@ servo's force f into the solver, and lets go. Chosen by name: :data:`TOOLS`."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import SolverError
@@ -14,6 +16,9 @@ from ..solvers.load_set import ToolLoad
 from ..solvers.snapshot import refusal_restores
 from .response import LocalResponse, grasper_response, local_response
 
+if TYPE_CHECKING:
+    from ..solvers.base import Solver
+
 
 class PinHeadTool:
     """The tip: f is the solver's load on the grabbed node, over the contact patch of ``radius`` [m] (None: the
@@ -21,7 +26,7 @@ class PinHeadTool:
 
     grasper = None
 
-    def __init__(self, solver, *, radius: float | None):
+    def __init__(self, solver: Solver, *, radius: float | None):
         self.solver, self.radius = solver, radius
         self._load = ToolLoad(solver)
 
@@ -49,7 +54,7 @@ class GrasperTool:
     the tissue, and the jaws go where the coupling puts them, x_j = x0 + C_g f (:func:`~.response.grasper_response`).
     The jaws are not turned: a device that reads a position renders a force, not a torque."""
 
-    def __init__(self, solver, *, radius: float | None):
+    def __init__(self, solver: Solver, *, radius: float | None):
         if radius is None:
             raise SolverError("a grasper's jaws need a reach: pass radius= [m] (they hold the surface vertices within "
                               "it of the grabbed node)")
@@ -85,7 +90,7 @@ class GrasperTool:
 TOOLS = {"pin-head": PinHeadTool, "grasper": GrasperTool}
 
 
-def make_tool(name: str, solver, *, radius: float | None):
+def make_tool(name: str, solver: Solver, *, radius: float | None) -> PinHeadTool | GrasperTool:
     """The tool called ``name`` (:data:`TOOLS`) on ``solver``, of ``radius`` [m]."""
     if name not in TOOLS:
         raise SolverError(f"unknown haptic tool {name!r}; choose one of {', '.join(map(repr, TOOLS))}")

@@ -7,11 +7,17 @@ command line), so a scene is checked whole (:func:`check_method`) before minutes
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import BoundaryConditionError, MaterialError, SolverError
 from ..mesh.regions import BOTTOM_FRACTION
 from .load import SceneError, SceneFile
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..solvers.base import Solver
 
 #: Solver options a scene sets in its own tables, and the table that sets each.
 SET_ELSEWHERE = {
@@ -75,7 +81,7 @@ def check_method(loaded: SceneFile) -> None:
             raise SceneError(f"{name}: gravity: {error}") from None
 
 
-def solver_options(loaded: SceneFile, hybrid) -> dict:
+def solver_options(loaded: SceneFile, hybrid: HybridMesh) -> dict:
     """Every keyword option of :func:`tissuesim.make_solver` the scene gives, on ``hybrid``'s surface: material,
     ``dt``, ``fixed`` (``(k,) int32`` M_S vertices; absent for the default bottom tenth, the solvers' own),
     ``gravity`` [m/s²], ``attachments`` and the method's own."""
@@ -115,7 +121,7 @@ def _attachment(loaded: SceneFile, index: int, spec, points: np.ndarray):
         raise SceneError(f"{loaded.path.name}: {key}: {error}") from None
 
 
-def make_scene_solver(loaded: SceneFile, hybrid):
+def make_scene_solver(loaded: SceneFile, hybrid: HybridMesh) -> Solver:
     """The solver of the scene's method over ``hybrid`` with every option of :func:`solver_options`; a refusal of
     the solver (e.g. supports that do not hold the body) is a SceneError naming the scene."""
     from ..solvers.registry import make_solver

@@ -8,6 +8,7 @@ import types
 import typing
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 from pydantic import BaseModel, ValidationError
 
@@ -50,7 +51,7 @@ class SceneFile:
         return named_path(name, self.path, key=key, confine=self.confine, error=SceneError, kind="scene")
 
 
-def read_scene(path, *, confine: bool = False) -> SceneFile:
+def read_scene(path: Path | str, *, confine: bool = False) -> SceneFile:
     """The scene in the TOML file ``path``, validated; SceneError for an unreadable file or any invalid key (all of
     them, one per line of the message), for a model file that does not exist, and, with ``confine``, for a file
     named in it that lies outside its folder."""
@@ -66,7 +67,8 @@ def read_text(path: Path, *, error: type, kind: str) -> str:
         raise error(f"cannot read the {kind} file {str(path)!r}: {reason}") from None
 
 
-def validated(text: str, path: Path, model: type[BaseModel], *, error: type, doc: str, line=None):
+def validated(text: str, path: Path, model: type[BaseModel], *, error: type, doc: str,
+              line: Callable[[dict], str] | None = None) -> BaseModel:
     """``model`` validated from the TOML ``text`` of the file ``path``; ``error`` for text that is no TOML (pointing
     to ``doc``, the format's page), nests too deep for the reader, or for every invalid key (:func:`describe`,
     each told by ``line``)."""
@@ -97,7 +99,7 @@ def named_path(name: str, file: Path, *, key: str, confine: bool, error: type, k
     return path
 
 
-def parse_scene(text: str, path, *, confine: bool = False) -> SceneFile:
+def parse_scene(text: str, path: Path | str, *, confine: bool = False) -> SceneFile:
     """The scene in the TOML ``text`` of the file ``path`` (which names its folder), validated as
     :func:`read_scene` does."""
     path = Path(path)
@@ -126,7 +128,7 @@ def _region_files(scene: Scene):
                 yield f"{key}.{kind}", getattr(region, kind)
 
 
-def describe(error: ValidationError, name: str, *, line=None) -> str:
+def describe(error: ValidationError, name: str, *, line: Callable[[dict], str] | None = None) -> str:
     """One message for every defect pydantic found in the file ``name``, each told by ``line`` (a pydantic error's
     dict → ``key: what is wrong; the fix``; default: a scene file's keys)."""
     line = _line if line is None else line

@@ -19,12 +19,22 @@ path leaves room:
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from ..errors import BoundaryConditionError, SolverError
 from .load import SceneError, SceneFile
+
+if TYPE_CHECKING:
+    from scipy.spatial.transform import Rotation
+
+    from ..grasper import Grasper
+    from ..interaction import PinHead
+    from ..probe import Probe
+    from ..scalpel import Scalpel
+    from ..solvers.base import Solver
+    from .schema import ToolSpec
 
 
 class ScriptedTool:
@@ -38,7 +48,7 @@ class ScriptedTool:
         pressed: whether it acts now.
     """
 
-    def __init__(self, spec, tool, *, name: str):
+    def __init__(self, spec: ToolSpec, tool: PinHead | Probe | Grasper | Scalpel, *, name: str):
         self.spec, self.tool, self.name, self.kind = spec, tool, name, spec.kind
         self.pressed = False
         self._times = np.array([key.time for key in spec.path], dtype=np.float64)
@@ -59,7 +69,7 @@ class ScriptedTool:
             return self._pressed[i], self._positions[i].copy()
         return self._pressed[i], (1.0 - w) * self._positions[i] + w * self._positions[i + 1]
 
-    def orientation(self, time: float):
+    def orientation(self, time: float) -> Rotation:
         """The orientation the path gives the tool at ``time`` [s] (a ``scipy.spatial.transform.Rotation``; the
         first keyframe's before it): the shortest turn between two keyframes' orientations, at constant speed."""
         i, w = self._segment(time)
@@ -215,7 +225,7 @@ def grasping(tools: list[ScriptedTool]) -> list:
             if tool.kind == "grasper" and tool.tool.holding]
 
 
-def make_tools(loaded: SceneFile, solver) -> list[ScriptedTool]:
+def make_tools(loaded: SceneFile, solver: Solver) -> list[ScriptedTool]:
     """The scene's tools on ``solver``, in the scene's order; SceneError where the library refuses one (a
     blade longer than the model, a method that cannot be cut) or where a kind is not in this version."""
     tools = []

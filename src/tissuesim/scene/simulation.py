@@ -9,12 +9,16 @@ from __future__ import annotations
 
 import time as clock
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
 from .build import make_scene_solver
 from .load import SceneFile
 from .script import make_tools
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 
 @dataclass
@@ -64,14 +68,14 @@ class Simulation:
             list. steps: the run's step count. dt: its time step [s].
     """
 
-    def __init__(self, loaded: SceneFile, hybrid):
+    def __init__(self, loaded: SceneFile, hybrid: HybridMesh):
         self.scene_file = loaded
         self.solver = make_scene_solver(loaded, hybrid)
         self.tools = make_tools(loaded, self.solver)
         self.steps, self.dt = loaded.scene.run.steps, loaded.scene.run.dt
         self._start_vertices = self.solver.node_count
 
-    def run(self, *, on_step=None, progress: bool = False) -> RunSummary:
+    def run(self, *, on_step: Callable[[float], object] | None = None, progress: bool = False) -> RunSummary:
         """Take every step; ``on_step(time)`` is called after each with the simulated time [s]; ``progress`` shows
         a tqdm bar on stderr."""
         from tqdm import tqdm

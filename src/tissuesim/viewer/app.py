@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -33,6 +34,9 @@ from .gl import look_at_oblique, polyscope
 from .look import SURFACE, TissueSurface  # noqa: F401  (SURFACE: the name scripts look the model up by)
 from .panel import PanelWidgets
 from .tool_layers import ToolLayers
+
+if TYPE_CHECKING:
+    from types import ModuleType
 
 VIEW_SIZE = (940, 780)  # pixels: the model's part of the window
 PANEL_WIDTH = 340  # pixels: the panel, beside the view
@@ -52,7 +56,8 @@ class ViewerApp(PanelWidgets):
     the benchmark, which call :meth:`tick`).
     """
 
-    def __init__(self, controller: Controller, *, title: str = "", record=None, headless: bool = False):
+    def __init__(self, controller: Controller, *, title: str = "", record: Path | str | None = None,
+                 headless: bool = False):
         self.controller = controller
         self.title = title
         self.recorder = None if record is None else Recorder(record)
@@ -352,7 +357,7 @@ class ViewerApp(PanelWidgets):
             self.controller.notice = str(error)
 
 
-def style_window(ps) -> None:
+def style_window(ps: ModuleType) -> None:
     """z up, no ground shadow (its pass costs more than the rest of a software-rendered frame), our panel only, beside
     the view."""
     ps.set_up_dir("z_up")
@@ -364,12 +369,12 @@ def style_window(ps) -> None:
     ps.set_right_gui_pane_width(PANEL_WIDTH)
 
 
-def quit_pressed(psim) -> bool:
+def quit_pressed(psim: ModuleType) -> bool:
     """Whether Q or Esc went down this frame (the window's quit keys)."""
     return psim.IsKeyPressed(psim.ImGuiKey_Q, False) or psim.IsKeyPressed(psim.ImGuiKey_Escape, False)
 
 
-def show_window(ps, frame, end) -> None:
+def show_window(ps: ModuleType, frame: Callable[[], None], end: Callable[[], object]) -> None:
     """Run polyscope's window with ``frame`` as its per-frame callback until it is closed; then ``end()``."""
     ps.set_user_callback(frame)
     try:
@@ -378,7 +383,7 @@ def show_window(ps, frame, end) -> None:
         end()
 
 
-def let_go(ps) -> None:
+def let_go(ps: ModuleType) -> None:
     """Drop polyscope's callback and every structure. The Python wrappers of removed structures must not outlive
     them (the callers drop theirs first): a new structure allocated at the same address would then come back as the
     stale wrapper's type."""

@@ -4,7 +4,9 @@ graspers, probe and scalpel all at once, or (refused) changes nothing."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import fields, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -12,6 +14,11 @@ from ..errors import SolverError, TissuesimError
 from ..interaction import PinHead
 from ..solvers.registry import make_solver, solver_class, solver_options
 from .settings import Settings, checked_settings
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..mesh.hybrid import HybridMesh
 
 # settings whose change needs a new solver (the others are set on the live objects)
 _REBUILD = ("method", "youngs_modulus", "poisson_ratio", "iterations", "prestrain", "near_field", "material",
@@ -24,7 +31,7 @@ _SETTINGS_OPTIONS = ("youngs_modulus", "poisson_ratio", "dt", "iterations", "pre
 class SolverBuilding:
     """The building half of :class:`~tissuesim.viewer.controller.Controller` (see there for the attributes)."""
 
-    def set_support(self, vertices) -> None:
+    def set_support(self, vertices: ArrayLike | None) -> None:
         """Fix ``vertices`` ``(k,)`` of the current mesh (None: back to the scene's or the model's bottom): a new
         solver over the same mesh, holding what was held. A region that cannot hold the body is refused, with
         nothing changed, and :attr:`notice` says why."""
@@ -33,7 +40,7 @@ class SolverBuilding:
             self.notice = ("support: the model's default" if vertices is None else
                            f"support: {self.support.size} painted vertices fixed")
 
-    def set_solver_option(self, name: str, value) -> None:
+    def set_solver_option(self, name: str, value: object) -> None:
         """Give every solver from now on the option ``name`` = ``value`` (None: drop it), e.g. ``gravity`` or
         ``attachments``: a new solver over the same mesh, holding what was held. A refused option (a bad value, or
         the method has none such) changes nothing, and :attr:`notice` says why."""
@@ -56,7 +63,7 @@ class SolverBuilding:
             return False
         return True
 
-    def add_ligament(self, vertices, *, stiffness: float) -> None:
+    def add_ligament(self, vertices: ArrayLike, *, stiffness: float) -> None:
         """Hold ``vertices`` ``(k,)`` of the current mesh by a ligament of total ``stiffness`` [N/m] to their rest
         positions (:class:`~tissuesim.solvers.attachments.Attachment`), beside the ligaments there are."""
         from ..solvers.attachments import Attachment
@@ -68,7 +75,7 @@ class SolverBuilding:
             return
         self.set_solver_option("attachments", (*self.solver_options.get("attachments", ()), ligament))
 
-    def configure(self, **changes) -> None:
+    def configure(self, **changes: object) -> None:
         """Change settings live (the :class:`Settings` fields); a bad value leaves everything as it was."""
         names = [field.name for field in fields(Settings)]
         unknown = [name for name in changes if name not in names]
@@ -119,7 +126,7 @@ class SolverBuilding:
         """Whether the current method takes the ``material`` setting."""
         return self.settings.material in solver_class(self.settings.method).materials
 
-    def near_field_available(self, hybrid=None) -> bool:
+    def near_field_available(self, hybrid: HybridMesh | None = None) -> bool:
         """Whether the method takes a near field on ``hybrid`` (default: the current mesh): uncut, with its fine
         volume, and M_V's linear elements (the quadratic M_V replaces it)."""
         mesh = self.solver.hybrid if hybrid is None else hybrid
@@ -182,7 +189,7 @@ class SolverBuilding:
         except TissuesimError as error:  # e.g. a method that cannot be cut
             return None, f"no scalpel with the {solver.name} method: {error}"
 
-def extra_options(options) -> dict:
+def extra_options(options: Mapping[str, object] | None) -> dict:
     """``options`` for :class:`Controller`'s ``solver_options`` as a dict, or SolverError for one that the
     settings hold."""
     options = dict(options or {})

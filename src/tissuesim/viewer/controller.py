@@ -41,7 +41,9 @@ where they were.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Callable
 
 import numpy as np
 
@@ -52,6 +54,14 @@ from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
 from .rays import camera_plane_point, unit_ray
 from .tools import BRUSH_EDGES, GRASP_EDGES, GrasperTool, HeldPins, ProbeTool, SupportBrush
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..mesh.hybrid import HybridMesh
+    from ..scalpel import Scalpel
+    from ..solvers.base import Solver
+    from .playback import ScenePlayback
 
 MAX_STEPS_PER_FRAME = 25  # a frame never runs more steps than this (0.25 s of simulated time at 10 ms) ...
 STEP_BUDGET = 0.1  # s ... nor steps for longer than this, so the window stays responsive
@@ -80,7 +90,7 @@ class FrameStats:
     dropped: float
 
 
-def scalpel_class():
+def scalpel_class() -> type[Scalpel] | None:
     """The Scalpel class, or None where this installation has none (scalpel mode is then unavailable)."""
     try:
         from ..scalpel import Scalpel
@@ -116,8 +126,11 @@ class Controller(SolverBuilding):
         the ``fixed`` of ``solver_options``, else the model's bottom).
     """
 
-    def __init__(self, hybrid, *, settings: Settings = Settings(), solver_options=None, scalpel_factory=None,
-                 clock=time.perf_counter, playback=None, mode: str = "pin"):
+    def __init__(self, hybrid: HybridMesh, *, settings: Settings = Settings(),
+                 solver_options: Mapping[str, object] | None = None,
+                 scalpel_factory: Callable[[Solver], Scalpel] | None = None,
+                 clock: Callable[[], float] = time.perf_counter, playback: ScenePlayback | None = None,
+                 mode: str = "pin"):
         if mode not in MODES:
             raise SolverError(f"unknown mode {mode!r}; choose one of {', '.join(MODES)}")
         self.hybrid = hybrid
@@ -161,7 +174,7 @@ class Controller(SolverBuilding):
         return float(np.linalg.norm(self.force))
 
     # ----------------------------------------------------------------------------------------------- pointer
-    def pointer_down(self, hit, ray_origin, ray_direction) -> None:
+    def pointer_down(self, hit: ArrayLike | None, ray_origin: ArrayLike, ray_direction: ArrayLike) -> None:
         """Button down: ``hit`` ``(3,)`` picked surface point [m] or None; the camera ray through the cursor.
 
         A bad event (a hit or ray that is not 3 finite numbers) changes nothing and says why in :attr:`notice`."""
@@ -190,7 +203,7 @@ class Controller(SolverBuilding):
         if took_over and not self.notice:
             self.notice = "you took over from the scene's script (R plays it again from the start)"
 
-    def pointer_move(self, hit, ray_origin, ray_direction) -> None:
+    def pointer_move(self, hit: ArrayLike | None, ray_origin: ArrayLike, ray_direction: ArrayLike) -> None:
         """Cursor moved: drag the grasper's jaws or the held pin-head in the camera plane, or move the blade.
 
         A drag the pin-head refuses (a bad ray, a force too large to hold) keeps the hold and the last force and

@@ -17,7 +17,9 @@ through itself); the camera looks down at 35° from the front-left, the same for
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +29,11 @@ from ..recording import border_edges
 from ..solvers.registry import solver_class
 from .gl import look_at_oblique, polyscope
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..mesh.hybrid import HybridMesh
+
 FIGURE_FORCE = 5.0  # N
 # N, beside the incision's middle: the wound experiment's 0.1 N opens the liver by 0.7 mm, invisible at figure scale
 OPENING_FORCE = 0.3
@@ -35,8 +42,11 @@ WALL_COLOR = (0.32, 0.06, 0.07)  # the wound's walls: dark red, darker than any 
 COLORMAP = "viridis"  # the same name in polyscope and matplotlib
 
 
-def render_panels(rest, triangles, frames, *, markers=(), edges=None, vmax=None, focus=None,
-                  elevation: float = 35.0, walls=None) -> tuple[list[np.ndarray], float]:
+def render_panels(rest: np.ndarray, triangles: np.ndarray | list[np.ndarray], frames: Sequence[np.ndarray], *,
+                  markers: Sequence[int | None] = (), edges: Sequence[np.ndarray | None] | None = None,
+                  vmax: float | None = None, focus: np.ndarray | None = None, elevation: float = 35.0,
+                  walls: Sequence[tuple[np.ndarray, np.ndarray] | None] | None = None
+                  ) -> tuple[list[np.ndarray], float]:
     """Offscreen renders of the surface in each of ``frames``; returns (RGB images, colour-bar top [mm]).
 
     Args:
@@ -93,7 +103,8 @@ def _crop(images, margin: int = 12) -> list[np.ndarray]:
     return [image[r0:r1, c0:c1] for image in images]
 
 
-def compose(images, captions, title: str, vmax: float, path) -> Path:
+def compose(images: Sequence[np.ndarray], captions: Sequence[str], title: str, vmax: float,
+            path: Path | str) -> Path:
     """Panels side by side with ``captions``, a ``title`` and a colour bar |u| [mm] from 0 to ``vmax``."""
     import matplotlib
 
@@ -119,8 +130,9 @@ def compose(images, captions, title: str, vmax: float, path) -> Path:
     return path
 
 
-def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = FIGURE_FORCE,
-                       radius: float | None = None, fixed=None) -> Path:
+def deformation_figure(hybrid: HybridMesh, name: str, path: Path | str, *, method: str = "hybrid",
+                       force: float = FIGURE_FORCE, radius: float | None = None,
+                       fixed: ArrayLike | None = None) -> Path:
     """Fig 11 for one model: at rest, under tension, under pressure (quasi-static, ``force`` [N] on the load node,
     or spread over a contact patch of ``radius`` [m] around it), held at ``fixed`` (the solvers' option; None: the
     bottom)."""
@@ -141,9 +153,9 @@ def deformation_figure(hybrid, name: str, path, *, method: str = "hybrid", force
     return compose(images, captions, title, vmax, path)
 
 
-def incision_figure(hybrid, name: str, path, *, method: str = "hybrid", force: float = OPENING_FORCE,
-                    fixed=None, length: float | None = None, depth: float | None = None,
-                    offset: float | None = None) -> Path:
+def incision_figure(hybrid: HybridMesh, name: str, path: Path | str, *, method: str = "hybrid",
+                    force: float = OPENING_FORCE, fixed: ArrayLike | None = None, length: float | None = None,
+                    depth: float | None = None, offset: float | None = None) -> Path:
     """Fig 16 for one model: the scripted incision (:mod:`tissuesim.experiments.wound`), closed, then pulled open by
     ``force`` [N] beside its middle; the camera frames the wound. ``fixed``: the solvers' option (None: the bottom);
     the incision's ``length`` and ``depth`` [m] and the pull's ``offset`` [m] beside it (None: the experiment's)."""

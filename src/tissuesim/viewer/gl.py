@@ -11,8 +11,14 @@ from __future__ import annotations
 import contextlib
 import os
 import sys
+from typing import TYPE_CHECKING
 
 from ..errors import TissuesimError
+
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    from numpy.typing import ArrayLike
 
 HEADLESS_BACKEND = "openGL3_egl"
 WINDOW_BACKEND = "openGL3_glfw"
@@ -29,7 +35,7 @@ class NoOpenGLError(TissuesimError, RuntimeError):
     """Polyscope or an OpenGL driver is missing, so nothing can be drawn."""
 
 
-def polyscope(*, headless: bool):
+def polyscope(*, headless: bool) -> ModuleType:
     """The initialised ``polyscope`` module: an offscreen EGL context with ``headless``, else a window.
 
     Polyscope has one context per process: the first call decides, and a later call asking for the other kind
@@ -96,8 +102,8 @@ def _quiet_stdout():
         os.close(saved)
 
 
-def look_at_oblique(ps, points, *, elevation: float = 35.0, azimuth: float = -60.0, distance: float = 2.2,
-                    pane: int = 0) -> None:
+def look_at_oblique(ps: ModuleType, points: ArrayLike, *, elevation: float = 35.0, azimuth: float = -60.0,
+                    distance: float = 2.2, pane: int = 0) -> None:
     """Point polyscope's camera at the bounding box of ``points`` ``(p, 3)`` [m] from ``elevation`` degrees above
     and ``azimuth`` degrees around z (front-left), ``distance`` box half-diagonals away, so all of it is framed.
 

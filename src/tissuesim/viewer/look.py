@@ -10,7 +10,12 @@ and each frame only gathers the positions (:class:`TissueSurface`).
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from types import ModuleType
 
 #: The drawn surface's name; not "M_S": polyscope keeps a structure's options (material, back faces) by name, and
 #: the figures draw their own "M_S".
@@ -32,7 +37,8 @@ COLOUR_NAME = "|u| [mm]"
 LEGEND_AT = (20.0, 20.0)
 
 
-def crease_split(vertices: np.ndarray, triangles: np.ndarray, *, degrees: float = CREASE_DEGREES):
+def crease_split(vertices: np.ndarray, triangles: np.ndarray, *,
+                 degrees: float = CREASE_DEGREES) -> tuple[np.ndarray, np.ndarray]:
     """Split normals along the creases of a triangle surface.
 
     Args:
@@ -81,17 +87,17 @@ class TissueSurface:
         rest: ``(n, 3) float64`` rest positions [m] (where the creases are found).
     """
 
-    def __init__(self, ps, positions, triangles, rest):
+    def __init__(self, ps: ModuleType, positions: np.ndarray, triangles: np.ndarray, rest: np.ndarray):
         self.source, faces = crease_split(rest, triangles)
         self.mesh = ps.register_surface_mesh(SURFACE, np.asarray(positions)[self.source], faces, smooth_shade=True,
                                              color=TISSUE_COLOR, material=TISSUE_MATERIAL, back_face_policy="different")
         self.colours = False
 
-    def update(self, positions) -> None:
+    def update(self, positions: np.ndarray) -> None:
         """Move the drawn vertices to ``positions`` ``(n, 3)`` [m]."""
         self.mesh.update_vertex_positions(np.asarray(positions)[self.source])
 
-    def colour(self, millimetres, top: float) -> None:
+    def colour(self, millimetres: np.ndarray | None, top: float) -> None:
         """Show ``millimetres`` ``(n,) float64`` (|u| [mm]) in the colour map from 0 to ``top`` [mm], with its
         legend on screen; None: back to tissue."""
         if millimetres is None:

@@ -13,6 +13,8 @@ would rebuild it on every pixel of a drag waits until the slider is let go.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import TissuesimError
@@ -20,6 +22,10 @@ from ..fem.hyperelastic import MATERIALS
 from ..solvers.near_field import NEAR_FIELD_WINDOW
 from ..solvers.registry import available_solvers, solver_class, solver_options
 from .controller import MODES
+
+if TYPE_CHECKING:
+    from ..solvers.base import Solver
+    from .controller import Controller
 
 MODE_LABELS = {"grasper": "grasper", "pin": "pin-head (paper)", "probe": "probe", "scalpel": "scalpel",
                "support": "support"}
@@ -37,7 +43,7 @@ MOUSE_HINTS = {"grasper": "drag on the tissue: carry it; Shift + release: hold",
                "support": "drag on the tissue: paint (fixed blue, ligament green)"}
 
 
-def held_line(c) -> str:
+def held_line(c: Controller) -> str:
     """What the controller ``c`` has left holding, with the pull of each kind [N], or "" for nothing."""
     graspers = len(c.grasper.held)
     pins = len(c.held)
@@ -53,7 +59,7 @@ def held_line(c) -> str:
     return "holding " + " + ".join(parts) if parts else ""
 
 
-def iterations_act(solver) -> bool:
+def iterations_act(solver: Solver) -> bool:
     """Whether ``solver``'s step depends on its PBD iterations: the paper's pbd form, or the layer's xpbd
     integrator. The default step of the hybrid and pbd methods (xpbd form, implicit integrator) solves the layer's
     linear system, and the other methods have no iterations."""

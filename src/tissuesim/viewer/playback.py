@@ -10,7 +10,13 @@ made anew on it and go on from the time reached.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..scene.load import SceneFile
+    from ..solvers.base import Solver
 
 
 class ScenePlayback:
@@ -25,7 +31,7 @@ class ScenePlayback:
         tools: the :class:`~tissuesim.scene.script.ScriptedTool` list on the solver they were made for.
     """
 
-    def __init__(self, loaded):
+    def __init__(self, loaded: SceneFile):
         self.loaded = loaded
         keys = [key.time for tool in loaded.scene.tools for key in tool.path]
         self.end = float(max(keys)) if keys else 0.0
@@ -35,7 +41,7 @@ class ScenePlayback:
         self.tools = []
         self._solver = None
 
-    def before_step(self, solver, dt: float) -> None:
+    def before_step(self, solver: Solver, dt: float) -> None:
         """Put the tools where the script has them now on ``solver`` (made anew on a new solver), then count
         ``dt`` [s] of script time."""
         if not self.playing:

@@ -2,13 +2,18 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import SolverError
 from ..solvers.checks import checked_point
 
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
 
-def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
+
+def camera_plane_point(origin: ArrayLike, direction: ArrayLike, anchor: ArrayLike) -> np.ndarray | None:
     """``(3,)`` point [m] where the ray ``origin + t direction`` meets the plane through ``anchor`` facing it.
 
     The plane's normal is the ray direction, so moving the cursor moves the point parallel to the screen. Returns
@@ -20,7 +25,7 @@ def camera_plane_point(origin, direction, anchor) -> np.ndarray | None:
     return None if t <= 0.0 else origin + t * direction
 
 
-def unit_ray(direction) -> np.ndarray:
+def unit_ray(direction: ArrayLike) -> np.ndarray:
     """``direction`` ``(3,)`` of a camera ray as a unit vector, or SolverError (a window that hands over a zero or
     NaN ray would otherwise put NaN into a drag or a blade)."""
     try:

@@ -5,6 +5,9 @@ map."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..cutting.walls import wound_walls
@@ -16,13 +19,16 @@ from .gl import look_at_oblique, polyscope
 from .look import TissueSurface
 from .tool_layers import ToolLayers
 
+if TYPE_CHECKING:
+    from ..recording import Frame
+
 
 class ReplayApp:
     """Plays the frames of a recording (:func:`tissuesim.recording.read_recording`) with a slider and play button:
     the tissue as the simulator draws it, the cut's edges in :data:`CUT_COLOR`, and the |u| colour map (with its
     legend) as a switch."""
 
-    def __init__(self, frames, *, title: str = "", headless: bool = False):
+    def __init__(self, frames: Sequence[Frame], *, title: str = "", headless: bool = False):
         if not frames:
             raise TissuesimError("the recording holds no frame")
         self.frames, self.title = frames, title

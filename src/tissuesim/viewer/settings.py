@@ -121,7 +121,7 @@ class SizedDefaults:
     line: str
 
 
-def sized_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
+def sized_defaults(points: np.ndarray, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
                    poisson_ratio: float = 0.3) -> SizedDefaults:
     """Tool defaults sized to a model with rest points ``points`` ``(n, 3) float64`` [m], mean edge length
     ``edge_length`` [m] (the tip covers a few edges; 0: no floor) and the material's E [Pa] and ν: the same

@@ -9,7 +9,14 @@ The structures are registered anew when the number of tools changes, else only m
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from types import ModuleType
+
+    from numpy.typing import ArrayLike
 
 PIN_COLOR = (0.85, 0.1, 0.1)
 PROBE_COLOR = (0.7, 0.72, 0.78)
@@ -30,12 +37,12 @@ class ToolLayers:
         ps: the polyscope module. prefix: the structures' name prefix (e.g. "scene", "recorded").
     """
 
-    def __init__(self, ps, prefix: str):
+    def __init__(self, ps: ModuleType, prefix: str):
         self.ps, self.prefix = ps, prefix
         self._pins = self._springs = self._jaws = None
         self._probes: list = []
 
-    def update(self, pin_heads: np.ndarray, probes: np.ndarray, graspers=()) -> None:
+    def update(self, pin_heads: np.ndarray, probes: np.ndarray, graspers: ArrayLike = ()) -> None:
         """Draw ``pin_heads`` ``(k, 2, 3)`` [m] (held vertex, cursor), ``probes`` ``(p, 4)`` [m] (centre, radius)
         and ``graspers`` ``(g, 4)`` [m] (the jaws' position, their reach)."""
         pin_heads = np.asarray(pin_heads, dtype=np.float64).reshape(-1, 2, 3)

@@ -20,6 +20,8 @@ the brush that paints the fixed region. All are headless, driven by :class:`~tis
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import SolverError
@@ -29,6 +31,12 @@ from ..probe import Probe
 from ..solvers.finite_strain import slow_static_solve
 from ..solvers.checks import checked_point, positive_number
 from .rays import camera_plane_point, unit_ray
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..mesh.surface import SurfaceMesh
+    from ..solvers.base import Solver
 
 #: The support brush's default radius, in mean rest edge lengths of M_S.
 BRUSH_EDGES = 2.0
@@ -64,7 +72,7 @@ class HeldPins:
         """``(h,) int64`` the held M_S vertices."""
         return np.array([pin.node for pin in self.pins], dtype=np.int64)
 
-    def hold(self, pin: PinHead, cursor) -> None:
+    def hold(self, pin: PinHead, cursor: ArrayLike) -> None:
         """Keep ``pin`` (grabbed, its load acting) clamped at ``cursor`` ``(3,)`` [m]."""
         if not pin.grabbed:
             raise SolverError("only a pin-head that holds a node can be left holding; grab first")
@@ -81,7 +89,7 @@ class HeldPins:
         """Drop the held pin-heads without touching their solver (it was replaced or reset)."""
         self.pins, self._cursors = [], []
 
-    def moved_to(self, solver, *, stiffness: float, radius: float | None) -> list[PinHead]:
+    def moved_to(self, solver: Solver, *, stiffness: float, radius: float | None) -> list[PinHead]:
         """The held pin-heads rebuilt on ``solver`` (a new solver over the same vertices), each holding its node
         and its load; the live list is untouched, so a refusal here changes nothing (:meth:`adopt` swaps)."""
         moved = []
@@ -116,7 +124,7 @@ class SupportBrush:
             :attr:`ligament_stiffness` [N/m] to the painted vertices' rest positions).
     """
 
-    def __init__(self, surface, *, radius: float | None = None):
+    def __init__(self, surface: SurfaceMesh, *, radius: float | None = None):
         if radius is None:
             edges = surface.vertices[surface.edges]
             radius = BRUSH_EDGES * float(np.linalg.norm(edges[:, 0] - edges[:, 1], axis=1).mean())
@@ -129,7 +137,7 @@ class SupportBrush:
     def painting(self) -> bool:
         return self.painted.size > 0
 
-    def paint(self, point, positions: np.ndarray) -> None:
+    def paint(self, point: ArrayLike, positions: np.ndarray) -> None:
         """Add the vertices within the brush radius of ``point`` ``(3,)`` [m], at ``positions`` ``(n, 3)`` [m]
         (the current ones)."""
         distance = np.linalg.norm(positions - checked_point(point), axis=1)
@@ -171,7 +179,7 @@ class ProbeTool:
         """``(3,) float64`` the contact force on the probe [N] (zero when it does not press)."""
         return np.zeros(3) if self.probe is None else self.probe.force
 
-    def press(self, solver, hit, ray_direction) -> None:
+    def press(self, solver: Solver, hit: ArrayLike, ray_direction: ArrayLike) -> None:
         """Put the probe on ``solver``'s surface at ``hit`` ``(3,)`` [m], pressed :attr:`depth` into it along the
         camera ray; refused (SolverError, nothing pressed) where the probe is smaller than the triangles there or
         reaches the support."""
@@ -189,7 +197,7 @@ class ProbeTool:
         elif not self.held:
             self.release()
 
-    def drag(self, ray_origin, ray_direction) -> None:
+    def drag(self, ray_origin: ArrayLike, ray_direction: ArrayLike) -> None:
         """Slide the probe to where the camera ray meets the plane through its centre facing the camera."""
         if self.probe is None:
             return
@@ -220,7 +228,7 @@ class ProbeTool:
             self.probe.release()
         self.probe, self.held = None, False
 
-    def moved_to(self, solver) -> Probe | None:
+    def moved_to(self, solver: Solver) -> Probe | None:
         """The pressing probe rebuilt on ``solver`` (a new solver over the same vertices), at the same place; the
         live one is untouched (:meth:`adopt` swaps)."""
         if self.probe is None:
@@ -271,7 +279,7 @@ class GrasperTool:
         record)."""
         return [(self._aims.get(grasper, grasper.position), grasper.radius) for grasper in self.graspers]
 
-    def grab(self, solver, hit) -> None:
+    def grab(self, solver: Solver, hit: ArrayLike) -> None:
         """Take hold of ``solver``'s surface within :attr:`radius` of ``hit`` ``(3,)`` [m]; refused (SolverError,
         nothing held, nothing changed) where no vertex is in reach, or the patch has a fixed vertex or one that
         other jaws hold."""
@@ -281,7 +289,7 @@ class GrasperTool:
             self._drop(self.grasper)
         self.grasper = grasper
 
-    def drag(self, ray_origin, ray_direction) -> None:
+    def drag(self, ray_origin: ArrayLike, ray_direction: ArrayLike) -> None:
         """Aim the dragged jaws where the camera ray meets the plane through them facing the camera; the next step
         carries the patch there."""
         if self.grasper is None:
@@ -317,7 +325,7 @@ class GrasperTool:
             self._drop(grasper)
         self.grasper, self.held = None, []
 
-    def moved_to(self, solver) -> tuple[list[Grasper], Grasper | None]:
+    def moved_to(self, solver: Solver) -> tuple[list[Grasper], Grasper | None]:
         """``(held, dragged)``: every grasper rebuilt on ``solver`` (a new solver over the same vertices, at rest),
         holding its patch and carrying it a frame's worth toward its jaws (the steps go on); the live ones are
         untouched, so a refusal here changes nothing (:meth:`adopt` swaps). Every patch is taken at rest before
