@@ -16,6 +16,11 @@ import atexit
 import contextlib
 import sys
 import time
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    from numba.core.event import Event
 
 #: What the first compilation is said to cost: the first build measured 22 s on 2 cores.
 COMPILE_ESTIMATE = "about 20 s"
@@ -30,11 +35,11 @@ class CompileNotice:
     calls, count once); says on ``stream`` (None: stderr as it is when it speaks) when the first starts, how far it
     has got every ``progress`` seconds (None: never) and (:meth:`finish`) how many were compiled in how long."""
 
-    def __init__(self, name: str, stream, *, progress: float | None = None):
+    def __init__(self, name: str, stream: TextIO | None, *, progress: float | None = None):
         self.name, self.stream, self.progress = name, stream, progress
         self.compiled, self.depth, self.started, self.seconds, self.said = 0, 0, 0.0, 0.0, 0.0
 
-    def on_start(self, event) -> None:
+    def on_start(self, event: Event) -> None:
         if self.depth == 0:
             if self.compiled == 0:
                 self.say(f"compiling the numerical kernels, first run only ({COMPILE_ESTIMATE}; cached for later "
@@ -42,7 +47,7 @@ class CompileNotice:
             self.started = time.perf_counter()
         self.depth += 1
 
-    def on_end(self, event) -> None:
+    def on_end(self, event: Event) -> None:
         self.depth -= 1
         if self.depth == 0:
             self.compiled += 1
@@ -86,7 +91,7 @@ def _listener(on_start, on_end):
 
 
 @contextlib.contextmanager
-def announce_compilation(name: str, stream=None):
+def announce_compilation(name: str, stream: TextIO | None = None) -> Iterator[CompileNotice]:
     """Within the block, Numba's compilations are announced on ``stream`` (default stderr) by a
     :class:`CompileNotice` named ``name``."""
     from numba.core import event

@@ -4,8 +4,11 @@ Every message names the defect, where it is (counts, first indices) and what to 
 it as one line and exit non-zero.
 """
 
+from __future__ import annotations
+
 import sys
 import warnings
+from collections.abc import Iterable
 from pathlib import Path
 
 _PACKAGE = str(Path(__file__).resolve().parent)
@@ -57,7 +60,7 @@ def _inside(filename: str) -> bool:
     return filename == "<string>" or str(Path(filename).resolve()).startswith(_PACKAGE)
 
 
-def first_indices(indices, limit: int = 5) -> str:
+def first_indices(indices: Iterable[int], limit: int = 5) -> str:
     """Format the first few indices of a defect for an error message, e.g. ``"3, 17, 42 (and 9 more)"``."""
     indices = [int(i) for i in indices]
     shown = ", ".join(str(i) for i in indices[:limit])

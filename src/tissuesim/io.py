@@ -29,6 +29,7 @@ import os
 import re
 import stat
 import tempfile
+from collections.abc import Iterator
 from contextlib import contextmanager, redirect_stderr, redirect_stdout
 from io import StringIO
 from pathlib import Path
@@ -50,7 +51,7 @@ SURFACE_EXTENSIONS = (".obj", *_MESHIO_FORMATS)
 _VOLUME_CELLS = ("tetra", "hexahedron", "wedge", "pyramid", "tetra10", "hexahedron20", "hexahedron27", "wedge15")
 
 
-def check_scale(scale) -> float:
+def check_scale(scale: object) -> float:
     """``scale`` (factor from a file's unit to metres) as a float, or a MeshError unless positive and finite."""
     if isinstance(scale, bool) or not (isinstance(scale, (int, float)) and math.isfinite(scale) and scale > 0):
         raise MeshError(f"scale must be a positive finite number (0.01 for a file in cm), got {scale!r}")
@@ -91,7 +92,7 @@ def warn_model_size(vertices: np.ndarray, *, scale: float, source: str) -> None:
         warn(message)
 
 
-def read_surface(path, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
+def read_surface(path: Path | str, *, scale: float = 1.0, repair: bool = False) -> SurfaceMesh:
     """Read a closed triangle surface from ``path`` (OBJ, STL, PLY, OFF, VTK, VTU) and validate it.
 
     Args:
@@ -159,7 +160,7 @@ def process_running(pid: int) -> bool:
 _PARTIAL = re.compile(r"^\..+\.(?P<pid>\d+)\.[a-z0-9_]{8}\.partial(\.[^.]*)?$")
 
 
-def remove_abandoned_partials(folder) -> None:
+def remove_abandoned_partials(folder: Path | str) -> None:
     """Remove the temporary files :func:`replaced_atomically` left in ``folder`` when its process was killed."""
     for path in Path(folder).glob(".*.partial*"):
         match = _PARTIAL.match(path.name)
@@ -168,7 +169,7 @@ def remove_abandoned_partials(folder) -> None:
 
 
 @contextmanager
-def replaced_atomically(path):
+def replaced_atomically(path: Path | str) -> Iterator[Path]:
     """Yield a temporary path beside ``path`` (same suffix) to write the whole file to; on success it replaces
     ``path`` in one rename, so a reader never sees half a file; on any error or interruption it is removed and
     ``path`` is left as it was. A symbolic link is written through (its target is replaced, the link kept); an
@@ -238,7 +239,7 @@ def surface_from_polygons(vertices: np.ndarray, polygons: list[np.ndarray], *, s
     return SurfaceMesh(vertices[used], remap[triangles].astype(np.int32))
 
 
-def write_surface(path, surface: SurfaceMesh) -> None:
+def write_surface(path: Path | str, surface: SurfaceMesh) -> None:
     """Write ``surface`` to ``path``; the extension picks the format (OBJ, STL, PLY, OFF, VTK, VTU).
 
     Coordinates are written as they are (metres); OBJ, PLY, VTK and VTU keep float64 bit for bit, OFF keeps what
@@ -265,7 +266,7 @@ def write_surface(path, surface: SurfaceMesh) -> None:
 # -----------------------------------------------------------------------------------------------------------------
 
 
-def read_polygons(path) -> tuple[np.ndarray, list[np.ndarray]]:
+def read_polygons(path: Path | str) -> tuple[np.ndarray, list[np.ndarray]]:
     """The file's raw content, unmerged, unscaled and unvalidated, for diagnosing a file ``read_surface`` refuses.
 
     Returns ``(vertices, blocks)``: ``(n, 3) float64`` positions in the file's unit, and a list of ``(k, c) int64``

@@ -69,7 +69,7 @@ def contact_patch(rest_positions: np.ndarray, triangles: np.ndarray, node: int,
     return nodes, weights / total
 
 
-def contact_radius(radius) -> float:
+def contact_radius(radius: object) -> float:
     """``radius`` as a float [m], or a :class:`SolverError` unless a positive finite number (:func:`real_number`)."""
     value = real_number(radius)
     if value is None:
@@ -82,7 +82,7 @@ def contact_radius(radius) -> float:
     return value
 
 
-def real_number(value) -> float | None:
+def real_number(value: object) -> float | None:
     """``value`` as a float, or None unless a real number: text is none (the API takes numbers, as scene files do: a
     string "5" would silently be 5 m), nor is a bool (True would mean 1), a complex, or an array of more than one
     element. Any object with ``__float__`` is taken (``Fraction``, ``Decimal``), and NumPy's 0-d integers and floats.
@@ -101,7 +101,7 @@ def real_number(value) -> float | None:
         return None
 
 
-def number_fix(value, example: str = "0.01") -> str:
+def number_fix(value: object, example: str = "0.01") -> str:
     """What to do about ``value``, which :func:`real_number` refused: pass the number itself (the one a string
     spells, if it spells one), e.g. ``example``."""
     if isinstance(value, (str, bytes, bytearray)):

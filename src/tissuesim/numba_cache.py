@@ -23,6 +23,13 @@ import importlib.abc
 import importlib.util
 import os
 import sys
+from collections.abc import Callable, Iterator
+from types import ModuleType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike
 
 try:
     import fcntl
@@ -35,7 +42,7 @@ _MODULE = "numba.core.caching"
 
 
 @contextlib.contextmanager
-def cache_lock(folder: str, *, exclusive: bool):
+def cache_lock(folder: str | None, *, exclusive: bool) -> Iterator[None]:
     """Hold the lock of the cache ``folder`` (exclusive or shared) for the ``with`` block; nothing when the lock
     file cannot be opened (no folder yet: nothing to load)."""
     try:
@@ -94,7 +101,7 @@ class _RunOnImport(importlib.abc.MetaPathFinder):
         return spec
 
 
-def after_numba_import(callback) -> None:
+def after_numba_import(callback: Callable[[ModuleType], object]) -> None:
     """Call ``callback(caching_module)`` now if Numba's caching module is loaded, else when it is (so that
     ``import tissuesim`` imports no Numba)."""
     if _MODULE in sys.modules:
@@ -112,7 +119,7 @@ def install() -> None:
         after_numba_import(_patch)
 
 
-def kernel_view(array):
+def kernel_view(array: ArrayLike) -> np.ndarray:
     """A read-only view of ``array`` (no copy): Numba compiles a kernel once per argument type, and a writable and a
     read-only array are two types, so a kernel fed the surface's frozen arrays on one call and a cut's working copies
     on the next compiled again mid-session. Passing every array through this at a kernel's boundary gives it one

@@ -27,8 +27,10 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
 import numpy as np
@@ -36,6 +38,9 @@ import numpy as np
 from .errors import first_indices
 from .recording_place import (RecordingError, check_target, fresh_folder, frames_folder, partial_stem,
                               remove_path, remove_stale_partials)
+
+if TYPE_CHECKING:
+    from .solvers.base import Solver
 
 FLUSH_EVERY = 50  # frames between rewrites of the .pvd index, so an interrupted recording stays readable
 MIN_MOTION = 1e-6  # m: a frame in which no vertex moved farther than this since the last frame written (and
@@ -100,14 +105,15 @@ def border_edges(triangles: np.ndarray) -> np.ndarray:
     return edges[counts == 1].astype(np.int32)
 
 
-def solver_frame(solver, time: float, *, tools: Tools | None = None) -> Frame:
+def solver_frame(solver: Solver, time: float, *, tools: Tools | None = None) -> Frame:
     """The :class:`Frame` of a solver's current state at simulation ``time`` [s], with the ``tools`` acting."""
     triangles = solver.hybrid.surface.triangles
     return Frame(float(time), solver.positions.copy(), triangles, solver.displacements, solver.forces.copy(),
                  border_edges(triangles), Tools() if tools is None else tools)
 
 
-def tools_of(pin_heads=(), probes=(), blade_depth: float = 0.0, graspers=()) -> Tools:
+def tools_of(pin_heads: Iterable[tuple[np.ndarray, np.ndarray]] = (), probes: Iterable[tuple[np.ndarray, float]] = (),
+             blade_depth: float = 0.0, graspers: Iterable[tuple[np.ndarray, float]] = ()) -> Tools:
     """:class:`Tools` from ``pin_heads`` ``[(vertex position (3,), cursor (3,))]`` [m], ``probes``
     ``[(centre (3,), radius)]`` [m], ``blade_depth`` [m] and ``graspers`` ``[(jaws' position (3,), reach)]`` [m]."""
     pins = np.array([np.concatenate([held, cursor]) for held, cursor in pin_heads], dtype=np.float64)
@@ -130,7 +136,7 @@ class Recorder:
     is kept (:meth:`tissuesim.viewer.app.ViewerApp.close`).
     """
 
-    def __init__(self, path, *, min_motion: float = MIN_MOTION):
+    def __init__(self, path: Path | str, *, min_motion: float = MIN_MOTION):
         self.path = check_target(path)
         self.folder = frames_folder(self.path)
         self.min_motion = _distance(min_motion)
@@ -254,7 +260,7 @@ def _write_index(path: Path, entries, prefix: str) -> None:
                     f'byte_order="LittleEndian">\n  <Collection>\n{rows}\n  </Collection>\n</VTKFile>\n')
 
 
-def read_recording(path, *, progress: bool = False) -> list[Frame]:
+def read_recording(path: Path | str, *, progress: bool = False) -> list[Frame]:
     """The frames of the recording ``path`` (a ``.pvd`` written by :class:`Recorder`), in time order, all in memory
     (checked before a viewer opens); ``progress`` shows a tqdm bar on stderr (a long recording takes seconds).
 

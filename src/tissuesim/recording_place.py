@@ -19,7 +19,7 @@ class RecordingError(TissuesimError, OSError):
     """A recording cannot be written or read where asked."""
 
 
-def check_target(path) -> Path:
+def check_target(path: Path | str) -> Path:
     """``path`` as a Path if a recording can be written there, else a :class:`RecordingError` saying why: checked
     before a session starts, so that nothing is simulated for a recording that could not be kept."""
     if not str(path):
@@ -77,7 +77,7 @@ def partial_stem(path: Path, pid: int | None = None) -> str:
     return f"{frames_folder(path).name}.partial-{os.getpid() if pid is None else pid}"
 
 
-def session_path(folder, *, stem: str = "tissuesim_session") -> Path:
+def session_path(folder: Path | str, *, stem: str = "tissuesim_session") -> Path:
     """A fresh recording name in ``folder``: ``<stem>_<YYYYmmdd-HHMMSS>.pvd`` of now, with ``-2``, ``-3`` ... where a
     recording of that name (its .pvd or its frames) already exists."""
     stamped = f"{stem}_{datetime.now():%Y%m%d-%H%M%S}"

@@ -13,6 +13,10 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ..mesh.surface import SurfaceMesh
 
 HELP = "build the hybrid mesh (M_S, M'_S, M_V, fine volume) from a surface file or model; print its Table-1 row"
 
@@ -34,7 +38,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="vertex count of a built-in model (default: its Table-1 size)")
 
 
-def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False, resolution: int | None = None):
+def load_mesh(name: str, *, scale: float = 1.0, repair: bool = False,
+              resolution: int | None = None) -> SurfaceMesh:
     """The surface named on the command line: a built-in model name (which wins over a file or folder of that name:
     write ``./cube`` for the file) scaled by ``scale`` like a file, or a surface file path."""
     from ..experiments.inputs import builtin_surface

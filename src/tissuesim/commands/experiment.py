@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
 
@@ -9,7 +10,7 @@ HELP = ("reproduce the paper's experiments (§8.3, Tables 1-5, Figs 12-15), or r
         "converged reference, into a results folder")
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     # Values are read as text and checked in run(), so a bad one is a one-line error (exit 1), not a usage dump.
     parser.add_argument("models", nargs="*", metavar="MODEL",
                         help="built-in model (cube, sphere, liver, steak), surface file or saved hybrid bundle; "
@@ -51,7 +52,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--quiet", "-q", action="store_true", help="no progress bar")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..errors import SolverError
     from ..experiments.output import check_output_folder, earlier_outputs, write_outputs
     from ..experiments.methods import protocol_methods

@@ -26,6 +26,7 @@ The fem reference cannot be cut (its volume would need re-tetrahedralizing); it 
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import sys
@@ -39,7 +40,7 @@ from .fixing import add_fix_argument
 HELP = "cut each model's top with the scalpel (Fig 16) on every surface method; surfaces, gaps, timings, checks"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("models", nargs="*", metavar="MODEL",
                         help="built-in model (cube, sphere, liver, steak), surface file or hybrid bundle; default: the "
                              "four models")
@@ -64,7 +65,7 @@ def add_arguments(parser) -> None:
                              "methods without a surface layer take none (default: 0)")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from ..errors import SolverError
     from ..experiments.output import (check_no_folder, check_output_folder, earlier_outputs, replacement_note,
                                       write_staged)

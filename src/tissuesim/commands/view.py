@@ -16,9 +16,14 @@ import sys
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..solvers.checks import ELEMENTS
 from .fixing import DEFAULT_FIX, add_fix_argument, check_fix, fixed_option
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..scene.load import SceneFile
 
 HELP = "open the interactive simulator: grasp and drag the tissue, cut with the scalpel (needs a display)"
 
@@ -58,7 +63,8 @@ def add_confine_argument(parser: argparse.ArgumentParser, kind: str) -> None:
                              f"as a service running others' {kind} files needs; default: any path is read")
 
 
-def load_hybrid(spec: str, *, resolution=None, scale: float = 1.0, repair: bool = False, progress: bool = True):
+def load_hybrid(spec: str, *, resolution: int | None = None, scale: float = 1.0, repair: bool = False,
+                progress: bool = True) -> tuple[HybridMesh, str]:
     """The hybrid mesh of a built-in model name or a surface file (built with the fine volume, so every method
     runs), or a saved bundle as it is (without a fine volume the fem method is refused, saying why); and its name."""
     from ..experiments.inputs import model_name
@@ -96,7 +102,7 @@ def announce_mesh(spec: str) -> None:
           file=sys.stderr)
 
 
-def scene_hybrid(loaded, *, progress: bool = True):
+def scene_hybrid(loaded: SceneFile, *, progress: bool = True) -> tuple[HybridMesh, str]:
     """The hybrid mesh of a scene's model (built as :func:`load_hybrid` builds a model named on the command line)
     and its name."""
     model = loaded.scene.model

@@ -4,6 +4,8 @@ Pure functions (no solver): :func:`cut_surface` returns a :class:`CutResult`; :f
 what is wrong with a cut surface (used by the tests, the fuzz test and ``tissuesim incise``).
 """
 
+from __future__ import annotations
+
 from .core import DEFAULT_SNAP, cut_surface
 from .invariants import check_cut_invariants
 from .result import CutResult

@@ -15,7 +15,10 @@ across a cut: the solver swaps ``solver.hybrid`` for the cut one.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..mesh.coincident import coincident_pairs
 from .core import plan_cut
@@ -105,7 +108,7 @@ class CutSurface:
     any triangle joining it to the first (a thin fold) is not cut in that move.
     """
 
-    def __init__(self, rest, positions, velocities, triangles):
+    def __init__(self, rest: ArrayLike, positions: ArrayLike, velocities: ArrayLike, triangles: ArrayLike):
         self.spare = Spare()
         self.rest = self.spare.adopt("rest", np.asarray(rest, dtype=np.float64))
         self.positions = self.spare.adopt("positions", np.asarray(positions, dtype=np.float64))
@@ -121,7 +124,8 @@ class CutSurface:
         self.positions = self.spare.adopt("positions", positions)
         self.velocities = self.spare.adopt("velocities", velocities)
 
-    def plan(self, sweep: Sweep, *, snap: float, closed=(), seeds=(), movable=None) -> CutPlan | None:
+    def plan(self, sweep: Sweep, *, snap: float, closed: ArrayLike = (), seeds: Iterable[int] = (),
+             movable: Callable[[np.ndarray], ArrayLike] | None = None) -> CutPlan | None:
         """The cut of ``sweep`` (see :func:`~tissuesim.cutting.core.plan_cut`) among the triangles found by a walk
         from the vertices ``seeds``; if that cuts nothing, among every triangle the sweep's box meets. ``movable``:
         ``f(vertices (k,) int64) -> (k,) bool``, the vertices that may be moved onto the cut (None: any inside the

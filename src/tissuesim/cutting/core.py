@@ -19,7 +19,10 @@ combination for every vertex of the result, in the numbering before the cut; old
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError
 from .fans import VertexFans, read_only
@@ -39,7 +42,8 @@ DEFAULT_SNAP = 0.25
 
 
 def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray, triangles: np.ndarray,
-                sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed=(), movable=None) -> CutResult | None:
+                sweep: Sweep, *, snap: float = DEFAULT_SNAP, closed: ArrayLike = (),
+                movable: Callable[[np.ndarray], ArrayLike] | None = None) -> CutResult | None:
     """Cut M_S along one sweep; None when the sweep crosses no triangle (nothing changes).
 
     Returns new arrays (O(n + m) copies, and one pass over the triangles to find the sweep's): for a cut every frame
@@ -85,8 +89,9 @@ def cut_surface(rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray,
     return plan.result(new_rest, new_pos, new_vel, out, sweep, moved_from=moved_from)
 
 
-def plan_cut(rest, positions, triangles, sweep, *, snap, closed, fans: VertexFans, near,
-             movable=None) -> CutPlan | None:
+def plan_cut(rest: np.ndarray, positions: np.ndarray, triangles: np.ndarray, sweep: Sweep, *, snap: float,
+             closed: ArrayLike, fans: VertexFans, near: np.ndarray,
+             movable: Callable[[np.ndarray], ArrayLike] | None = None) -> CutPlan | None:
     """The cut of ``sweep`` among the candidate rows ``near`` (arrays as :func:`cut_surface`'s; ``fans`` must
     cover every vertex of ``near`` and of ``closed``); None if nothing is cut.
 

@@ -4,11 +4,12 @@ and every edge of a set of changed rows. Both pack an edge as one int64 code, ``
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .fans import VertexFans
 
 
-def edge_key(u, v) -> tuple[int, int]:
+def edge_key(u: int, v: int) -> tuple[int, int]:
     """The edge (u, v) as ``(lo, hi)`` ints."""
     u, v = int(u), int(v)
     return (u, v) if u < v else (v, u)
@@ -37,7 +38,7 @@ def edge_owners(fans: VertexFans, triangles: np.ndarray, keys: np.ndarray) -> np
     return owners
 
 
-def touched_edges(old_content, new_content) -> np.ndarray:
+def touched_edges(old_content: ArrayLike, new_content: ArrayLike) -> np.ndarray:
     """``(k, 2) int64`` every edge (lo < hi, ascending) of the old and new content of the changed triangles."""
     content = np.concatenate([np.asarray(old_content, dtype=np.int64).reshape(-1, 3),
                               np.asarray(new_content, dtype=np.int64).reshape(-1, 3)])

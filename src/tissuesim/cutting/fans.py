@@ -10,8 +10,11 @@ earlier wound reaches its other side.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 
 #: ``held`` of :meth:`VertexFans.joined` when no held vertex is asked for (an empty mask: any vertex will do).
 _NO_HOLD = np.zeros(0, dtype=np.bool_)
@@ -61,7 +64,7 @@ class VertexFans:
             slot = int(self._next[slot])
         return rows[::-1]
 
-    def fan(self, v: int, triangles: np.ndarray, edited=None) -> list[int]:
+    def fan(self, v: int, triangles: np.ndarray, edited: dict[int, list[int]] | None = None) -> list[int]:
         """Rows holding ``v`` now in ``triangles``, or in ``edited`` (row → content list) for the rows it has."""
         edited = edited or {}
         m = len(triangles)
@@ -69,7 +72,7 @@ class VertexFans:
         contents = triangles[rows].tolist()         # one gather: per-row reads cost more than the rows
         return [r for r, content in zip(rows, contents) if v in (edited[r] if r in edited else content)]
 
-    def record(self, rows, contents, copies=()) -> None:
+    def record(self, rows: ArrayLike, contents: ArrayLike, copies: Sequence[Sequence[int]] = ()) -> None:
         """Rows ``rows`` now hold ``contents`` ``(k, 3)``; ``copies`` are ``(copy, original)`` vertex pairs."""
         rows = np.asarray(rows, dtype=np.int64)
         contents = np.asarray(contents, dtype=np.int64).reshape(-1, 3)
@@ -116,7 +119,7 @@ class VertexFans:
         return group
 
     def near(self, triangles: np.ndarray, positions: np.ndarray, low: np.ndarray, high: np.ndarray,
-             seeds) -> np.ndarray:
+             seeds: ArrayLike) -> np.ndarray:
         """``(k,) int64`` rows whose bounding box (at ``positions``) overlaps the box [``low``, ``high``] and that
         are joined to the rows ``seeds`` through such rows (sharing a vertex or twins), ascending; empty when no
         seed overlaps. A compiled breadth-first walk: its cost grows with the rows it meets, not with the mesh."""

@@ -17,14 +17,16 @@ rest positions nor the current shape.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def edge_point_length(l_ab, lam1, lam2):
+def edge_point_length(l_ab: ArrayLike, lam1: ArrayLike, lam2: ArrayLike) -> float | np.ndarray:
     """Eq 19: rest length [m] from A to the edge point P = λ1 A + λ2 B of AB (see the module docstring)."""
     return np.asarray(lam2) / (np.asarray(lam1) + np.asarray(lam2)) * np.asarray(l_ab)
 
 
-def facet_point_length(l_ab, l_bc, l_ac, lam):
+def facet_point_length(l_ab: float | np.ndarray, l_bc: float | np.ndarray, l_ac: float | np.ndarray,
+                       lam: ArrayLike) -> float | np.ndarray:
     """Eq 20–23: rest length [m] from A to the facet point with barycentric ``lam`` ``(..., 3)`` in ABC."""
     lam = np.asarray(lam, dtype=np.float64)
     lam2, lam3 = lam[..., 1], lam[..., 2]
@@ -34,7 +36,7 @@ def facet_point_length(l_ab, l_bc, l_ac, lam):
     return (lam2 + lam3) * l_ad                                                     # eq 23
 
 
-def barycentric_distance(lengths, first, second):
+def barycentric_distance(lengths: ArrayLike, first: ArrayLike, second: ArrayLike) -> float | np.ndarray:
     """Rest distance [m] between points with barycentric ``first``, ``second`` ``(..., 3)`` in triangles whose
     rest side lengths are ``lengths`` ``(..., 3)`` = (l_AB, l_BC, l_CA) [m] (the general form of eq 19–23)."""
     d = np.asarray(first, dtype=np.float64) - np.asarray(second, dtype=np.float64)

@@ -22,12 +22,19 @@ the fans of the vertices near the cut.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..numba_cache import kernel_view
 from .snapping import EXACT_MIN, _quality3, along_cut, exit_point
+
+if TYPE_CHECKING:
+    from .fans import VertexFans
+    from .sweep import Crossing, Sweep
 
 #: A vertex moves onto an edge point at most this fraction of its edge away: beyond the snap fraction too, so the
 #: lips are the body's own vertices with their fans, not edge points held by a single edge off the lip (a strip
@@ -71,8 +78,9 @@ def writable_rows(array: np.ndarray) -> np.ndarray:
     return owner[: len(array)] if owner is not array else array
 
 
-def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(), movable=None,
-               sweep=None) -> VertexMoves:
+def plan_moves(rest: np.ndarray, positions: np.ndarray, triangles: np.ndarray, found: list[Crossing],
+               fans: VertexFans, *, snap: float, closed: ArrayLike = (),
+               movable: Callable[[np.ndarray], ArrayLike] | None = None, sweep: Sweep | None = None) -> VertexMoves:
     """The vertices to move onto the cut of the crossings ``found`` (:func:`~.sweep.crossings`, at ``positions``).
 
     Args:
@@ -113,7 +121,7 @@ def plan_moves(rest, positions, triangles, found, fans, *, snap: float, closed=(
                        np.array([moved[v][1] for v in order]))
 
 
-def front_end(ends: np.ndarray, corners, positions: np.ndarray, sweep) -> int:
+def front_end(ends: np.ndarray, corners: ArrayLike, positions: np.ndarray, sweep: Sweep) -> int:
     """Which of a crossing's barycentric ``ends`` (2, 3) in the triangle ``corners`` lies farther along the move
     (at ``positions``): the tool's side, where the cut goes on."""
     points = ends @ positions[np.asarray(corners)]

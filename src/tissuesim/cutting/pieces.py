@@ -4,14 +4,19 @@ of Fig 7 that fits its cut segment (:mod:`.subdivide`)."""
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .edges import edge_key
 from .subdivide import split_full_cut, split_interior_cut, split_partial_cut, split_uncut
 
+if TYPE_CHECKING:
+    from .points import CutPoints
 
-def split_triangle(t, corners, rest, points, segment, snap):
+
+def split_triangle(t: int, corners: np.ndarray, rest: np.ndarray, points: CutPoints, segment: tuple[int, int] | None,
+                   snap: float) -> tuple[np.ndarray, set[tuple[int, int]]]:
     """Sub-triangles (global ids) of triangle ``t`` and the cut edges inside it (Fig 7 case by case).
 
     ``corners``: its vertex ids; ``points``: the move's :class:`~.points.CutPoints`, those on its sides and inside

@@ -6,13 +6,18 @@ over as the same mix of its parents' (§7, Fig 8).
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .moves import NO_MOVES, VertexMoves, writable_rows
 from .row_patch import RowPatch
+
+if TYPE_CHECKING:
+    from .sweep import Sweep
 
 
 @dataclass(frozen=True, eq=False)
@@ -69,7 +74,7 @@ class CutResult:
         return self.moves.vertices
 
     @contextmanager
-    def rest_before_moves(self):
+    def rest_before_moves(self) -> Iterator[None]:
         """Within it, ``rest`` holds the moved vertices' rest positions from before the cut (for what a carrier
         takes away: the old triangles' areas and stiffness); O(moved)."""
         if not len(self.moved):
@@ -132,10 +137,6 @@ class CutResult:
         weights[new] = self.weights[vertices[new] - self.old_count]
         return parents, weights
 
-    @property
-    def duplicated(self) -> np.ndarray:
-        """``(d,) int64`` vertices (new numbering) that got a copy."""
-        return np.unique(self.new_copy_of[self.new_copy_of >= 0])
 
 @dataclass
 class CutPlan:
@@ -166,7 +167,8 @@ class CutPlan:
         rows = list(self.patch.edited.values()) + self.patch.added
         return np.unique(np.concatenate([self.replaced.ravel(), np.asarray(rows, dtype=np.int64).ravel()]))
 
-    def result(self, rest, positions, velocities, triangles, sweep, moved_from=None) -> CutResult:
+    def result(self, rest: np.ndarray, positions: np.ndarray, velocities: np.ndarray, triangles: np.ndarray,
+               sweep: Sweep, moved_from: np.ndarray | None = None) -> CutResult:
         """The cut once written (arrays of the new surface; ``moved_from`` ``(k, 3)``: the moved vertices' rest
         positions before it [m])."""
         return CutResult(moves=self.moves,

@@ -5,6 +5,8 @@ in place.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 import numpy as np
 
 from .fans import VertexFans
@@ -41,7 +43,7 @@ class RowPatch:
             row = self._base_rows[r] = self.base[r].tolist()
         return row
 
-    def write(self, r: int, content) -> None:
+    def write(self, r: int, content: Iterable[int]) -> None:
         self._fans.clear()
         content = [int(x) for x in content]
         if r < self.m:
@@ -49,7 +51,7 @@ class RowPatch:
         else:
             self.added[r - self.m] = content
 
-    def append(self, contents) -> None:
+    def append(self, contents: Iterable[Iterable[int]]) -> None:
         self._fans.clear()
         self.added += [[int(x) for x in c] for c in contents]
 

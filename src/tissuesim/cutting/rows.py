@@ -10,6 +10,7 @@ after 40 cutting moves).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 GROWTH = 1.05
 #: Fewest rows added when the arrays grow.
@@ -129,7 +130,7 @@ class Rows:
         self.used += need
         return np.array(rows, dtype=np.int64), grown
 
-    def retire(self, rows) -> None:
+    def retire(self, rows: ArrayLike) -> None:
         rows = np.asarray(rows, dtype=np.int64)
         if self._saved is not None:
             self._saved[3].append((rows, {name: array[rows].copy() for name, array in self.arrays.items()}))

@@ -9,14 +9,20 @@ gives each piece its own vertex, so the surface stays vertex-manifold.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numba import njit
 
 from .edges import edge_key
 
+if TYPE_CHECKING:
+    from .row_patch import RowPatch
+
 
 @njit(cache=True)
-def rows_touching(triangles, marked):
+def rows_touching(triangles: np.ndarray, marked: np.ndarray) -> np.ndarray:
     """``(k,) int64`` rows of ``triangles`` with a corner where ``marked`` ``(n,) bool`` is set (one pass)."""
     keep = np.zeros(triangles.shape[0], dtype=np.bool_)
     for t in range(triangles.shape[0]):
@@ -24,7 +30,8 @@ def rows_touching(triangles, marked):
     return np.flatnonzero(keep)
 
 
-def separate(patch, cut_edges, vertex_count: int):
+def separate(patch: RowPatch, cut_edges: Iterable[tuple[int, int]],
+             vertex_count: int) -> tuple[np.ndarray, list[tuple[int, int]], np.ndarray]:
     """Duplicate the vertices of ``cut_edges`` (pairs of vertex indices) per wedge, on the rows of ``patch``.
 
     Args:

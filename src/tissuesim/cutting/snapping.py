@@ -10,11 +10,16 @@ otherwise thin the triangles step by step. Compiled: it runs for both ends of ev
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numba import njit
 
 from .edges import edge_key
+
+if TYPE_CHECKING:
+    from .row_patch import RowPatch
 
 #: A new point is snapped further (facet → edge → vertex) while it would make a piece of lower quality than this
 #: (4√3 A / Σ l², at rest) in the triangle it lies in: twice the invariants' floor, so later cuts have room.
@@ -26,7 +31,7 @@ EXACT_MIN = 0.1
 EXACT_QUALITY = 0.1
 
 
-def along_cut(ends: np.ndarray, which) -> np.ndarray:
+def along_cut(ends: np.ndarray, which: Iterable[int]) -> np.ndarray:
     """``(2, 3)`` the barycentric ``ends`` of a crossing segment with each facet end of ``which`` moved along the
     segment instead of snapping across it: forward to where the segment's line leaves the triangle
     (:func:`exit_point`), when that is nearer than the other end, else back to the other end (this triangle's piece
@@ -55,7 +60,7 @@ def exit_point(start: np.ndarray, through: np.ndarray) -> tuple[np.ndarray, floa
     return leave / leave.sum(), at
 
 
-def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, known: dict) -> np.ndarray:
+def opposite_vertices(patch: RowPatch, corners: list[int], ends: np.ndarray, snap: float, known: dict) -> np.ndarray:
     """``(3, w) int64`` for each side (k, k + 1) of the triangle ``corners``, the vertices opposite that side in the
     rows of ``patch`` that hold it (an edge point there splits all of them, Fig 7(a)); −1 pads.
 
@@ -81,7 +86,8 @@ def opposite_vertices(patch, corners: list[int], ends: np.ndarray, snap: float, 
 
 
 @njit(cache=True)
-def snapped_weights(rest, now, corners, weights, opposite, snap):
+def snapped_weights(rest: np.ndarray, now: np.ndarray, corners: np.ndarray, weights: np.ndarray, opposite: np.ndarray,
+                    snap: float) -> np.ndarray:
     """``(3,) float64`` the barycentric ``weights`` of a point in the triangle ``corners`` after snapping by ``snap``
     and the quality guard, at rest positions ``rest`` and current positions ``now`` ``(n, 3)`` [m]; ``opposite`` from
     :func:`opposite_vertices`. Zero weights mark the corners the point is not on."""

@@ -19,6 +19,8 @@ which never picks three collinear points while another choice exists.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numba import njit
 
@@ -28,7 +30,8 @@ SQRT3 = float(np.sqrt(3.0))
 
 
 @njit(cache=True)
-def triangle_quality(a, b, c) -> float:
+def triangle_quality(a: Sequence[float] | np.ndarray, b: Sequence[float] | np.ndarray,
+                     c: Sequence[float] | np.ndarray) -> float:
     """4√3 A / (|ab|² + |bc|² + |ca|²) of a 2-D triangle (corners as 2-sequences): 1 equilateral, 0 degenerate,
     < 0 clockwise."""
     abx, aby, bcx, bcy, cax, cay = b[0] - a[0], b[1] - a[1], c[0] - b[0], c[1] - b[1], a[0] - c[0], a[1] - c[1]

@@ -22,6 +22,7 @@ from functools import cached_property
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from ..numba_cache import kernel_view
@@ -56,7 +57,7 @@ class Sweep:
     v: np.ndarray
 
     @classmethod
-    def between(cls, tip0, tip1, blade) -> "Sweep":
+    def between(cls, tip0: ArrayLike, tip1: ArrayLike, blade: ArrayLike) -> "Sweep":
         """The sweep from tip ``tip0`` to ``tip1`` ``(3,)`` [m] of a blade vector ``blade`` ``(3,)`` [m]."""
         tip0, tip1, blade = (np.asarray(a, dtype=np.float64).reshape(3) for a in (tip0, tip1, blade))
         return cls(tip0, tip1 - tip0, blade)

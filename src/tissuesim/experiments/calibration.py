@@ -16,8 +16,10 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from scipy.optimize import minimize_scalar
@@ -25,6 +27,9 @@ from scipy.optimize import minimize_scalar
 from ..errors import SolverError
 from ..solvers.registry import available_solvers, make_solver, solver_class
 from .protocol import RMSE_SAMPLES, load_node, rms_displacement, rmse, sample_nodes
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 CALIBRATION_MODEL = "cube"
 CALIBRATION_FORCE = (0.0, 0.0, -1.0)  # N: 1 N of pressure
@@ -61,7 +66,7 @@ def free_scalars() -> dict[str, dict[str, tuple[str, float, float]]]:
             if solver_class(name).free_scalars}
 
 
-def calibration_case(hybrid_mesh):
+def calibration_case(hybrid_mesh: HybridMesh) -> tuple[int, np.ndarray, np.ndarray]:
     """``(node, samples (50,) int64, reference positions (n, 3) m)`` of the calibration case on ``hybrid_mesh``."""
     surface = hybrid_mesh.surface
     node = load_node(surface.vertices, surface.triangles)
@@ -72,7 +77,7 @@ def calibration_case(hybrid_mesh):
     return node, samples, surface.vertices + reference.displacements(CALIBRATION_FORCE)
 
 
-def evaluate(method: str, hybrid_mesh, case, **options) -> float:
+def evaluate(method: str, hybrid_mesh: HybridMesh, case: tuple[int, np.ndarray, np.ndarray], **options: Any) -> float:
     """Eq 26 [m] of ``method`` with ``options`` on the calibration ``case`` (from :func:`calibration_case`).
 
     A solve that does not settle within :data:`MAX_STEPS` is scored on its last positions (a jittering method is
@@ -89,8 +94,9 @@ def evaluate(method: str, hybrid_mesh, case, **options) -> float:
     return rmse(positions, reference, samples)
 
 
-def calibrate(method: str, hybrid_mesh, *, form: str | None = None, case=None, xatol: float = 0.02,
-              progress=None) -> CalibrationResult:
+def calibrate(method: str, hybrid_mesh: HybridMesh, *, form: str | None = None,
+              case: tuple[int, np.ndarray, np.ndarray] | None = None, xatol: float = 0.02,
+              progress: Callable[[float, float], None] | None = None) -> CalibrationResult:
     """Calibrate ``method``'s free scalar in ``form`` on ``hybrid_mesh`` (the cube for the frozen values).
 
     ``xatol`` is the tolerance on the natural log of the scalar (0.02 ≈ 2 %). ``progress(value, rmse)`` is called
@@ -126,7 +132,7 @@ def calibrate(method: str, hybrid_mesh, *, form: str | None = None, case=None, x
                              time.perf_counter() - start)
 
 
-def write_calibrated(results, path: Path | None = None) -> Path:
+def write_calibrated(results: Iterable[CalibrationResult], path: Path | None = None) -> Path:
     """Rewrite :mod:`tissuesim.solvers.calibrated` with ``results`` (a list of :class:`CalibrationResult`) merged
     into the values already there; returns the file written."""
     from ..solvers import calibrated

@@ -7,16 +7,21 @@ Agg backend: no display needed.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .methods import colour, label, short_label
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: The absolute target drawn across the plot (relative RMSE).
 TARGET = 0.10
 LEGEND_COLUMN_IN = 3.3
 
 
-def error_figure(data: dict):
+def error_figure(data: dict) -> Figure:
     """A matplotlib Figure of the held-out medians per model × R and method (see the module docstring)."""
     from matplotlib.figure import Figure
 

@@ -32,6 +32,7 @@ import datetime as _dt
 import os
 import sys
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -121,7 +122,7 @@ class ContactConfig:
                                   f"material; choose among {', '.join(methods_with(self.material))}")
 
 
-def shared_livers(folder=None) -> dict:
+def shared_livers(folder: Path | str | None = None) -> dict:
     """``{path: scale}`` of the shared livers found in ``folder`` (default ``$TISSUESIM_SHARED/data/meshes``, else
     ``../shared/data/meshes`` from the working directory); missing ones are left out."""
     root = Path(folder) if folder else Path(os.environ.get("TISSUESIM_SHARED", "../shared")) / "data" / "meshes"
@@ -298,7 +299,8 @@ def role(model: str, load: str, force_N: float, radius_mm: float) -> str:
     return "calibration" if (model, load, float(force_N), float(radius_mm)) == CALIBRATION_CASE else "held out"
 
 
-def contact_metrics(positions, reference, rest, samples, patch_nodes, patch_weights) -> dict:
+def contact_metrics(positions: np.ndarray, reference: np.ndarray, rest: np.ndarray, samples: np.ndarray | Sequence[int],
+                    patch_nodes: np.ndarray | Sequence[int], patch_weights: np.ndarray) -> dict:
     """The three errors of one solve, absolute [mm] and relative to the reference's RMS displacement.
 
     Args:

@@ -23,7 +23,10 @@ from __future__ import annotations
 import hashlib
 import json
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -36,6 +39,12 @@ from .reference import (CACHE_FORMAT, LevelRow, RefinementSettings, _edge_length
                         format_row, level_row, patch_traction)
 from .reference_cache import read_arrays, write_arrays
 from .reference_progress import LevelProgress
+
+if TYPE_CHECKING:
+    from numpy.typing import ArrayLike
+
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.surface import SurfaceMesh
 
 __all__ = ["FiniteContactReference", "finite_contact_reference"]
 
@@ -68,7 +77,7 @@ class FiniteContactReference:
     youngs_modulus: float
     poisson_ratio: float
 
-    def displacements(self, force) -> np.ndarray:
+    def displacements(self, force: np.ndarray | Sequence[float]) -> np.ndarray:
         """``(n, 3) float64`` M_S displacements [m] under ``force`` ``(3,)`` [N], one of :attr:`forces`; SolverError
         for a load not solved or without a stable equilibrium."""
         match = np.flatnonzero(np.all(np.isclose(self.forces, np.asarray(force, dtype=np.float64), rtol=1e-12,
@@ -82,10 +91,12 @@ class FiniteContactReference:
         return self.fields[match[0]]
 
 
-def finite_contact_reference(mesh, node: int, radius: float, forces, *, material: str = "neo-hookean",
+def finite_contact_reference(mesh: HybridMesh | SurfaceMesh, node: int, radius: float,
+                             forces: ArrayLike, *, material: str = "neo-hookean",
                              youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
-                             settings: RefinementSettings | None = None, cache_dir=None,
-                             progress=None, bar: bool = False) -> FiniteContactReference:
+                             settings: RefinementSettings | None = None, cache_dir: Path | str | None = None,
+                             progress: Callable[[str], None] | None = None,
+                             bar: bool = False) -> FiniteContactReference:
     """The finite-strain equilibrium of the M_S nodes under each of ``forces`` ``(k, 3)`` [N], spread over the
     contact patch of ``node`` with radius ``radius`` [m], refined until it converges (module docstring).
 

@@ -62,7 +62,7 @@ class FiniteStrainReference:
         return tuple(sorted(self.displacements))
 
 
-def load_finite_reference(path=None) -> FiniteStrainReference:
+def load_finite_reference(path: Path | str | None = None) -> FiniteStrainReference:
     """The shipped reference (or the one at ``path``); SolverError when it is missing or malformed."""
     path = Path(path) if path is not None else DATA_FILE
     try:

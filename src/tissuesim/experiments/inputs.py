@@ -3,7 +3,9 @@ model must offer a method or a load (the fine volume, a free load node), each re
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -11,8 +13,13 @@ from ..errors import MeshError, SolverError
 from ..mesh import models as builtin_models
 from ..mesh.models import MAX_RESOLUTION
 
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.surface import SurfaceMesh
+    from ..solvers.base import Solver
 
-def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):
+
+def builtin_surface(name: str, *, resolution: int | None = None, scale: float = 1.0) -> SurfaceMesh:
     """The built-in model ``name`` at ``resolution`` vertices (None: its Table-1 size), its coordinates multiplied
     by ``scale`` as a surface file's are (refused, naming the scale, outside 1 µm to 100 m across; warned of outside
     5 mm to 2 m)."""
@@ -28,7 +35,7 @@ def builtin_surface(name: str, *, resolution=None, scale: float = 1.0):
     return surface
 
 
-def check_resolution(resolution) -> int:
+def check_resolution(resolution: object) -> int:
     """``resolution`` (vertices of a built-in model) as an int, or a MeshError naming the accepted range."""
     low, high = builtin_models.MIN_RESOLUTION, MAX_RESOLUTION
     number = isinstance(resolution, (int, float)) and not isinstance(resolution, bool)
@@ -39,7 +46,7 @@ def check_resolution(resolution) -> int:
     return int(resolution)
 
 
-def check_free_node(solver, node: int, model: str, *, role: str) -> None:
+def check_free_node(solver: Solver, node: int, model: str, *, role: str) -> None:
     """Refuse (SolverError), in command-line terms, a command's load on a node of ``model`` that ``solver``'s support
     holds: a region given that holds it, or, with the default bottom, a model too small or coarse for the load
     (``role`` says which load)."""
@@ -60,7 +67,7 @@ def model_name(spec: str) -> str:
     return spec if spec in builtin_models.MODELS else Path(spec).stem
 
 
-def check_model_specs(specs) -> None:
+def check_model_specs(specs: Sequence[str]) -> None:
     """Refuse, before any work, a model that is neither a built-in name nor an existing file, or two models reported
     under one name (SolverError)."""
     for spec in specs:
@@ -70,7 +77,7 @@ def check_model_specs(specs) -> None:
     check_model_names(specs)
 
 
-def check_model_names(specs) -> None:
+def check_model_names(specs: Iterable[str]) -> None:
     """Refuse (SolverError) two models reported under one name (:func:`model_name`): their rows and files would
     overwrite each other."""
     seen = {}
@@ -82,7 +89,7 @@ def check_model_names(specs) -> None:
         seen[name] = spec
 
 
-def check_fine_volume(hybrid, spec: str) -> None:
+def check_fine_volume(hybrid: HybridMesh, spec: str) -> None:
     """Refuse (MeshError) a bundle without the fine volume the fem reference needs, naming the cause: a cut (the
     volume of the uncut surface is dropped by the first cut) or a build without it."""
     if hybrid.fine_volume is not None:
@@ -96,7 +103,7 @@ def check_fine_volume(hybrid, spec: str) -> None:
                     "with `tissuesim build SURFACE -o BUNDLE.npz` (without --no-fine-volume)")
 
 
-def check_model_files(specs, *, scale: float = 1.0, repair: bool = False) -> None:
+def check_model_files(specs: Iterable[str], *, scale: float = 1.0, repair: bool = False) -> None:
     """Read, without building, every model file of ``specs`` that an experiment will build later: a surface file is
     read and validated (skipped with ``repair``, which may fix it), a bundle loaded and checked for its fine volume,
     so a bad later model is refused before the first model's minutes of work."""

@@ -8,6 +8,8 @@ figures, the contact protocol and the studies.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+
 from ..solvers.registry import available_solvers, method_names, solver_class
 from .protocol import REFERENCE
 
@@ -33,7 +35,7 @@ def paper_methods() -> tuple[str, ...]:
     return tuple(name for name in method_names(in_paper=True) if name != REFERENCE)
 
 
-def ordered(names) -> list[str]:
+def ordered(names: Iterable[str]) -> list[str]:
     """``names`` in the tables' order: the registered methods (reference last), then the variants, then the rest."""
     names = set(names)
     order = [*protocol_methods(), *VARIANT_CARDS]

@@ -26,7 +26,9 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Callable, Iterable
 from pathlib import Path
+from typing import Any
 
 from ..errors import TissuesimError
 from ..io import process_running
@@ -40,7 +42,7 @@ class OutputError(TissuesimError, OSError):
     """The results folder cannot be written where asked."""
 
 
-def check_output_folder(folder) -> Path:
+def check_output_folder(folder: Path | str) -> Path:
     """The target folder as a Path, or :class:`OutputError` if it cannot be written there.
 
     Refused: an empty path, an existing file, a missing parent, and a place where the staging folder cannot be
@@ -63,7 +65,7 @@ def check_output_folder(folder) -> Path:
     return folder
 
 
-def write_outputs(data: dict, folder, *, plots: bool = True) -> list[Path]:
+def write_outputs(data: dict, folder: Path | str, *, plots: bool = True) -> list[Path]:
     """Write the results folder for the results document ``data``; return the paths written."""
     check_results(data)
 
@@ -77,7 +79,7 @@ def write_outputs(data: dict, folder, *, plots: bool = True) -> list[Path]:
     return write_staged(folder, fill)
 
 
-def write_contact_outputs(data: dict, folder) -> list[Path]:
+def write_contact_outputs(data: dict, folder: Path | str) -> list[Path]:
     """Write the contact protocol's folder: ``results.json``, ``report.md`` and ``errors.png``; return the paths
     written."""
     from .contact_plots import error_figure
@@ -108,7 +110,7 @@ def results_files(folder: Path) -> set[str]:
     return {"results.json", "tables.md", "report.md", *(f"radar_{name}.png" for name in models)}
 
 
-def read_index(path: Path):
+def read_index(path: Path) -> Any:
     """The JSON document at ``path``, or None where there is none or it is not JSON (then nothing is ours)."""
     try:
         return json.loads(path.read_text())
@@ -116,7 +118,8 @@ def read_index(path: Path):
         return None
 
 
-def write_staged(folder, fill, *, ours=results_files) -> list[Path]:
+def write_staged(folder: Path | str, fill: Callable[[Path], None], *,
+                 ours: Callable[[Path], set[str]] = results_files) -> list[Path]:
     """Call ``fill(staging folder)``, then move what it wrote into ``folder`` as a whole, all or nothing: the files
     of an earlier run, ``ours(folder)`` (a set of names), that this one did not write are removed; no other file."""
     folder = check_output_folder(folder)
@@ -174,7 +177,7 @@ def _swap_in(new: Path, target: Path, folder: Path, names: list[str], *, stale: 
         raise
 
 
-def check_no_folder(folder, names) -> None:
+def check_no_folder(folder: Path | str, names: Iterable[str]) -> None:
     """Refuse (OutputError) result file ``names`` that are folders in ``folder``: a file cannot replace them."""
     folders = [name for name in names if (Path(folder) / name).is_dir()]
     if folders:
@@ -224,7 +227,7 @@ def _remove_abandoned_staging(target: Path) -> None:
                 shutil.rmtree(path, ignore_errors=True)
 
 
-def earlier_outputs(folder, *, ours=results_files) -> set[str]:
+def earlier_outputs(folder: Path | str, *, ours: Callable[[Path], set[str]] = results_files) -> set[str]:
     """Names of the files in ``folder`` that an earlier run of ours wrote (``ours(folder)``, those still there as
     files); empty if there is no folder."""
     folder = Path(folder)
@@ -235,7 +238,7 @@ def earlier_outputs(folder, *, ours=results_files) -> set[str]:
             and (folder / name).is_file()}
 
 
-def replacement_note(folder, earlier: set[str], written: list[Path]) -> str | None:
+def replacement_note(folder: Path | str, earlier: set[str], written: list[Path]) -> str | None:
     """One line naming the files of an earlier run in ``folder`` that a write replaced (same name) and removed (not
     written again), or None when the folder held none."""
     names = {p.name for p in written}

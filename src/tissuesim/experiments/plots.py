@@ -19,12 +19,16 @@ from __future__ import annotations
 
 import textwrap
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .methods import OURS, colour, line_style, short_label
 from .protocol import REFERENCE
 from .tables import cases_of, index, methods_of, models_of
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 #: The largest rim [× the reference's RMS]: a method beyond it is drawn clipped at the rim and named.
 RIM_MAX = 3.0
@@ -70,7 +74,7 @@ def relative_samples(found: dict) -> tuple[float, dict] | None:
     return rms, {method: d / rms for method, d in found.items()}
 
 
-def radar_figure(data: dict, model: str):
+def radar_figure(data: dict, model: str) -> Figure:
     """A matplotlib Figure of ``model``'s panels (rows: loads, columns: forces; see the module docstring).
 
     The radar is drawn on plain axes (rings, spokes and polygons) rather than matplotlib's polar projection, which

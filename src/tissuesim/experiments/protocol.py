@@ -21,6 +21,7 @@ Choices where the paper is silent (also in docs/experiments.md):
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -76,7 +77,7 @@ class LoadCase:
         return f"{self.load} {self.force_N:g} N"
 
 
-def load_cases(forces=FORCES_N, loads=LOADS) -> list[LoadCase]:
+def load_cases(forces: Iterable[float] = FORCES_N, loads: Iterable[str] = LOADS) -> list[LoadCase]:
     """The load cases of §8.3.1 in the paper's table order: every load kind, then every force ascending."""
     forces = sorted({float(f) for f in forces})
     if not forces:
@@ -129,25 +130,26 @@ def sample_nodes(rest_positions: np.ndarray, node: int, count: int) -> np.ndarra
     return order[: int(count)].astype(np.int64)
 
 
-def displacements(positions: np.ndarray, rest_positions: np.ndarray, nodes) -> np.ndarray:
+def displacements(positions: np.ndarray, rest_positions: np.ndarray, nodes: np.ndarray | Sequence[int]) -> np.ndarray:
     """Eq 25: ``(k,) float64`` d = |x_s − x_0| [m] of ``nodes`` between ``rest_positions`` and ``positions``."""
     positions, rest_positions, nodes = _check_pair(positions, rest_positions, nodes)
     return np.linalg.norm(positions[nodes] - rest_positions[nodes], axis=1)
 
 
-def rmse(positions: np.ndarray, reference: np.ndarray, nodes) -> float:
+def rmse(positions: np.ndarray, reference: np.ndarray, nodes: np.ndarray | Sequence[int]) -> float:
     """Eq 26: r = sqrt(Σ |x_s − x_f|² / n) [m] over ``nodes`` between a method's and the reference's positions."""
     positions, reference, nodes = _check_pair(positions, reference, nodes)
     difference = positions[nodes] - reference[nodes]
     return float(np.sqrt(np.einsum("ij,ij->", difference, difference) / len(nodes)))
 
 
-def rms_displacement(reference: np.ndarray, rest_positions: np.ndarray, nodes) -> float:
+def rms_displacement(reference: np.ndarray, rest_positions: np.ndarray, nodes: np.ndarray | Sequence[int]) -> float:
     """The reference's RMS displacement sqrt(Σ |x_f − x_0|² / n) [m] over ``nodes``."""
     return rmse(reference, rest_positions, nodes)
 
 
-def relative_rmse(positions: np.ndarray, reference: np.ndarray, rest_positions: np.ndarray, nodes) -> float:
+def relative_rmse(positions: np.ndarray, reference: np.ndarray, rest_positions: np.ndarray,
+                  nodes: np.ndarray | Sequence[int]) -> float:
     """Eq 26 divided by the reference's RMS displacement over the same nodes (dimensionless; 0 is exact).
 
     NaN when the reference does not move those nodes at all (nothing to be relative to).

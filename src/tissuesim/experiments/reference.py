@@ -42,8 +42,10 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+from collections.abc import Callable, Iterable
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -56,6 +58,12 @@ from . import protocol
 from .reference_cache import load_entry, load_shipped, save_entry
 from .reference_data import ContactReference, LevelRow, RefinementSettings, format_row
 from .reference_progress import LevelProgress
+
+if TYPE_CHECKING:
+    from ..fem.quadratic import QuadraticFEM
+    from ..mesh.hybrid import HybridMesh
+    from ..mesh.surface import SurfaceMesh
+    from ..mesh.tetmesh import TetMesh
 
 # Bump when the computation changes, so stale cache entries (and shipped references) are never read.
 CACHE_FORMAT = 4
@@ -72,9 +80,10 @@ def default_cache_dir() -> Path:
     return Path(base) / "tissuesim" / "references"
 
 
-def contact_reference(mesh, node: int, radius: float | None, *, youngs_modulus: float = 5500.0,
-                      poisson_ratio: float = 0.3, settings: RefinementSettings | None = None,
-                      cache_dir=None, progress=None, shipped: bool = False) -> ContactReference:
+def contact_reference(mesh: HybridMesh | SurfaceMesh, node: int, radius: float | None, *,
+                      youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
+                      settings: RefinementSettings | None = None, cache_dir: Path | str | None = None,
+                      progress: Callable[[str], None] | None = None, shipped: bool = False) -> ContactReference:
     """The reference response of the M_S nodes to a unit force per axis on the contact patch of ``node``.
 
     Args:
@@ -92,9 +101,11 @@ def contact_reference(mesh, node: int, radius: float | None, *, youngs_modulus: 
                               settings=settings, cache_dir=cache_dir, progress=progress, shipped=shipped)[0]
 
 
-def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
-                       settings: RefinementSettings | None = None, cache_dir=None, progress=None,
-                       shipped: bool = False, bar: bool = False) -> list:
+def contact_references(mesh: HybridMesh | SurfaceMesh, node: int, radii: Iterable[float | None], *,
+                       youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
+                       settings: RefinementSettings | None = None, cache_dir: Path | str | None = None,
+                       progress: Callable[[str], None] | None = None, shipped: bool = False,
+                       bar: bool = False) -> list:
     """:func:`contact_reference` for several radii on one shared sequence of meshes (refined around the largest
     patch), until every radius has converged; cached per radius. Returns one :class:`ContactReference` per radius.
 
@@ -125,9 +136,10 @@ def contact_references(mesh, node: int, radii, *, youngs_modulus: float = 5500.0
     return cached
 
 
-def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, youngs_modulus: float = 5500.0,
-                      poisson_ratio: float = 0.3, settings: RefinementSettings | None = None,
-                      progress=None) -> ContactReference:
+def refinement_levels(mesh: HybridMesh | SurfaceMesh, node: int, radius: float | None, *, levels: int,
+                      youngs_modulus: float = 5500.0, poisson_ratio: float = 0.3,
+                      settings: RefinementSettings | None = None,
+                      progress: Callable[[str], None] | None = None) -> ContactReference:
     """Levels 0..``levels`` computed whatever the change (no stop, no cache): to show how a load *diverges*."""
     surface = getattr(mesh, "surface", mesh)
     settings = settings or RefinementSettings()
@@ -137,7 +149,7 @@ def refinement_levels(mesh, node: int, radius: float | None, *, levels: int, you
                     LevelProgress(progress, settings.max_levels), stop=False)[0]
 
 
-def point_load_divergence(mesh, node: int, *, levels: int = 3, youngs_modulus: float = 5500.0,
+def point_load_divergence(mesh: HybridMesh | SurfaceMesh, node: int, *, levels: int = 3, youngs_modulus: float = 5500.0,
                           poisson_ratio: float = 0.3) -> list[dict]:
     """The paper protocol's single-node load under refinement: one dict per level (``level, tets,
     contact_size_mm, contact_mm, others_rms_mm`` per newton along −z), on the solvers' linear tets. The loaded node's
@@ -247,7 +259,7 @@ def _level_solver(volume, refined, surface, parents, centre, height, youngs_modu
     return solve, solve_nodal
 
 
-def patch_traction(fem, refined, centre, node: int, radius: float) -> np.ndarray:
+def patch_traction(fem: QuadraticFEM, refined: SurfaceMesh, centre: np.ndarray, node: int, radius: float) -> np.ndarray:
     """``(N,) float64`` nodal weights on a quadratic-tet model ``fem`` (:class:`~tissuesim.fem.quadratic.QuadraticFEM`)
     of a unit force spread as a uniform traction over the ``refined`` surface's triangles whose centroid lies within
     ``radius`` [m] of ``centre`` (those around ``node`` where none does)."""
@@ -289,7 +301,8 @@ def _level_volume(surface, centre, core, h0, level, settings):
     return refined, tetrahedralize(refined, switches=f"{FINE_SWITCHES}a{max_volume:.6e}")[0], parents
 
 
-def level_size(points, centre, core, h0, level, settings) -> np.ndarray:
+def level_size(points: np.ndarray, centre: np.ndarray, core: float, h0: float, level: int,
+               settings: RefinementSettings) -> np.ndarray:
     """``(k,)`` target edge length [m] of level ``level`` at ``points`` ``(k, 3)`` [m]: h_c inside the core radius,
     growing with slope g_ℓ beyond it."""
     distance = np.linalg.norm(points - centre, axis=1)
@@ -314,7 +327,8 @@ def _relative_change(response, previous, samples) -> float:
     return change
 
 
-def level_row(level, volume, h0, settings, samples, down, node, change) -> LevelRow:
+def level_row(level: int, volume: TetMesh, h0: float, settings: RefinementSettings, samples: np.ndarray,
+              down: np.ndarray, node: int, change: float | None) -> LevelRow:
     """The :class:`LevelRow` of a level whose M_S displacement per newton [m/N] is ``down`` ``(n, 3)``."""
     return LevelRow(
         level=level, tets=int(len(volume.tets)), nodes=int(volume.node_count),

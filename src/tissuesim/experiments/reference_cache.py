@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import TissuesimError
 from ..io import process_running
-from .reference_data import ContactReference, LevelRow
+from .reference_data import ContactReference, LevelRow, RefinementSettings
 
 #: The references shipped with the package, one ``<key>.npz`` each.
 SHIPPED_DIR = Path(__file__).with_name("data") / "references"
@@ -32,7 +32,7 @@ class CacheError(TissuesimError, OSError):
     """The reference cache folder cannot be used where asked."""
 
 
-def check_cache_dir(folder) -> Path:
+def check_cache_dir(folder: Path | str) -> Path:
     """``folder`` as a Path where cache entries can be written (created if missing; tried for real), or a
     :class:`CacheError` naming it. Partial entries of killed runs are removed."""
     folder = Path(folder)
@@ -58,7 +58,7 @@ def _remove_abandoned_partials(folder: Path) -> None:
             path.unlink(missing_ok=True)
 
 
-def load_entry(cache_dir, key: str, settings) -> ContactReference | None:
+def load_entry(cache_dir: Path | str | None, key: str, settings: RefinementSettings) -> ContactReference | None:
     """The reference cached under ``key`` in ``cache_dir``, or None where there is none or it is damaged."""
     entry = read_arrays(cache_dir, key)
     return None if entry is None else _reference(*entry, settings)
@@ -73,7 +73,7 @@ def _reference(meta: dict, data: dict, settings) -> ContactReference | None:
         return None
 
 
-def load_shipped(key: str, settings, folder=None) -> ContactReference | None:
+def load_shipped(key: str, settings: RefinementSettings, folder: Path | str | None = None) -> ContactReference | None:
     """The reference shipped under ``key`` (in ``folder``, default :data:`SHIPPED_DIR`) as float64, or None where
     there is none or it is not of :data:`SHIPPED_SCHEMA`."""
     entry = read_arrays(SHIPPED_DIR if folder is None else folder, key)
@@ -84,7 +84,7 @@ def load_shipped(key: str, settings, folder=None) -> ContactReference | None:
     return _reference(meta, arrays, settings)
 
 
-def ship_entry(folder, key: str, reference: ContactReference, parameters: dict) -> Path:
+def ship_entry(folder: Path | str, key: str, reference: ContactReference, parameters: dict) -> Path:
     """Write ``reference`` under ``key`` in ``folder`` as a shipped entry: compressed, its responses float32, its meta
     the cache entry's plus :data:`SHIPPED_SCHEMA` and ``parameters`` (JSON-ready: what it was computed for)."""
     meta = {"schema": SHIPPED_SCHEMA, "key": key, **_meta(reference), "parameters": parameters}
@@ -97,7 +97,7 @@ def ship_entry(folder, key: str, reference: ContactReference, parameters: dict) 
     return path
 
 
-def read_arrays(cache_dir, key: str) -> tuple[dict, dict] | None:
+def read_arrays(cache_dir: Path | str | None, key: str) -> tuple[dict, dict] | None:
     """``(meta, {name: array})`` of the entry ``key`` in ``cache_dir``, or None where there is none or it is
     damaged (truncated, foreign): such an entry is recomputed, never trusted."""
     if cache_dir is None:
@@ -112,7 +112,7 @@ def read_arrays(cache_dir, key: str) -> tuple[dict, dict] | None:
         return None
 
 
-def save_entry(cache_dir, key: str, reference: ContactReference) -> None:
+def save_entry(cache_dir: Path | str | None, key: str, reference: ContactReference) -> None:
     """Cache ``reference`` under ``key`` in ``cache_dir``, whole or not at all (CacheError naming the folder)."""
     meta = _meta(reference)
     nodal = {} if reference.nodal_response is None else {"nodal_response": reference.nodal_response}
@@ -125,7 +125,7 @@ def _meta(reference: ContactReference) -> dict:
             "levels": [asdict(row) for row in reference.levels]}
 
 
-def write_arrays(cache_dir, key: str, meta: dict, **arrays) -> None:
+def write_arrays(cache_dir: Path | str | None, key: str, meta: dict, **arrays: np.ndarray) -> None:
     """Store ``meta`` (JSON-ready) and ``arrays`` under ``key`` in ``cache_dir`` (nothing where it is None), whole
     or not at all (CacheError naming the folder)."""
     if cache_dir is None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -125,7 +126,7 @@ class ContactReference:
     settings: RefinementSettings = field(default_factory=RefinementSettings)
     nodal_response: np.ndarray | None = None
 
-    def displacements(self, force) -> np.ndarray:
+    def displacements(self, force: np.ndarray | Sequence[float]) -> np.ndarray:
         """``(n, 3) float64`` M_S displacements [m] under ``force`` ``(3,)`` [N] spread over the patch."""
         return self.response @ np.asarray(force, dtype=np.float64)
 
@@ -138,10 +139,6 @@ class ContactReference:
             return None
         exact, nodal = -self.response[self.samples, :, 2], -self.nodal_response[self.samples, :, 2]
         return float(np.sqrt(np.mean(np.sum((nodal - exact) ** 2, axis=1)) / np.mean(np.sum(exact ** 2, axis=1))))
-
-    @property
-    def final_change(self) -> float | None:
-        return self.levels[-1].change if self.levels else None
 
 
 def format_row(row: LevelRow) -> str:

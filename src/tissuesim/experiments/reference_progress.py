@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 
 #: A level's time grows as its tet count to this power (above).
 EXPONENT = 2.0
@@ -22,7 +23,8 @@ class LevelProgress:
     """One reference computation's progress: lines to ``say`` and, if ``bar``, a tqdm bar on stderr whose postfix
     gives the current level's estimated time and the estimate to the last level (``max_levels``)."""
 
-    def __init__(self, say, max_levels: int, *, bar: bool = False, label: str = "reference"):
+    def __init__(self, say: Callable[[str], None] | None, max_levels: int, *, bar: bool = False,
+                 label: str = "reference"):
         self._say = say
         self.max_levels = int(max_levels)
         self.tets: list[int] = []       # per level meshed

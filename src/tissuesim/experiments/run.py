@@ -33,7 +33,8 @@ from .sweep_measure import measure, method_options, stable_cases
 from .sweep_records import ModelSamples, case_record, mesh_info, record_order, solver_parameters, sweep_metadata
 
 
-def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = True, meshes: dict | None = None):
+def run_experiment(config: ExperimentConfig | None = None, *, progress: bool = True,
+                   meshes: dict | None = None) -> dict:
     """Run the sweep; return the results document (a JSON-ready dict, see :mod:`.schema`).
 
     Args:

@@ -46,7 +46,7 @@ class ResultsError(TissuesimError, ValueError):
     """A results document does not follow the ``results.json`` layout."""
 
 
-def check_results(data) -> None:
+def check_results(data: object) -> None:
     """Raise :class:`ResultsError` naming the first defect if ``data`` (a parsed results.json) is malformed."""
     if not isinstance(data, dict):
         raise ResultsError(f"results must be a JSON object, got {type(data).__name__}")

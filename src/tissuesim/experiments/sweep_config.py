@@ -3,8 +3,9 @@ bundle) loaded as the :class:`~tissuesim.mesh.hybrid.HybridMesh` it is measured 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -15,6 +16,9 @@ from ..mesh import models as builtin_models
 from . import protocol
 from .methods import protocol_methods
 from .inputs import builtin_surface, check_fine_volume, check_resolution
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 
 # The reduced sweep of ``--quick``: coarser models, two forces (one small, one large deformation), fewer steps.
@@ -93,18 +97,15 @@ class ExperimentConfig:
             check_resolution(self.resolution)
 
     @classmethod
-    def quick(cls, **overrides) -> "ExperimentConfig":
+    def quick(cls, **overrides: Any) -> "ExperimentConfig":
         """The CI-sized smoke sweep: resolution 400, forces 1 and 10 N, few timed steps, at most 500 steps a solve."""
         settings = dict(resolution=QUICK_RESOLUTION, forces=QUICK_FORCES_N, warmup_steps=2, timing_steps=5,
                         max_steps=QUICK_MAX_STEPS, point_load_levels=2)
         settings.update(overrides)
         return cls(**settings)
 
-    def with_(self, **changes) -> "ExperimentConfig":
-        return replace(self, **changes)
 
-
-def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False):
+def load_model(spec: str, config: ExperimentConfig, *, progress: bool = False) -> HybridMesh:
     """The :class:`HybridMesh` (with fine volume) of a built-in name, a surface file, or a saved bundle."""
     from ..mesh.hybrid import HybridMesh
 

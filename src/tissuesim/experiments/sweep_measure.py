@@ -5,12 +5,16 @@ inside out."""
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import InversionError, SolverError
 from . import protocol
 from .sweep_config import ExperimentConfig
+
+if TYPE_CHECKING:
+    from ..solvers.base import Solver
 
 
 def method_options(method: str, config: ExperimentConfig) -> dict:
@@ -23,7 +27,7 @@ def method_options(method: str, config: ExperimentConfig) -> dict:
     return options
 
 
-def stable_cases(reference, cases: list, node: int, info: dict) -> list:
+def stable_cases(reference: Solver, cases: list, node: int, info: dict) -> list:
     """The ``cases`` the ``reference`` solver's material can carry as dead loads; the others go into ``info``'s
     ``beyond_stable_press`` (with the largest stable press [N], the same for every force)."""
     from ..solvers.finite_strain import check_dead_press
@@ -41,7 +45,7 @@ def stable_cases(reference, cases: list, node: int, info: dict) -> list:
     return kept
 
 
-def measure(solver, case: protocol.LoadCase, node: int, config: ExperimentConfig) -> dict:
+def measure(solver: Solver, case: protocol.LoadCase, node: int, config: ExperimentConfig) -> dict:
     """Equilibrium positions and time, then the median step time with the load set, of one solver in one case."""
     force = case.vector
     solver.reset()
@@ -82,7 +86,7 @@ def _step_times(solver, node, force, config: ExperimentConfig) -> np.ndarray:
     return np.array(times)
 
 
-def inverted_elements(solver) -> dict:
+def inverted_elements(solver: Solver) -> dict:
     """``{"inverted_elements": count}`` of a finite-strain solver's volume after its solve (none for linear)."""
     from ..solvers.finite_strain import inverted_element_count
 

@@ -7,7 +7,9 @@ import datetime as _dt
 import json
 import os
 import platform
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -16,6 +18,10 @@ from . import protocol
 from .methods import protocol_methods
 from .sweep_config import ExperimentConfig
 from .sweep_measure import inverted_elements
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..solvers.base import Solver
 
 
 @dataclass(frozen=True)
@@ -29,15 +35,15 @@ class ModelSamples:
     rmse_nodes: np.ndarray
 
     @classmethod
-    def of(cls, name: str, hybrid) -> "ModelSamples":
+    def of(cls, name: str, hybrid: HybridMesh) -> "ModelSamples":
         rest = np.array(hybrid.surface.vertices, dtype=np.float64)
         node = protocol.load_node(rest, hybrid.surface.triangles)
         return cls(name, rest, node, protocol.sample_nodes(rest, node, min(protocol.PLOT_SAMPLES, len(rest))),
                    protocol.sample_nodes(rest, node, min(protocol.RMSE_SAMPLES, len(rest))))
 
 
-def case_record(model: ModelSamples, case: protocol.LoadCase, method: str, measured: dict, positions, target,
-                solver) -> dict:
+def case_record(model: ModelSamples, case: protocol.LoadCase, method: str, measured: dict, positions: np.ndarray,
+                target: np.ndarray, solver: Solver) -> dict:
     """The record of ``method``'s ``positions`` in ``case`` against the reference's ``target``, with the figures
     ``measured`` by :func:`.sweep_measure.measure`."""
     rest, rmse_nodes = model.rest, model.rmse_nodes
@@ -53,7 +59,7 @@ def case_record(model: ModelSamples, case: protocol.LoadCase, method: str, measu
     }
 
 
-def record_order(names, loads):
+def record_order(names: Iterable[str], loads: Iterable[str]) -> Callable[[dict], tuple]:
     """The sort key of the records: model and load in the order run, then force, then method as registered."""
     model_rank = {n: i for i, n in enumerate(names)}
     load_rank = {n: i for i, n in enumerate(loads)}
@@ -65,7 +71,7 @@ def _finite_or_none(value: float):
     return float(value) if np.isfinite(value) else None
 
 
-def mesh_info(hybrid, spec: str, model: ModelSamples, build_s: float) -> dict:
+def mesh_info(hybrid: HybridMesh, spec: str, model: ModelSamples, build_s: float) -> dict:
     """Table-1 figures of a model's meshes plus the protocol's nodes."""
 
     def sizes(mesh, cells):
@@ -96,7 +102,7 @@ def mesh_info(hybrid, spec: str, model: ModelSamples, build_s: float) -> dict:
     }
 
 
-def solver_parameters(method: str, solver) -> dict:
+def solver_parameters(method: str, solver: Solver) -> dict:
     """The scalar values a solver holds for its keyword options (calibrated values included)."""
     from ..solvers import solver_options
 

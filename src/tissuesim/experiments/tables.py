@@ -77,7 +77,7 @@ def ratio_summary(data: dict) -> dict:
 
 
 # --------------------------------------------------------------------------------------------------- Markdown
-def fmt(value, digits: int = 4) -> str:
+def fmt(value: float | None, digits: int = 4) -> str:
     """A number for a table cell: ``digits`` significant figures, "–" when missing."""
     if value is None or (isinstance(value, float) and not math.isfinite(value)):
         return "–"

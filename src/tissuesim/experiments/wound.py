@@ -14,12 +14,16 @@
 from __future__ import annotations
 
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..cutting.core import DEFAULT_SNAP
 from ..mesh.coincident import coincident_pairs
 from ..scalpel import Scalpel
+
+if TYPE_CHECKING:
+    from ..solvers.base import Solver
 
 #: The incision of the experiment: 3 cm long, in 15 moves of 2 mm.
 INCISION_LENGTH = 0.03
@@ -49,7 +53,7 @@ def incision_line(rest: np.ndarray, *, length: float = INCISION_LENGTH,
     return start, start + length * along
 
 
-def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = INCISION_MOVES,
+def scripted_incision(solver: Solver, *, length: float = INCISION_LENGTH, moves: int = INCISION_MOVES,
                       depth: float = INCISION_DEPTH, snap: float = DEFAULT_SNAP, angle: float = 0.0) -> dict:
     """Cut the top of ``solver``'s model along :func:`incision_line` (turned by ``angle`` [degrees]);
     ``{"moves": [CutReport...], "seconds": total, "line": (start, end)}``."""
@@ -63,20 +67,20 @@ def scripted_incision(solver, *, length: float = INCISION_LENGTH, moves: int = I
     return {"moves": reports, "seconds": time.perf_counter() - clock, "line": (start, end)}
 
 
-def wound_openings(solver) -> np.ndarray:
+def wound_openings(solver: Solver) -> np.ndarray:
     """``(p,) float64`` the current distance [m] between the two sides at each vertex pair of the wound."""
     pairs = coincident_pairs(solver.rest_positions)     # the two sides of the cut start at one point
     x = solver.positions
     return np.linalg.norm(x[pairs[:, 0]] - x[pairs[:, 1]], axis=1)
 
 
-def wound_gap(solver) -> float:
+def wound_gap(solver: Solver) -> float:
     """The widest opening of the wound [m] at the current positions (0 if uncut)."""
     openings = wound_openings(solver)
     return float(openings.max()) if openings.size else 0.0
 
 
-def pull_node(rest: np.ndarray, line, *, offset: float = PULL_OFFSET) -> int:
+def pull_node(rest: np.ndarray, line: tuple[np.ndarray, np.ndarray], *, offset: float = PULL_OFFSET) -> int:
     """The surface vertex nearest the point ``offset`` [m] beside the middle of the incision ``line`` (+y)."""
     start, end = line
     target = 0.5 * (start + end) + [0.0, offset, 0.0]
@@ -85,8 +89,8 @@ def pull_node(rest: np.ndarray, line, *, offset: float = PULL_OFFSET) -> int:
     return int(candidates[np.argmin(np.linalg.norm(rest[candidates] - target, axis=1))])
 
 
-def open_wound(solver, line, *, force: float = PULL_FORCE, offset: float = PULL_OFFSET,
-               max_steps: int = OPEN_MAX_STEPS) -> dict:
+def open_wound(solver: Solver, line: tuple[np.ndarray, np.ndarray], *, force: float = PULL_FORCE,
+               offset: float = PULL_OFFSET, max_steps: int = OPEN_MAX_STEPS) -> dict:
     """Pull the node beside the cut away from it (+y) by ``force`` [N] toward equilibrium.
 
     Returns ``{"node", "gap" [m], "steps", "settled"}``; a solve that does not settle within ``max_steps`` is
@@ -98,15 +102,15 @@ def open_wound(solver, line, *, force: float = PULL_FORCE, offset: float = PULL_
             "settled": bool(solver.last_solve.converged)}
 
 
-def unloaded_openings(solver, line) -> np.ndarray:
+def unloaded_openings(solver: Solver, line: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
     """``(p,) float64`` the wound's openings [m] (:func:`wound_openings`) at equilibrium with no force: a
     prestrained capsule retracting (:mod:`tissuesim.layer.prestress`); zeros without a prestrain."""
     solver.solve_static(pull_node(solver.rest_positions, line), [0.0, 0.0, 0.0], max_steps=OPEN_MAX_STEPS)
     return wound_openings(solver)
 
 
-def lip_deviation(rest: np.ndarray, triangles: np.ndarray, line, *, depth: float = INCISION_DEPTH,
-                  edge: float, before: np.ndarray | None = None) -> dict:
+def lip_deviation(rest: np.ndarray, triangles: np.ndarray, line: tuple[np.ndarray, np.ndarray], *,
+                  depth: float = INCISION_DEPTH, edge: float, before: np.ndarray | None = None) -> dict:
     """How far the lips of a straight stroke's wound lie from the blade's trace, at rest.
 
     The trace is the rectangle the blade swept: from the tool's ``line`` (start, end ``(3,)`` [m]) down ``depth``

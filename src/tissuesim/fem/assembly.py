@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
+from numpy.typing import ArrayLike
 
 from ..errors import MaterialError
 from ..mesh.tetmesh import TetMesh
@@ -144,7 +145,7 @@ def _element_stiffness_kernel(points, tets, d, out):
 
 
 @njit(cache=True)
-def strain_matrix(gradients, b):
+def strain_matrix(gradients: np.ndarray, b: np.ndarray) -> None:
     """B of eq (2) in place, ``b`` ``(6, 3 w)``, from shape-function gradients ``(w, 3)``: rows xx, yy, zz, xy, yz,
     zx (engineering shears), column ``3 a + c`` component c of node a. Entries B leaves zero are never written."""
     for a in range(gradients.shape[0]):
@@ -162,7 +163,7 @@ def strain_matrix(gradients, b):
 
 
 @njit(cache=True)
-def add_bt_d_b(b, d, db, weight, out):
+def add_bt_d_b(b: np.ndarray, d: np.ndarray, db: np.ndarray, weight: float, out: np.ndarray) -> None:
     """``out`` ``(k, k)`` upper triangle += weight Bᵀ D B (``db`` ``(6, k)`` scratch); :func:`mirror_upper` fills the
     lower one."""
     k = b.shape[1]
@@ -181,7 +182,7 @@ def add_bt_d_b(b, d, db, weight, out):
 
 
 @njit(cache=True)
-def mirror_upper(out):
+def mirror_upper(out: np.ndarray) -> None:
     """The lower triangle of ``out`` ``(k, k)`` copied from the upper one: exactly symmetric."""
     for i in range(out.shape[0]):
         for j in range(i + 1, out.shape[0]):
@@ -236,7 +237,7 @@ def lumped_mass(mesh: TetMesh, density: float = 1000.0) -> np.ndarray:
     return np.bincount(mesh.tets.ravel(), weights=share, minlength=mesh.node_count)
 
 
-def body_force(mesh: TetMesh, density: float, acceleration) -> np.ndarray:
+def body_force(mesh: TetMesh, density: float, acceleration: ArrayLike) -> np.ndarray:
     """``(n, 3) float64`` consistent nodal load [N] of the body force ρ g on linear tets: each node of a tet gets
     ρ g V/4 from it (the integral of ρ g against its linear shape function, exact for a constant g). ``density`` ρ
     [kg/m³], ``acceleration`` g ``(3,)`` [m/s²], e.g. gravity (0, 0, −9.81)."""

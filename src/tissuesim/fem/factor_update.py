@@ -20,6 +20,8 @@ sparse columns, not a factorisation. Everything is exact to round-off.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 import scipy.linalg as la
 import scipy.sparse as sp
@@ -27,6 +29,9 @@ from numba import njit
 
 from ..errors import SolverError
 from .factorise import factorise_spd
+
+if TYPE_CHECKING:
+    from .factorise import _Cholmod
 
 __all__ = ["CorrectedSolve", "ExplicitFactor", "SparseColumns"]
 
@@ -64,7 +69,7 @@ class ExplicitFactor:
         factor: its CHOLMOD factor from :func:`~.factorise.factorise_spd`, if there is one already.
     """
 
-    def __init__(self, matrix: sp.csc_matrix, dof_node: np.ndarray, *, factor=None):
+    def __init__(self, matrix: sp.csc_matrix, dof_node: np.ndarray, *, factor: _Cholmod | None = None):
         from cvxopt import cholmod, matrix as dense
 
         self.size = matrix.shape[0]

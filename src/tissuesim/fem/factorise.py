@@ -91,13 +91,14 @@ class _PermutedLU:
         return x
 
 
-def fill_reducing_order(reduced: sp.csc_matrix, dof_node: np.ndarray):
+def fill_reducing_order(reduced: sp.csc_matrix, dof_node: np.ndarray) -> np.ndarray | None:
     """The METIS nested-dissection order of ``reduced``'s dofs that :func:`factorise_spd` uses (None without
     pymetis): compute it once for a sequence of matrices with one sparsity pattern (Newton's tangents)."""
     return _nested_dissection(reduced, dof_node)
 
 
-def factorise_spd(reduced: sp.csc_matrix, dof_node: np.ndarray, *, order=None):
+def factorise_spd(reduced: sp.csc_matrix, dof_node: np.ndarray, *,
+                  order: np.ndarray | None = None) -> _Cholmod | _PermutedLU | spla.SuperLU:
     """Factorise the SPD K_ff once (see the module docstring); ``dof_node`` ``(f,)`` is the node of each free dof;
     ``order`` a :func:`fill_reducing_order` of the same pattern, computed here when not given.
 

@@ -35,7 +35,7 @@ _CODES = {"corotated": 1, "neo-hookean": 2}
 SINGULAR_FLOOR = 1e-8
 
 
-def check_material(material) -> str:
+def check_material(material: object) -> str:
     """``material`` if it is one of :data:`MATERIALS`, else MaterialError naming the choices."""
     if not isinstance(material, str) or material not in MATERIALS:
         raise MaterialError(f"unknown material {material!r}; choose one of {', '.join(map(repr, MATERIALS))} "
@@ -119,7 +119,7 @@ def _rotation(f, u, sigma, vt, r):
 
 
 @njit(cache=True)
-def energy_density(f, params, scratch):
+def energy_density(f: np.ndarray, params: np.ndarray, scratch: np.ndarray) -> float:
     """Ψ(F) [J/m³] of the material ``params`` (:func:`material_parameters`); ``scratch`` ``(5, 3, 3)``."""
     mu, lam, alpha = params[1], params[2], params[3]
     j = _det3(f)
@@ -141,7 +141,7 @@ def energy_density(f, params, scratch):
 
 
 @njit(cache=True)
-def piola_stress(f, params, p, scratch):
+def piola_stress(f: np.ndarray, params: np.ndarray, p: np.ndarray, scratch: np.ndarray) -> None:
     """P = ∂Ψ/∂F [Pa] into ``p`` ``(3, 3)``; ``scratch`` ``(5, 3, 3)``."""
     mu, lam, alpha = params[1], params[2], params[3]
     cof = scratch[4]
@@ -165,7 +165,7 @@ def piola_stress(f, params, p, scratch):
 
 
 @njit(cache=True)
-def stress_tangent(f, params, a, scratch):
+def stress_tangent(f: np.ndarray, params: np.ndarray, a: np.ndarray, scratch: np.ndarray) -> None:
     """A = ∂P/∂F [Pa] into ``a`` ``(9, 9)`` (exact; :func:`project_psd` makes it positive semi-definite)."""
     mu, lam, alpha = params[1], params[2], params[3]
     cof = scratch[4]
@@ -211,7 +211,7 @@ def stress_tangent(f, params, a, scratch):
 
 
 @njit(cache=True)
-def project_psd(a):
+def project_psd(a: np.ndarray) -> None:
     """``a`` ``(9, 9)`` symmetrised and replaced by its nearest positive semi-definite matrix (negative eigenvalues
     clamped to 0, Teran et al. 2005): a Newton direction that always descends. Unchanged where A is already PSD."""
     sym = 0.5 * (a + a.T)
@@ -241,7 +241,8 @@ def _deformation_gradient(x, elements, gradients, e, q, f):
 
 
 @njit(cache=True)
-def element_energy(x, elements, gradients, weights, params):
+def element_energy(x: np.ndarray, elements: np.ndarray, gradients: np.ndarray, weights: np.ndarray,
+                   params: np.ndarray) -> float:
     """Σ_e Σ_q w_q Ψ(F_q) [J] at current positions ``x`` ``(N, 3)`` [m] of all nodes."""
     f = np.empty((3, 3))
     scratch = np.empty((5, 3, 3))
@@ -254,7 +255,8 @@ def element_energy(x, elements, gradients, weights, params):
 
 
 @njit(cache=True)
-def internal_forces(x, elements, gradients, weights, params, out):
+def internal_forces(x: np.ndarray, elements: np.ndarray, gradients: np.ndarray, weights: np.ndarray,
+                    params: np.ndarray, out: np.ndarray) -> None:
     """``out`` ``(N, 3)`` = ∂W/∂x [N] (zero at rest)."""
     f = np.empty((3, 3))
     p = np.empty((3, 3))
@@ -275,7 +277,8 @@ def internal_forces(x, elements, gradients, weights, params, out):
 
 
 @njit(cache=True)
-def element_tangents(x, elements, gradients, weights, params, project, out):
+def element_tangents(x: np.ndarray, elements: np.ndarray, gradients: np.ndarray, weights: np.ndarray,
+                     params: np.ndarray, project: bool, out: np.ndarray) -> None:
     """``out`` ``(m, 3w, 3w)``: K_e[3a + i, 3b + j] = Σ_q w_q Σ_kl A_q[3i + k, 3j + l] ∇N_a,k ∇N_b,l [N/m], each A
     projected to positive semi-definite when ``project``."""
     width = elements.shape[1]

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, MeshError, SolverError, first_indices
 from ..mesh.tetmesh import TetMesh
@@ -79,8 +80,8 @@ class LinearFEM:
         *,
         youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
         poisson_ratio: float = DEFAULT_POISSON_RATIO,
-        fixed,
-        springs=None,
+        fixed: ArrayLike,
+        springs: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
     ):
         if not isinstance(mesh, TetMesh):
             raise MeshError(f"mesh must be a tissuesim TetMesh, got {type(mesh).__name__}")
@@ -108,7 +109,7 @@ class LinearFEM:
 
     # --- full solve -------------------------------------------------------------------------------------------
 
-    def solve(self, forces) -> np.ndarray:
+    def solve(self, forces: ArrayLike) -> np.ndarray:
         """Nodal displacements u [m], ``(n, 3) float64``, for nodal forces ``(n, 3)`` [N] (eq 5).
 
         Force components on fixed dofs go straight into the supports and move nothing. One back-substitution.
@@ -123,7 +124,7 @@ class LinearFEM:
         u[self.free_dofs] = self._lu.solve(forces.ravel()[self.free_dofs])
         return u.reshape(-1, 3)
 
-    def reactions(self, displacement) -> np.ndarray:
+    def reactions(self, displacement: ArrayLike) -> np.ndarray:
         """Nodal forces K u [N], ``(n, 3)``, of a displacement ``(n, 3)`` [m]: at fixed dofs the support reactions
         (with the sign of a force applied to the body), at free dofs the applied load the displacement balances."""
         displacement = np.asarray(displacement, dtype=np.float64)
@@ -146,7 +147,7 @@ class LinearFEM:
             columns = self._columns[node]
         return columns
 
-    def precompute(self, nodes) -> None:
+    def precompute(self, nodes: ArrayLike) -> None:
         """Compute and cache :meth:`influence` of several nodes ``(k,) int`` at once (one multi-RHS solve), e.g.
         all control nodes of a hybrid mesh before an interactive session. Memory: 72 n bytes per node."""
         nodes = np.unique(self._check_nodes(nodes, "nodes"))
@@ -160,7 +161,7 @@ class LinearFEM:
             columns.flags.writeable = False
             self._columns[int(node)] = columns
 
-    def compliance_among(self, nodes) -> np.ndarray:
+    def compliance_among(self, nodes: ArrayLike) -> np.ndarray:
         """``(3k, 3k) float64`` [m/N] K⁻¹ among the dofs of ``nodes`` ``(k,) int``, node-major: entry
         ``[3a + d, 3b + c]`` is node a's displacement along d under a unit force on node b along c. One multi-RHS
         solve; nothing is kept (a grasper asks for a new patch at each grab)."""
@@ -183,7 +184,8 @@ class LinearFEM:
         forces[load_dofs, np.arange(load_dofs.size)] = 1.0
         return self.solve_columns(forces)
 
-    def point_load_response(self, load_nodes, load_forces, *, output_nodes, out=None) -> np.ndarray:
+    def point_load_response(self, load_nodes: ArrayLike, load_forces: ArrayLike, *, output_nodes: ArrayLike,
+                            out: np.ndarray | None = None) -> np.ndarray:
         """Displacements [m], ``(s, 3) float64``, of ``output_nodes`` ``(s,) int`` under forces ``load_forces``
         ``(k, 3)`` [N] on ``load_nodes`` ``(k,) int`` (no load elsewhere): u_out = Σ_j G_j[out] f_j with G_j =
         :meth:`influence` of node j.
@@ -215,7 +217,8 @@ class LinearFEM:
             _accumulate_point_load(columns, load_forces[j], output_nodes, out)
         return out
 
-    def patch_response(self, nodes, weights, force, *, output_nodes, out) -> np.ndarray:
+    def patch_response(self, nodes: ArrayLike, weights: ArrayLike, force: ArrayLike, *, output_nodes: np.ndarray,
+                       out: np.ndarray) -> np.ndarray:
         """Displacements [m] of ``output_nodes`` ``(s,) int`` into ``out`` ``(s, 3) float64`` (C-contiguous) under
         ``force`` ``(3,)`` [N] spread over ``nodes`` ``(k,) int`` with ``weights`` ``(k,)`` (node j carries w_j F;
         nodes may repeat): u_out = (Σ_j w_j G_j[out]) F, :meth:`point_load_response` with forces w_j F to round-off.

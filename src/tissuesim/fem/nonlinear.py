@@ -23,7 +23,10 @@ does converge, on a state that crushes elements flat (:meth:`volume_ratios`), ca
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
@@ -49,7 +52,7 @@ _ARMIJO = 1e-4
 _MAX_HALVINGS = 40
 
 
-def in_fractions(attempt, *, first: float, smallest: float) -> float:
+def in_fractions(attempt: Callable[[float], bool], *, first: float, smallest: float) -> float:
     """Continuation: ``attempt(fraction)`` solves under that fraction of a load (from the last success) and says
     whether it converged. Fractions grow by ``first``; the increment doubles after a success (up to what is left)
     and halves after a failure. Returns 1.0, or the last fraction reached once the increment falls below
@@ -365,7 +368,8 @@ class NonlinearFEM(_HyperelasticStatics):
 
     Args:
         mesh: the tet mesh (rest shape).
-        youngs_modulus, poisson_ratio: E [Pa], ν [-] (Hooke's law at small strain).
+        youngs_modulus: E [Pa] (Hooke's law at small strain).
+        poisson_ratio: ν [-].
         fixed: the supports, as :class:`~.linear.LinearFEM` takes them.
         material: ``"corotated"`` or ``"neo-hookean"`` (:mod:`.hyperelastic`).
         linear: an existing :class:`~.linear.LinearFEM` of the same mesh, material and supports whose factor
@@ -381,7 +385,7 @@ class NonlinearFEM(_HyperelasticStatics):
     """
 
     def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
-                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
+                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed: ArrayLike, material: str = "neo-hookean",
                  linear: LinearFEM | None = None):
         self.material_name = check_material(material)
         self.linear = linear if linear is not None else LinearFEM(
@@ -401,7 +405,8 @@ class QuadraticNonlinearFEM(_HyperelasticStatics):
 
     Args:
         mesh: the tet mesh whose nodes are the corners; midside nodes are added as QuadraticFEM adds them.
-        youngs_modulus, poisson_ratio: E [Pa], ν [-].
+        youngs_modulus: E [Pa].
+        poisson_ratio: ν [-].
         fixed: the supports among all N corner and midside nodes, as QuadraticFEM takes them (a callable
             ``points (N, 3) ->`` indices or a node or dof mask).
         material: ``"corotated"`` or ``"neo-hookean"``.
@@ -416,8 +421,8 @@ class QuadraticNonlinearFEM(_HyperelasticStatics):
     """
 
     def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
-                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed, material: str = "neo-hookean",
-                 linear: QuadraticFEM | None = None):
+                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed: Callable[[np.ndarray], ArrayLike],
+                 material: str = "neo-hookean", linear: QuadraticFEM | None = None):
         self.material_name = check_material(material)
         elastic = Material(youngs_modulus, poisson_ratio)
         self.linear = linear if linear is not None else QuadraticFEM(

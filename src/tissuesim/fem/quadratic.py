@@ -17,8 +17,12 @@ three levels, so the reference uses them; every simulation method keeps its line
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+import scipy.sparse as sp
 from numba import njit
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
@@ -56,7 +60,7 @@ def shape_values(barycentric: np.ndarray) -> np.ndarray:
 
 
 def quadratic_body_force(mesh: TetMesh, elements: np.ndarray, node_count: int, density: float,
-                         acceleration) -> np.ndarray:
+                         acceleration: ArrayLike) -> np.ndarray:
     """``(N, 3) float64`` consistent nodal load [N] of the body force ρ g on the quadratic ``elements`` ``(m, 10)``:
     ∫ N ρ g dV gives each corner −ρ g V/20 and each midside ρ g V/5 (exact for a constant g; they sum to ρ g V)."""
     share = mesh.volumes * float(density)
@@ -73,7 +77,7 @@ def quadratic_element_stiffness(mesh: TetMesh, material: Material) -> np.ndarray
     return ke
 
 
-def quadratic_stiffness(mesh: TetMesh, material: Material, elements: np.ndarray, node_count: int):
+def quadratic_stiffness(mesh: TetMesh, material: Material, elements: np.ndarray, node_count: int) -> sp.csr_matrix:
     """The unconstrained K [N/m], ``(3N, 3N)`` CSR, node-major dofs, over the quadratic ``elements`` ``(m, 10)`` of
     :func:`quadratic_elements` with N = ``node_count`` nodes."""
     return scatter_elements(node_count, elements, quadratic_element_stiffness(mesh, material))
@@ -108,7 +112,8 @@ class QuadraticFEM:
 
     Args:
         mesh: the tet mesh (its nodes are the corners; midside nodes are added).
-        youngs_modulus, poisson_ratio: the material [Pa], [-].
+        youngs_modulus: the material's E [Pa].
+        poisson_ratio: its ν [-].
         fixed: a callable ``points (N, 3) -> (k,) int`` (or an ``(N,)`` bool mask) choosing the fixed nodes among
             all N = n + e nodes (e.g. ``lambda p: nodes_below(p, height)``), so that midside nodes on the support are
             fixed with it. The rigid-mode check looks at the corner nodes: fix corners, not midsides alone.
@@ -122,7 +127,9 @@ class QuadraticFEM:
         elements: ``(m, 10) int64`` corners and midsides of each tet.
     """
 
-    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float, fixed, springs=None,
+    def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float,
+                 fixed: Callable[[np.ndarray], ArrayLike],
+                 springs: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
                  topology: tuple[np.ndarray, np.ndarray] | None = None):
         material = Material(youngs_modulus, poisson_ratio)
         n = mesh.node_count

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, first_indices
 
@@ -21,7 +22,8 @@ def spring_stiffness(n: int, nodes: np.ndarray, weights: np.ndarray, stiffness: 
     return sp.csr_matrix((np.repeat(value.ravel(), 3), (rows, cols)), shape=(3 * n, 3 * n))
 
 
-def check_springs(springs, n: int):
+def check_springs(springs: tuple[ArrayLike, ArrayLike, ArrayLike] | None,
+                  n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     """``(nodes (p, r) int64, weights (p, r), stiffness (p,))`` checked, or None for no spring."""
     if springs is None:
         return None

@@ -24,12 +24,17 @@ XPBD compliance is the inverse stiffness, α = 1/k (Macklin et al. 2016, U = ½ 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from ..errors import MaterialError
 from ..mesh.bundle_check import SURFACE_VERTICES_KEY
 from ..mesh.surface import SurfaceMesh
 from .topology import SurfaceConstraints
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
 
 DEFAULT_YOUNGS_MODULUS = 5500.0  # Pa, the paper's tissue (§8.3)
 DEFAULT_POISSON_RATIO = 0.3
@@ -95,7 +100,7 @@ def relative_shell_compliance(constraints: SurfaceConstraints, *, youngs_modulus
     return 1.0 / k_e, 1.0 / k_b
 
 
-def thickness_lengths(hybrid, edges: np.ndarray, rest_length: np.ndarray) -> np.ndarray:
+def thickness_lengths(hybrid: HybridMesh, edges: np.ndarray, rest_length: np.ndarray) -> np.ndarray:
     """``(k,) float64`` the length [m] whose β-multiple is the layer's thickness at each row (a constraint or a
     spring) joining ``edges`` ``(k, 2) int`` of rest length ``rest_length`` ``(k,)`` [m] on ``hybrid``'s surface.
 

@@ -26,6 +26,7 @@ Conventions (all positions ``(3,) float64`` [m], inverse masses ``w = 1/m`` [1/k
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 # Below these, a length [m] / a sine is treated as zero and the constraint is skipped (see module docstring).
 TINY_LENGTH = 1e-300
@@ -34,13 +35,13 @@ TINY_SINE = 1e-12
 
 # ---------------------------------------------------------------- stretch (eq 8-9)
 
-def stretch_value(p1, p2, rest_length: float) -> float:
+def stretch_value(p1: ArrayLike, p2: ArrayLike, rest_length: float) -> float:
     """Eq 8: ``C = |p1 − p2| − l`` [m]."""
     d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
     return float(np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - rest_length)
 
 
-def stretch_gradient(p1, p2) -> np.ndarray:
+def stretch_gradient(p1: ArrayLike, p2: ArrayLike) -> np.ndarray:
     """``(2, 3)`` gradient of eq 8 with respect to p1, p2: ``±(p1 − p2)/|p1 − p2|`` (zero if p1 = p2)."""
     d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
     length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
@@ -50,7 +51,8 @@ def stretch_gradient(p1, p2) -> np.ndarray:
     return np.stack([n, -n])
 
 
-def stretch_correction(p1, p2, w1: float, w2: float, rest_length: float, *, stiffness: float = 1.0) -> np.ndarray:
+def stretch_correction(p1: ArrayLike, p2: ArrayLike, w1: float, w2: float, rest_length: float, *,
+                       stiffness: float = 1.0) -> np.ndarray:
     """Eq 9: ``(2, 3)`` corrections ``Δp1, Δp2`` [m], scaled by a PBD stiffness in [0, 1]."""
     d = np.asarray(p1, dtype=np.float64) - np.asarray(p2, dtype=np.float64)
     length = np.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
@@ -80,7 +82,7 @@ def _hinge_frame(p1, p2, p3, p4):
     return a, b, c, n1, n2, l1, l2
 
 
-def dihedral_angle(p1, p2, p3, p4) -> float:
+def dihedral_angle(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike) -> float:
     """θ of eq 10 [rad] in [0, π] (π for a flat hinge; see module docstring). 0 for a degenerate hinge."""
     frame = _hinge_frame(p1, p2, p3, p4)
     if frame is None:
@@ -90,12 +92,12 @@ def dihedral_angle(p1, p2, p3, p4) -> float:
     return float(np.arctan2(np.sqrt(cr @ cr), n1 @ n2))
 
 
-def bending_value(p1, p2, p3, p4, rest_angle: float) -> float:
+def bending_value(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike, rest_angle: float) -> float:
     """Eq 10: ``C = θ − φ`` [rad]."""
     return dihedral_angle(p1, p2, p3, p4) - rest_angle
 
 
-def bending_q(p1, p2, p3, p4) -> np.ndarray | None:
+def bending_q(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike) -> np.ndarray | None:
     """Eq 12: ``(4, 3)`` vectors q1..q4 (Müller's q_i = −∂(n1·n2)/∂p_i), or None for a degenerate hinge."""
     frame = _hinge_frame(p1, p2, p3, p4)
     if frame is None:
@@ -109,7 +111,7 @@ def bending_q(p1, p2, p3, p4) -> np.ndarray | None:
     return np.stack([q1, q2, q3, q4])
 
 
-def bending_gradient(p1, p2, p3, p4) -> np.ndarray:
+def bending_gradient(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike) -> np.ndarray:
     """``(4, 3)`` gradient of eq 10 [rad/m]: ``∇_i C = q_i / sin θ`` (zero where degenerate)."""
     q = bending_q(p1, p2, p3, p4)
     if q is None:
@@ -122,7 +124,8 @@ def bending_gradient(p1, p2, p3, p4) -> np.ndarray:
     return q / sine
 
 
-def bending_correction(p1, p2, p3, p4, w, rest_angle: float, *, stiffness: float = 1.0) -> np.ndarray:
+def bending_correction(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike, w: ArrayLike, rest_angle: float,
+                       *, stiffness: float = 1.0) -> np.ndarray:
     """Eq 11 (with eq 7's exact mass weighting): ``(4, 3)`` corrections [m], scaled by a PBD stiffness in [0, 1].
 
     ``Δp_i = −k w_i sinθ (θ − φ) q_i / Σ_j w_j |q_j|²``, which is ``−k w_i C ∇_i C / Σ_j w_j |∇_j C|²``.
@@ -147,7 +150,8 @@ def bending_correction(p1, p2, p3, p4, w, rest_angle: float, *, stiffness: float
 
 # ---------------------------------------------------------------- XPBD (Macklin et al. 2016, eq 18)
 
-def xpbd_multiplier_update(value: float, gradient: np.ndarray, w, lam: float, compliance: float, dt: float) -> float:
+def xpbd_multiplier_update(value: float, gradient: np.ndarray, w: ArrayLike, lam: float, compliance: float,
+                           dt: float) -> float:
     """Macklin 2016 eq 18: ``Δλ = (−C − α̃ λ) / (Σ_j w_j |∇_j C|² + α̃)``, ``α̃ = α/dt²``.
 
     Args:
@@ -169,7 +173,7 @@ def xpbd_multiplier_update(value: float, gradient: np.ndarray, w, lam: float, co
 
 # ---------------------------------------------------------------- signed bending (beyond the paper)
 
-def signed_bend_angle(p1, p2, p3, p4) -> float:
+def signed_bend_angle(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike) -> float:
     """β [rad] in (−π, π]: the signed angle between the outward normals of (P1, P2, P3) and (P2, P1, P4).
 
     0 for a flat hinge and smooth through it, unlike eq 10's unsigned θ (= π − |β|), which has a cusp there. The
@@ -186,7 +190,7 @@ def signed_bend_angle(p1, p2, p3, p4) -> float:
     return float(np.arctan2(np.cross(na, nb) @ a / length, na @ nb))
 
 
-def signed_bend_gradient(p1, p2, p3, p4) -> np.ndarray:
+def signed_bend_gradient(p1: ArrayLike, p2: ArrayLike, p3: ArrayLike, p4: ArrayLike) -> np.ndarray:
     """``(4, 3)`` gradient of β [rad/m], in closed form (no division by sin β, exact at flat).
 
     A vertex opposite the edge rotates its triangle about the edge by its normal displacement over the triangle's

@@ -20,7 +20,9 @@ COMPLEX_STEP = 1e-20
 # ---------------------------------------------------------------- energy, forces, tangent
 
 @njit(cache=True)
-def layer_energy_gradient(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, out):
+def layer_energy_gradient(x: np.ndarray, edges: np.ndarray, rest_length: np.ndarray, stretch_compliance: np.ndarray,
+                          hinges: np.ndarray, rest_angle: np.ndarray, bend_compliance: np.ndarray,
+                          out: np.ndarray) -> float:
     """The energy U = Σ_c C_c²/(2 α_c) [J] at positions ``x`` ``(n, 3)`` [m], returned, and its gradient
     ∇U = Σ_c (C_c/α_c) ∇C_c [N] into ``out`` ``(n, 3)`` (the layer's internal forces are −∇U). Degenerate hinges
     count zero, as in the kernels; a zero-length edge has energy but no direction, so no force."""
@@ -124,8 +126,9 @@ def _hinge_hessian(x, i1, i2, i3, i4, work, out):
 
 
 @njit(cache=True)
-def layer_tangent(x, edges, rest_length, stretch_compliance, hinges, rest_angle, bend_compliance, definite,
-                  stretch_slots, hinge_slots, data):
+def layer_tangent(x: np.ndarray, edges: np.ndarray, rest_length: np.ndarray, stretch_compliance: np.ndarray,
+                  hinges: np.ndarray, rest_angle: np.ndarray, bend_compliance: np.ndarray, definite: bool,
+                  stretch_slots: np.ndarray, hinge_slots: np.ndarray, data: np.ndarray) -> None:
     """The layer's tangent at ``x`` ``(n, 3)`` [m] into the 3×3 blocks ``data`` ``(m, 3, 3)`` [N/m] of a block-sparse
     matrix, in place: Jᵀ α⁻¹ J + Σ (C/α) ∇²C; with ``definite``, only the parts that are positive semi-definite
     whatever x: Jᵀ α⁻¹ J and the geometric stiffness of stretched edges (C > 0), without that of compressed edges
@@ -203,7 +206,8 @@ def _add_hinge_tangent(x, hinges, rest_angle, bend_compliance, definite, hinge_s
 # ---------------------------------------------------------------- the implicit step's per-dof kernels
 
 @njit(cache=True)
-def step_predict(positions, velocities, old, predicted, free, prescribed, targets, dt, keep):
+def step_predict(positions: np.ndarray, velocities: np.ndarray, old: np.ndarray, predicted: np.ndarray,
+                 free: np.ndarray, prescribed: np.ndarray, targets: np.ndarray, dt: float, keep: float) -> None:
     """Save ``old`` positions, set x_pred = x + dt (1 − damping) v on the free nodes (also the iterations' start)
     and put the prescribed nodes at their targets."""
     old[:] = positions
@@ -218,7 +222,8 @@ def step_predict(positions, velocities, old, predicted, free, prescribed, target
 
 
 @njit(cache=True)
-def step_residual(positions, predicted, free, inertia, forces, gradient, out):
+def step_residual(positions: np.ndarray, predicted: np.ndarray, free: np.ndarray, inertia: np.ndarray,
+                  forces: np.ndarray, gradient: np.ndarray, out: np.ndarray) -> None:
     """``out`` ``(3f,)`` = M/dt² (x_pred − x) + f − ∇U on the free dofs [N]."""
     for r in range(free.shape[0]):
         i = free[r]
@@ -228,7 +233,8 @@ def step_residual(positions, predicted, free, inertia, forces, gradient, out):
 
 
 @njit(cache=True)
-def step_descent(positions, predicted, free, inertia, forces, gradient, correction):
+def step_descent(positions: np.ndarray, predicted: np.ndarray, free: np.ndarray, inertia: np.ndarray,
+                 forces: np.ndarray, gradient: np.ndarray, correction: np.ndarray) -> tuple[float, float, float, float]:
     """Along Δx = ``correction`` ``(3f,)``, the incremental potential E(x) = ½ |x − x_pred|²_M/dt² + U(x) − f_fᵀx_f
     changes by U(x + sΔx) − U(x) + s a + ½ s² q. Returns ``(a, q, dE/ds at 0, the sum of |terms| of that slope)``
     [J]; the last bounds the slope's round-off."""
@@ -250,7 +256,8 @@ def step_descent(positions, predicted, free, inertia, forces, gradient, correcti
 
 
 @njit(cache=True)
-def step_advance(positions, free, correction, step, out):
+def step_advance(positions: np.ndarray, free: np.ndarray, correction: np.ndarray, step: float,
+                 out: np.ndarray) -> None:
     """``out`` = ``positions`` with x_f + ``step`` × ``correction`` ``(3f,)`` on the free nodes."""
     out[:] = positions
     for r in range(free.shape[0]):
@@ -260,7 +267,7 @@ def step_advance(positions, free, correction, step, out):
 
 
 @njit(cache=True)
-def step_velocities(positions, velocities, old, dt):
+def step_velocities(positions: np.ndarray, velocities: np.ndarray, old: np.ndarray, dt: float) -> None:
     """v = (x − x_old)/dt on every node."""
     inv_dt = 1.0 / dt
     for i in range(positions.shape[0]):

@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError, first_indices
 from ..fem.factorise import factorise_spd
@@ -114,8 +115,9 @@ class FiniteLayer(LayerStatics):
     fell back to the definite part of the tangent.
     """
 
-    def __init__(self, rest_positions, *, edges, rest_length, stretch_compliance, hinges, rest_angle,
-                 bend_compliance, prescribed):
+    def __init__(self, rest_positions: ArrayLike, *, edges: ArrayLike, rest_length: ArrayLike,
+                 stretch_compliance: ArrayLike, hinges: ArrayLike, rest_angle: ArrayLike, bend_compliance: ArrayLike,
+                 prescribed: ArrayLike):
         rest = np.ascontiguousarray(rest_positions, dtype=np.float64)
         edges = np.ascontiguousarray(edges, dtype=np.int64).reshape(-1, 2)
         hinges = np.ascontiguousarray(hinges, dtype=np.int64).reshape(-1, 4)

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 # Same thresholds as the reference (tissuesim.layer.constraints).
@@ -48,7 +49,9 @@ def _lever_rule(ta, tb, g3x, g3y, g3z, g4x, g4y, g4z):
 
 
 @njit(cache=True, inline="always")
-def bend_gradient(x, i1, i2, i3, i4):
+def bend_gradient(
+    x: np.ndarray, i1: int, i2: int, i3: int, i4: int,
+) -> tuple[bool, float, float, float, float, float, float, float, float, float, float, float, float, float, float]:
     """Eq 10's θ on hinge (P1, P2 | P3, P4) of ``x`` and its gradient ∇θ per node, in closed form.
 
     Returns ``(valid, θ, |P2 − P1|, ∇_1θ, ∇_2θ, ∇_3θ, ∇_4θ)`` (each gradient as 3 floats); ``valid`` is False for a
@@ -89,7 +92,9 @@ def bend_gradient(x, i1, i2, i3, i4):
 
 
 @njit(cache=True, inline="always")
-def bend_gradient_signed(x, i1, i2, i3, i4):
+def bend_gradient_signed(
+    x: np.ndarray, i1: int, i2: int, i3: int, i4: int,
+) -> tuple[bool, float, float, float, float, float, float, float, float, float, float, float, float, float]:
     """The signed angle β on hinge (P1, P2 | P3, P4) of ``x`` and its gradient per node, in closed form.
 
     Returns ``(valid, β, ∇_1β, ∇_2β, ∇_3β, ∇_4β)`` (each gradient as 3 floats); ``valid`` is False for a degenerate

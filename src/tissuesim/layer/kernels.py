@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from .hinge_kernels import TINY_LENGTH, bend_gradient, bend_gradient_signed
@@ -214,8 +215,10 @@ def _finish(positions, velocities, predicted, dt):
 # ---------------------------------------------------------------- step entries
 
 @njit(cache=True)
-def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
-             edges, rest_length, k_stretch, bending, rest_angle, k_bend, signed_bending=False):
+def pbd_step(positions: np.ndarray, velocities: np.ndarray, predicted: np.ndarray, inv_mass: np.ndarray,
+             forces: np.ndarray, prescribed: np.ndarray, targets: np.ndarray, dt: float, damping: float,
+             iterations: int, edges: np.ndarray, rest_length: np.ndarray, k_stretch: float, bending: np.ndarray,
+             rest_angle: np.ndarray, k_bend: float, signed_bending: bool = False) -> None:
     """One PBD time step (paper §6.5, eq 15–18) with stiffness coefficients; all arrays updated in place.
 
     Args:
@@ -252,9 +255,11 @@ def pbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, tar
 
 
 @njit(cache=True)
-def xpbd_step(positions, velocities, predicted, inv_mass, forces, prescribed, targets, dt, damping, iterations,
-              edges, rest_length, stretch_compliance, bending, rest_angle, bend_compliance,
-              lambda_stretch, lambda_bend, signed_bending=False):
+def xpbd_step(positions: np.ndarray, velocities: np.ndarray, predicted: np.ndarray, inv_mass: np.ndarray,
+              forces: np.ndarray, prescribed: np.ndarray, targets: np.ndarray, dt: float, damping: float,
+              iterations: int, edges: np.ndarray, rest_length: np.ndarray, stretch_compliance: np.ndarray,
+              bending: np.ndarray, rest_angle: np.ndarray, bend_compliance: np.ndarray, lambda_stretch: np.ndarray,
+              lambda_bend: np.ndarray, signed_bending: bool = False) -> None:
     """One XPBD time step (paper §6.5 flow, Macklin et al. 2016 projection); all arrays updated in place.
 
     Arguments as :func:`pbd_step`, except:

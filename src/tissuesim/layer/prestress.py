@@ -38,7 +38,7 @@ from ..mesh.coincident import coincident_pairs
 MAX_PRESTRAIN = 0.3
 
 
-def check_prestrain(prestrain) -> float:
+def check_prestrain(prestrain: object) -> float:
     """``prestrain`` ε as a float in [0, :data:`MAX_PRESTRAIN`], or SolverError naming the defect."""
     try:
         if isinstance(prestrain, (str, bytes)):

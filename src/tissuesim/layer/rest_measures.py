@@ -13,7 +13,7 @@ from .hinge_kernels import TINY_LENGTH, bend_gradient_signed
 
 
 @njit(cache=True)
-def dihedral_angles(positions, bending):
+def dihedral_angles(positions: np.ndarray, bending: np.ndarray) -> np.ndarray:
     """``(b,) float64`` θ of eq 10 [rad] per hinge, by the kernels' own arithmetic (so rest is bitwise rest).
 
     Degenerate hinges give 0.
@@ -51,7 +51,7 @@ def dihedral_angles(positions, bending):
 
 
 @njit(cache=True)
-def edge_lengths(positions, edges):
+def edge_lengths(positions: np.ndarray, edges: np.ndarray) -> np.ndarray:
     """``(e,) float64`` |p_i − p_j| [m] per edge, by the kernels' own arithmetic (so rest is bitwise rest)."""
     out = np.empty(edges.shape[0])
     for c in range(edges.shape[0]):
@@ -65,7 +65,7 @@ def edge_lengths(positions, edges):
 
 
 @njit(cache=True)
-def signed_bend_angles(positions, bending):
+def signed_bend_angles(positions: np.ndarray, bending: np.ndarray) -> np.ndarray:
     """``(b,) float64`` signed angle β [rad] per hinge, by :func:`bend_gradient_signed`, the arithmetic of
     :func:`_project_bend_signed`.
 

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 from numba import njit
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError
 from ..fem.factorise import factorise_spd
@@ -26,7 +27,8 @@ from .hinge_kernels import TINY_LENGTH, bend_gradient, bend_gradient_signed
 
 
 @njit(cache=True)
-def constraint_jacobian(x, edges, bending, signed_bending, stretch_grad, bend_grad):
+def constraint_jacobian(x: np.ndarray, edges: np.ndarray, bending: np.ndarray, signed_bending: bool,
+                        stretch_grad: np.ndarray, bend_grad: np.ndarray) -> None:
     """Constraint gradients at positions ``x`` ``(n, 3)`` [m], in place: ``stretch_grad`` ``(e, 6)`` holds ∇_i C,
     ∇_j C of each stretch constraint; ``bend_grad`` ``(b, 12)`` ∇_1..∇_4 C of each hinge. Degenerate constraints get
     a zero gradient."""
@@ -65,8 +67,8 @@ def constraint_jacobian(x, edges, bending, signed_bending, stretch_grad, bend_gr
         g[6], g[7], g[8], g[9], g[10], g[11] = g3x, g3y, g3z, g4x, g4y, g4z
 
 
-def layer_stiffness(rest_positions, *, edges, stretch_compliance, hinges, bend_compliance,
-                    signed_bending: bool = True) -> sp.csr_matrix:
+def layer_stiffness(rest_positions: ArrayLike, *, edges: ArrayLike, stretch_compliance: ArrayLike, hinges: ArrayLike,
+                    bend_compliance: ArrayLike, signed_bending: bool = True) -> sp.csr_matrix:
     """``(3n, 3n)`` CSR stiffness K = Jᵀ α⁻¹ J [N/m] of the layer linearised at ``rest_positions`` ``(n, 3)`` [m].
 
     ``edges`` ``(e, 2) int``, ``stretch_compliance`` ``(e,)`` [m/N]; ``hinges`` ``(b, 4) int``, ``bend_compliance``
@@ -87,8 +89,10 @@ def layer_stiffness(rest_positions, *, edges, stretch_compliance, hinges, bend_c
 
 
 @njit(cache=True)
-def implicit_rhs(positions, velocities, rest, free, inertia, keep, dt, forces, indptr, indices, data, prescribed,
-                 targets, out):
+def implicit_rhs(positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, free: np.ndarray,
+                 inertia: np.ndarray, keep: float, dt: float, forces: np.ndarray, indptr: np.ndarray,
+                 indices: np.ndarray, data: np.ndarray, prescribed: np.ndarray, targets: np.ndarray,
+                 out: np.ndarray) -> None:
     """``out`` ``(3f,)`` = M/dt² (u_f + dt (1 − damping) v_f) + f_f − K_fp u_p, in place (``keep`` = 1 − damping;
     K_fp as CSR ``indptr, indices, data`` over the prescribed dofs; u_p = targets − rest of the prescribed nodes)."""
     for r in range(free.shape[0]):
@@ -105,7 +109,8 @@ def implicit_rhs(positions, velocities, rest, free, inertia, keep, dt, forces, i
 
 
 @njit(cache=True)
-def implicit_update(solution, positions, velocities, rest, free, prescribed, targets, dt):
+def implicit_update(solution: np.ndarray, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray,
+                    free: np.ndarray, prescribed: np.ndarray, targets: np.ndarray, dt: float) -> None:
     """New positions (free: rest + ``solution`` ``(3f,)``; prescribed: ``targets``) and v = Δx/dt, in place."""
     inv_dt = 1.0 / dt
     for r in range(free.shape[0]):
@@ -132,7 +137,7 @@ class LayerStatics:
     in some direction, as a cut can leave); :meth:`implicit_step` never needs K_ff alone.
     """
 
-    def __init__(self, stiffness: sp.csr_matrix, *, prescribed):
+    def __init__(self, stiffness: sp.csr_matrix, *, prescribed: ArrayLike):
         n = stiffness.shape[0] // 3
         free = np.ones(n, dtype=bool)
         free[np.asarray(prescribed, dtype=np.int64)] = False

@@ -9,6 +9,7 @@ in place. Write into the bound arrays (``positions[:] = ...``), never rebind the
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import SolverError, first_indices
 from .kernels import pbd_step, xpbd_step
@@ -54,9 +55,10 @@ class SurfaceStepper:
     """
 
     def __init__(self, constraints: SurfaceConstraints, *, positions: np.ndarray, velocities: np.ndarray,
-                 inv_mass, form: str = "pbd", iterations: int = 10, damping: float = 0.0,
-                 k_stretch: float = 1.0, k_bend: float = 1.0, stretch_compliance=None, bend_compliance=None,
-                 prescribed=(), forces: np.ndarray | None = None, signed_bending: bool = False):
+                 inv_mass: ArrayLike, form: str = "pbd", iterations: int = 10, damping: float = 0.0,
+                 k_stretch: float = 1.0, k_bend: float = 1.0, stretch_compliance: ArrayLike | None = None,
+                 bend_compliance: ArrayLike | None = None, prescribed: ArrayLike = (),
+                 forces: np.ndarray | None = None, signed_bending: bool = False):
         if not isinstance(constraints, SurfaceConstraints):
             raise SolverError(f"constraints must be a SurfaceConstraints, got {type(constraints).__name__}; "
                               "build one with SurfaceConstraints.from_surface(surface)")
@@ -109,12 +111,7 @@ class SurfaceStepper:
                               f"{first_indices(bad)}); use 1/mass, or 0 for a node projection must not move")
         return w
 
-    def set_inv_mass(self, inv_mass) -> None:
-        """Replace the inverse masses ``(n,)`` [1/kg]; prescribed nodes stay at 0."""
-        self._inv_mass = self._check_inv_mass(inv_mass)
-        self.set_prescribed(self.prescribed)
-
-    def set_prescribed(self, nodes) -> None:
+    def set_prescribed(self, nodes: ArrayLike) -> None:
         """Prescribe ``(k,)`` nodes (eq 17 first case); :attr:`targets` restarts at their current positions."""
         nodes = np.asarray(nodes)
         if nodes.size == 0:
@@ -150,7 +147,7 @@ class SurfaceStepper:
                 raise SolverError(f"{name} must lie in [0, 1], got {k!r}")
         self.k_stretch, self.k_bend = float(k_stretch), float(k_bend)
 
-    def set_compliance(self, stretch, bend) -> None:
+    def set_compliance(self, stretch: ArrayLike, bend: ArrayLike) -> None:
         """XPBD compliances: stretch ``(e,)`` or scalar [m/N], bending ``(b,)`` or scalar [1/(N·m)], all ≥ 0."""
         c = self.constraints
         out = []

@@ -14,6 +14,8 @@ is refused. Arrays survive bit for bit; M'_S is stored as triangles only (its ve
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import json
 import os
 import tempfile
@@ -29,6 +31,9 @@ from .bundle_check import (FINE, OPTIONAL, REBUILD, REQUIRED, bundle_path, check
 from .surface import SurfaceMesh
 from .tetmesh import TetMesh
 
+if TYPE_CHECKING:
+    from .hybrid import HybridMesh
+
 BUNDLE_FORMAT = "tissuesim-hybrid"
 BUNDLE_VERSION = 1
 #: Most a bundle's member may inflate: its uncompressed size over its compressed one. HybridMesh.save stores its
@@ -43,7 +48,7 @@ WHAT_A_BUNDLE_IS = ("a bundle is the .npz file that `tissuesim build MESH --outp
                     "writes; read a surface file with tissuesim.read_surface and build it with HybridMesh.build")
 
 
-def save_bundle(hybrid, path) -> Path:
+def save_bundle(hybrid: HybridMesh, path: Path | str) -> Path:
     """Write ``hybrid`` (a :class:`~tissuesim.mesh.hybrid.HybridMesh`) to ``path`` atomically; see
     :meth:`HybridMesh.save <tissuesim.mesh.hybrid.HybridMesh.save>`."""
     from .. import __version__
@@ -90,7 +95,7 @@ def _write_atomically(path: Path, arrays: dict) -> None:
         raise
 
 
-def load_bundle(path) -> dict:
+def load_bundle(path: Path | str) -> dict:
     """The :class:`~tissuesim.mesh.hybrid.HybridMesh` fields of the bundle at ``path``, checked; see
     :meth:`HybridMesh.load <tissuesim.mesh.hybrid.HybridMesh.load>`."""
     path = bundle_path(path)

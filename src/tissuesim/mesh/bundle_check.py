@@ -29,7 +29,7 @@ SURFACE_EDGE_KEY = "surface_mean_edge_m"
 SURFACE_VERTICES_KEY = "surface_vertices_built"
 
 
-def check_header(where, header: dict) -> None:
+def check_header(where: Path, header: dict) -> None:
     """The types of the header's ``format_version`` (an int), ``has_fine_volume`` (a bool) and ``info`` (a dict)."""
     found = header.get("format_version")
     if isinstance(found, bool) or not isinstance(found, int):
@@ -57,7 +57,7 @@ OPTIONAL = ("coarse_volume",)
 FLOATING = ("surface_vertices", "volume_points", "coarse_barycentric", "embedding_barycentric", "fine_points")
 
 
-def check_declared(where, declared: dict, *, fine: bool) -> None:
+def check_declared(where: Path, declared: dict, *, fine: bool) -> None:
     """Dtype and shape of each bundle array, and its rows against the counts of the others, from ``declared`` (name
     → ``(shape, dtype)``): what the .npy headers say, so a bundle is refused before its data is read."""
     rows = {name: _rows(where, name, *declared[name], "f" if name in FLOATING else "i", width)
@@ -77,7 +77,7 @@ _WIDTHS = {"surface_vertices": 3, "control": None, "volume_points": 3, "surface_
            "fine_tets": 4, "fine_surface_nodes": None}
 
 
-def check_arrays(where, a: dict, *, fine: bool) -> None:
+def check_arrays(where: Path, a: dict, *, fine: bool) -> None:
     """Dtype, shape, finiteness, ranges and consistency of the bundle arrays ``a`` (name → array)."""
     check_declared(where, {name: (array.shape, array.dtype) for name, array in a.items()}, fine=fine)
     for name in FLOATING:
@@ -170,7 +170,7 @@ def _embedding_reproduces_vertices(where, a: dict) -> None:
                           f"(first: {first_indices(bad)}); {REBUILD}")
 
 
-def check_bundle_target(path) -> Path:
+def check_bundle_target(path: Path | str) -> Path:
     """``path`` as a Path where :meth:`HybridMesh.save` can write a bundle, or a :class:`BundleError` naming it.
 
     Refused: an empty path; an existing folder, device or pipe; a place where no file can be created (tried for
@@ -198,7 +198,7 @@ def temporary_prefix(path: Path) -> str:
     return f".{path.name[:100]}."
 
 
-def bundle_path(path) -> Path:
+def bundle_path(path: object) -> Path:
     """``path`` as a Path, or a :class:`BundleError` unless it is a non-empty str or os.PathLike."""
     if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
         raise BundleError(f"a bundle path must be a str or pathlib.Path, got {type(path).__name__} {path!r:.60}")

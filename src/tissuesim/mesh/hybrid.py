@@ -186,7 +186,7 @@ class HybridMesh:
 
     # -- bundle ------------------------------------------------------------------------------------------------
 
-    def save(self, path) -> Path:
+    def save(self, path: Path | str) -> Path:
         """Write the bundle to ``path`` (``.npz``) atomically; return the path.
 
         Raises:
@@ -196,7 +196,7 @@ class HybridMesh:
         return save_bundle(self, path)
 
     @classmethod
-    def load(cls, path) -> "HybridMesh":
+    def load(cls, path: Path | str) -> "HybridMesh":
         """Read a bundle written by :meth:`save`.
 
         Raises:

@@ -29,7 +29,8 @@ MAX_PASSES = 40
 __all__ = ["refine_surface"]
 
 
-def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray], *, parents: bool = False):
+def refine_surface(surface: SurfaceMesh, size: Callable[[np.ndarray], np.ndarray], *,
+                   parents: bool = False) -> SurfaceMesh | tuple[SurfaceMesh, np.ndarray]:
     """The surface refined until no triangle's longest edge exceeds ``size`` at that edge's midpoint.
 
     Args:

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import BoundaryConditionError, first_indices
 
@@ -58,7 +59,7 @@ def nodes_above(points: np.ndarray, height: float, *, axis: int = 2) -> np.ndarr
     return selected
 
 
-def nodes_in_box(points: np.ndarray, lower, upper) -> np.ndarray:
+def nodes_in_box(points: np.ndarray, lower: ArrayLike, upper: ArrayLike) -> np.ndarray:
     """``(k,) int32`` indices of ``points`` ``(n, 3)`` [m] inside the closed axis-aligned box ``lower`` ≤ x ≤
     ``upper`` (each ``(3,)`` [m]; use ±inf to leave an axis open)."""
     lower = np.asarray(lower, dtype=np.float64)
@@ -79,7 +80,7 @@ def nodes_in_box(points: np.ndarray, lower, upper) -> np.ndarray:
     return selected
 
 
-def node_indices(indices, *, node_count: int) -> np.ndarray:
+def node_indices(indices: ArrayLike, *, node_count: int) -> np.ndarray:
     """``(k,) int32`` sorted unique node indices from an explicit list, checked against ``0..node_count-1``."""
     indices = np.asarray(indices)
     if indices.ndim != 1 or indices.size == 0 or indices.dtype.kind not in "iu":
@@ -95,7 +96,7 @@ def node_indices(indices, *, node_count: int) -> np.ndarray:
     return np.unique(indices).astype(np.int32)
 
 
-def nodes_behind_plane(points: np.ndarray, point, normal) -> np.ndarray:
+def nodes_behind_plane(points: np.ndarray, point: ArrayLike, normal: ArrayLike) -> np.ndarray:
     """``(k,) int32`` indices of ``points`` ``(n, 3)`` [m] on or behind the plane through ``point`` ``(3,)`` [m]
     with outward ``normal`` ``(3,)`` (any length but zero; it points out of the held region, toward the free
     part): the nodes with (x − point) · n ≤ 0, so normal (0, 0, 1) holds what lies below the plane. Nodes within
@@ -118,7 +119,7 @@ def nodes_behind_plane(points: np.ndarray, point, normal) -> np.ndarray:
     return selected
 
 
-def node_mask(mask, *, node_count: int, source: str = "the mask") -> np.ndarray:
+def node_mask(mask: ArrayLike, *, node_count: int, source: str = "the mask") -> np.ndarray:
     """``(k,) int32`` indices of the nodes whose entry in ``mask`` ``(node_count,)`` (0/1 or bool, one per M_S
     vertex in vertex order) is 1."""
     mask = np.asarray(mask)
@@ -140,7 +141,7 @@ def node_mask(mask, *, node_count: int, source: str = "the mask") -> np.ndarray:
     return selected
 
 
-def read_node_file(path, *, kind: str) -> np.ndarray:
+def read_node_file(path: Path | str, *, kind: str) -> np.ndarray:
     """The 1-D array stored in ``path``: a NumPy ``.npy`` file, or text (numbers separated by spaces, commas or
     line breaks; ``#`` starts a comment). ``kind`` ("mask" or "indices") names the file in messages."""
     path = Path(path)
@@ -179,7 +180,7 @@ REGION_KINDS = {
 }
 
 
-def fixed_region(spec, points: np.ndarray, *, folder=None) -> np.ndarray:
+def fixed_region(spec: Mapping[str, object], points: np.ndarray, *, folder: Path | str | None = None) -> np.ndarray:
     """``(k,) int32`` sorted M_S vertex indices selected by the plain-data ``spec``, for the solver option ``fixed=``.
 
     Args:

@@ -19,9 +19,11 @@ and a 2 cm liver by 200 times its size; a 30 mm stroke does not fit on it.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError
 
@@ -52,7 +54,7 @@ STROKE_MAX_FRACTION = 0.3
 DISPLACEMENT_CAP = 0.05
 
 
-def model_size(points) -> float:
+def model_size(points: ArrayLike) -> float:
     """The diagonal [m] of the bounding box of ``points`` ``(n, 3) float64`` [m] (0 for fewer than two points)."""
     points = np.asarray(points, dtype=np.float64)
     if len(points) < 2:
@@ -60,7 +62,7 @@ def model_size(points) -> float:
     return float(np.linalg.norm(np.ptp(points, axis=0)))
 
 
-def size_warning(points, *, scale: float = 1.0, source: str = "the model") -> str | None:
+def size_warning(points: ArrayLike, *, scale: float = 1.0, source: str = "the model") -> str | None:
     """A one-line sentence saying that ``points`` ``(n, 3)`` [m] (already multiplied by ``scale``, the factor from
     the file's unit to metres) span an implausible size for tissue, and the ``--scale`` that would give an
     organ-sized model; None within :data:`PLAUSIBLE_SIZE`."""
@@ -131,7 +133,7 @@ class LoadDefaults:
                 "range")
 
 
-def load_defaults(points, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
+def load_defaults(points: ArrayLike, *, edge_length: float = 0.0, youngs_modulus: float = 5500.0,
                   poisson_ratio: float = 0.3) -> LoadDefaults:
     """The default loads and tool sizes for a model with rest points ``points`` ``(n, 3) float64`` [m] and surface
     mean edge length ``edge_length`` [m] (``SurfaceMesh.mean_edge_length``; 0: no floor), of a material with
@@ -162,7 +164,8 @@ def _rounded(value: float) -> float:
     return float(f"{value:.3g}")
 
 
-def fitted_force(solver, node: int, force: float, directions, *, radius: float | None = None) -> tuple[float, float]:
+def fitted_force(solver: object, node: int, force: float, directions: Iterable[ArrayLike], *,
+                 radius: float | None = None) -> tuple[float, float]:
     """``force`` [N] lowered, where ``solver``'s model lets it move a node farther than :data:`DISPLACEMENT_CAP` of
     its size, to the force that moves it that far; and the largest displacement under ``force`` as a fraction of
     the size.

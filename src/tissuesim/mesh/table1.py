@@ -8,14 +8,19 @@ files.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .surface import SurfaceMesh
 from .tetmesh import TetMesh
+
+if TYPE_CHECKING:
+    from .hybrid import HybridMesh
 
 TABLE1_HEADER = ("| model | M_S #node | M_S #elem | M_S size (kB) | M_V #node | M_V #elem | M_V size (kB) "
                  "| fine #node | fine #elem | fine size (kB) |\n|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
 
 
-def table1_row(hybrid) -> dict:
+def table1_row(hybrid: HybridMesh) -> dict:
     """Table 1's figures of ``hybrid`` (a HybridMesh): ``{"M_S": {...}, "M_V": {...}, "fine": {...} or None}``, each ``{"nodes", "elements", "size_kb"}``.
 
     Size is the byte count of the mesh as an ASCII file (OBJ for M_S; TetGen ``.node`` + ``.ele`` for volumes), in

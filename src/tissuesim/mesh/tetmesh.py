@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..errors import MeshError, first_indices
 
@@ -105,7 +106,7 @@ class TetMesh:
 _KUHN_TETS = np.array([[0, 4, 6, 7], [0, 4, 5, 7], [0, 2, 6, 7], [0, 2, 3, 7], [0, 1, 5, 7], [0, 1, 3, 7]])
 
 
-def structured_box(size, divisions, *, origin=(0.0, 0.0, 0.0)) -> TetMesh:
+def structured_box(size: ArrayLike, divisions: ArrayLike, *, origin: ArrayLike = (0.0, 0.0, 0.0)) -> TetMesh:
     """A conforming structured tet mesh of the box ``origin`` .. ``origin + size`` (``(3,)`` [m] each):
     ``divisions`` ``(3,) int`` hexes per axis, each split into six tets (Kuhn split). For tests with known
     solutions (patch test, cantilever) and benchmarks; node ``(i, j, k)`` of the grid has index

@@ -11,6 +11,7 @@ import hashlib
 import json
 import math
 from dataclasses import asdict, dataclass
+from collections.abc import Callable
 from itertools import product
 from pathlib import Path
 from typing import NamedTuple
@@ -32,7 +33,7 @@ MATERIAL_KEYS = ("youngs_modulus", "poisson_ratio", "density")
 PAPER_MATERIAL = ("paper", 5500.0, 0.3, 1000.0)
 
 
-def content_hash(*parts) -> str:
+def content_hash(*parts: object) -> str:
     """16 hex digits of SHA-256 over the canonical JSON of ``parts``."""
     text = json.dumps([FORMAT, *parts], sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -110,7 +111,7 @@ class Case:
         return () if self.point is None else (self.point,)
 
 
-def expand(loaded: StudyFile, *, announce=None) -> list[Case]:
+def expand(loaded: StudyFile, *, announce: Callable[[str], None] | None = None) -> list[Case]:
     """Every case of the study, in the file's order (models, then methods, materials, loads). The cases are first
     counted, none expanded: a study of more than :data:`~.schema.MAX_CASES` is refused, and ``announce``, if given,
     is called with the count (a line of text) before the expansion, which takes a fraction of a millisecond a

@@ -32,14 +32,14 @@ class StudyFile:
         return named_path(name, self.path, key=key, confine=self.confine, error=StudyError, kind="study")
 
 
-def read_study(path, *, confine: bool = False) -> StudyFile:
+def read_study(path: Path | str, *, confine: bool = False) -> StudyFile:
     """The study in the TOML file ``path``, validated; StudyError for an unreadable file or any invalid key, and,
     with ``confine``, for a file named in it that lies outside its folder."""
     path = Path(path)
     return parse_study(read_text(path, error=StudyError, kind="study"), path, confine=confine)
 
 
-def parse_study(text: str, path, *, confine: bool = False) -> StudyFile:
+def parse_study(text: str, path: Path | str, *, confine: bool = False) -> StudyFile:
     """The study in the TOML ``text`` of the file ``path`` (which names its folder), validated."""
     path = Path(path)
     study = StudyFile(validated(text, path, Study, error=StudyError, doc="docs/studies.md", line=_line), path,

@@ -21,7 +21,7 @@ PARAMETERS = {"force_N": "force [N]", "youngs_modulus_Pa": "Young's modulus E [P
               "depth_m": "a probe's depth or a grasper's travel [m]"}
 
 
-def write_report(rows: list[dict], folder, *, title: str = "") -> Path:
+def write_report(rows: list[dict], folder: Path | str, *, title: str = "") -> Path:
     """Write ``folder/report.md`` and its plots ``folder/error_vs_<parameter>.png`` from the table's ``rows``; return
     the report's path."""
     folder = Path(folder)

@@ -12,14 +12,19 @@ from __future__ import annotations
 import os
 import zipfile
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from . import work
 from .cases import Case
 from .store import Store
+
+if TYPE_CHECKING:
+    from distributed import Client
 
 REFERENCES = "references"
 
@@ -34,7 +39,8 @@ class Summary:
     failed: int = 0
 
 
-def run_study(cases: list[Case], store: Store, *, client=None, progress: bool = True, on_start=None) -> Summary:
+def run_study(cases: list[Case], store: Store, *, client: Client | None = None, progress: bool = True,
+              on_start: Callable[[list[Case]], None] | None = None) -> Summary:
     """Run every case of ``cases`` that ``store`` does not hold yet; a failed case is written with its error.
     ``on_start``, if given, is called with the cases to run before the first starts."""
     pending = [case for case in cases if not store.done(case)]

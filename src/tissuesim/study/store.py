@@ -15,10 +15,14 @@ import hashlib
 import os
 from dataclasses import asdict
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .cases import Case
+
+if TYPE_CHECKING:
+    import pyarrow as pa
 
 PARTS = "parts"
 FIELDS = "fields.zarr"
@@ -43,7 +47,7 @@ def case_inputs(case: Case) -> dict:
 class Store:
     """The output folder ``root`` of one study (created if missing)."""
 
-    def __init__(self, root):
+    def __init__(self, root: Path | str):
         self.root = Path(root)
         (self.root / PARTS).mkdir(parents=True, exist_ok=True)
         self._group = None
@@ -76,7 +80,7 @@ class Store:
         pq.write_table(pa.Table.from_pylist([row]), temporary)
         os.replace(temporary, path)
 
-    def combine(self):
+    def combine(self) -> pa.Table:
         """The table of every part (a ``pyarrow.Table``), also written to ``results.parquet`` atomically."""
         import pyarrow as pa
         import pyarrow.parquet as pq

@@ -11,11 +11,16 @@ from __future__ import annotations
 import json
 import threading
 import time
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..experiments import protocol
 from .cases import Case, ModelRef
+
+if TYPE_CHECKING:
+    from ..mesh.hybrid import HybridMesh
+    from ..solvers.base import Solver
 
 #: Distinct solvers a worker keeps at most (the oldest goes first); meshes are kept while a solver uses them.
 MAX_SOLVERS = 8
@@ -24,7 +29,7 @@ _LOCK = threading.RLock()
 CACHE: dict = {"meshes": {}, "solvers": {}, "builds": 0}
 
 
-def hybrid_of(model: ModelRef):
+def hybrid_of(model: ModelRef) -> HybridMesh:
     """The :class:`~tissuesim.mesh.hybrid.HybridMesh` (with fine volume) of ``model``, built once per worker."""
     with _LOCK:
         if model.key not in CACHE["meshes"]:
@@ -50,7 +55,7 @@ def _build(model: ModelRef):
     return HybridMesh.build(surface, fine_volume=True, progress=False)
 
 
-def solver_of(model: ModelRef, method: str, options: str, material: tuple):
+def solver_of(model: ModelRef, method: str, options: str, material: tuple) -> Solver:
     """The solver of ``method`` with ``options`` (JSON) and ``material`` on ``model``, reset, built once per
     worker."""
     from ..solvers.registry import make_solver
@@ -71,7 +76,7 @@ def solver_of(model: ModelRef, method: str, options: str, material: tuple):
     return solver
 
 
-def load_of(case: Case, hybrid) -> tuple[int, np.ndarray]:
+def load_of(case: Case, hybrid: HybridMesh) -> tuple[int, np.ndarray]:
     """The loaded M_S node and the force ``(3,) float64`` [N] of ``case`` on ``hybrid`` (a probe's or a grasper's:
     its unit direction): the protocol's load node (§8.3), or the node nearest a grasper's given point, or for a
     random load a node drawn among those whose contact patch clears the fixed region, a direction uniform on the
@@ -98,7 +103,7 @@ def _clear_nodes(vertices: np.ndarray, radius: float | None) -> np.ndarray:
     return np.flatnonzero(distance > (radius or 0.0))
 
 
-def equilibrium(solver, case: Case, node: int, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def equilibrium(solver: Solver, case: Case, node: int, load: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(n, 3) float64`` M_S positions [m] at equilibrium under ``case``'s tool, and the ``(3,)`` force [N] on the
     tissue; the loads stay applied. A pin-head's ``load`` is its force; a probe's and a grasper's, their unit
     direction d (:data:`EQUILIBRIA`)."""
