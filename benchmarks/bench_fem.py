@@ -61,7 +61,7 @@ def assembly_vs_skfem(mesh: TetMesh, large: bool):
     line = (
         f"{mesh.element_count:>8} tets {mesh.node_count:>7} nodes {fem.free_dofs.size:>7} dofs | assembly ours "
         f"{t_ours * 1e3:8.1f} ms  skfem {t_skfem * 1e3:8.1f} ms  ratio skfem/ours {t_skfem / t_ours:5.1f} | "
-        f"LinearFEM build {t_fem:6.2f} s | factorise ({type(fem._lu).__name__.strip('_')}) {t_factor:6.2f} s | "
+        f"LinearFEM build {t_fem:6.2f} s | factorise ({type(fem.factor).__name__.strip('_')}) {t_factor:6.2f} s | "
         f"back-substitution {t_solve * 1e3:7.2f} ms"
     )
     if large:

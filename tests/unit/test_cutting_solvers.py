@@ -291,8 +291,8 @@ def test_arrays_edited_per_move_equal_a_fresh_computation(cube, method):
     if method == "hybrid":
         nodes = np.asarray(h.coarse_volume_nodes)[np.asarray(h.coarse_surface.triangles)[h.coarse_triangle]]
         assert np.array_equal(solver.load_volume_nodes, nodes)
-        assert np.array_equal(solver._tet_of, h.embedding_tet)
-        assert solver._embedded.shape == solver.positions.shape
+        assert np.array_equal(solver.embedding_tet, h.embedding_tet)
+        assert solver.warm_positions.shape == solver.positions.shape
 
 
 def test_a_move_writes_into_the_buffers_of_the_move_before(cube):

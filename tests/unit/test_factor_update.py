@@ -96,16 +96,16 @@ def test_the_step_after_each_cutting_move_equals_a_freshly_factorised_layers(met
     corrected = 0
     for solver in _cut_session(method):
         state = solver.positions.copy(), solver.velocities.copy()
-        statics = solver._statics
+        statics = solver.built_statics
         solver.step()
         stepped = solver.positions.copy()
         solver.state.positions[:], solver.state.velocities[:] = state
-        solver._statics = None            # the layer factorised again as it stands
+        solver.built_statics = None            # the layer factorised again as it stands
         solver.step()
         fresh = solver.positions - solver.rest_positions
         assert np.abs(stepped - solver.positions).max() <= 1e-10 * np.abs(fresh).max()
         corrected += isinstance(statics, CutLayerStatics)
-        solver._statics = statics
+        solver.built_statics = statics
         solver.state.positions[:] = stepped
     assert corrected >= 4      # most moves went through the correction, not a refactorisation
 
@@ -114,14 +114,14 @@ def _step_against_fresh(solver) -> float:
     """One step with the solver's layer as it is, against one with the layer factorised afresh from the same
     state: the largest difference over the fresh step's largest displacement."""
     state = solver.positions.copy(), solver.velocities.copy()
-    statics = solver._statics
+    statics = solver.built_statics
     solver.step()
     stepped = solver.positions.copy()
     solver.state.positions[:], solver.state.velocities[:] = state
-    solver._statics = None
+    solver.built_statics = None
     solver.step()
     error = np.abs(stepped - solver.positions).max() / np.abs(solver.positions - solver.rest_positions).max()
-    solver._statics = statics
+    solver.built_statics = statics
     solver.state.positions[:] = stepped
     return error
 
@@ -132,7 +132,7 @@ def test_past_the_limit_of_touched_dofs_the_layer_is_factorised_again_and_correc
     monkeypatch.setattr(cut_statics, "MAX_MODIFIED", 60)
     kinds = []
     for solver in _cut_session("hybrid", moves=8):
-        kinds.append(type(solver._statics).__name__)
+        kinds.append(type(solver.built_statics).__name__)
         assert _step_against_fresh(solver) <= 1e-10
     assert "LayerStatics" in kinds[1:] and kinds[-1] == "CutLayerStatics"    # refactorised, then corrected again
 
@@ -141,8 +141,8 @@ def test_a_new_dt_between_cuts_is_factorised_once_and_stays_exact(monkeypatch):
     from tissuesim.layer.static import LayerStatics
 
     factorisations = []
-    factorise = LayerStatics._dynamic_factor
-    monkeypatch.setattr(LayerStatics, "_dynamic_factor",
+    factorise = LayerStatics.dynamic_factor
+    monkeypatch.setattr(LayerStatics, "dynamic_factor",
                         lambda self, mass, dt: factorisations.append(dt) or factorise(self, mass, dt))
     for k, solver in enumerate(_cut_session("pbd", moves=6)):
         if k == 2:
@@ -160,7 +160,7 @@ def test_without_an_explicit_factor_each_cut_refactorises_the_layer_as_before(mo
 
     monkeypatch.setattr(cut_statics._Base, "__init__", unavailable)
     for solver in _cut_session("hybrid", moves=3):
-        assert not isinstance(solver._statics, CutLayerStatics)
+        assert not isinstance(solver.built_statics, CutLayerStatics)
         assert _step_against_fresh(solver) <= 1e-10
 
 
@@ -170,7 +170,7 @@ def test_a_long_cut_moves_over_to_a_base_built_in_the_background_and_stays_exact
     monkeypatch.setattr(cut_statics, "RENEW_MODIFIED", 30)
     bases = []
     for solver in _cut_session("hybrid", moves=8):
-        statics = solver._statics
+        statics = solver.built_statics
         if isinstance(statics, CutLayerStatics):
             bases.append(statics.base)
             if statics.base.successor is not None:

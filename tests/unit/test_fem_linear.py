@@ -64,8 +64,8 @@ def test_a_patch_response_is_exact_from_its_first_call_and_learns_a_direction_pe
     out_nodes = RNG.permutation(box.node_count)[:40]
     out = np.full((out_nodes.size, 3), np.nan)
     solves = []
-    solve = fem._lu.solve
-    monkeypatch.setattr(fem._lu, "solve", lambda rhs: solves.append(rhs.shape) or solve(rhs))
+    solve = fem.factor.solve
+    monkeypatch.setattr(fem.factor, "solve", lambda rhs: solves.append(rhs.shape) or solve(rhs))
 
     def full(force):
         forces = np.zeros((box.node_count, 3))

@@ -87,7 +87,7 @@ def test_the_window_follows_the_fine_response_and_the_layer_relaxes_the_rest(cub
     x = solver.solve_static(node, FORCE, radius=RADIUS)
     distance = np.linalg.norm(rest - rest[node], axis=1)
     window = np.flatnonzero((distance <= 0.015) & ~np.isin(np.arange(len(rest)), solver.fixed))
-    assert np.array_equal(solver._window, window) and window.size >= 9
+    assert np.array_equal(solver.near_window, window) and window.size >= 9
     fine = solver._near.response(solver.load_nodes, solver.load_shares, window) @ FORCE
     assert np.allclose(x[window], rest[window] + fine, rtol=0, atol=1e-12)
     assert set(window) <= set(solver.prescribed.tolist())
@@ -95,7 +95,7 @@ def test_the_window_follows_the_fine_response_and_the_layer_relaxes_the_rest(cub
     assert outside.size and np.abs(x[outside] - rest[outside]).max() > 0   # the layer moved them
     solver.clear_load()
     solver.step()
-    assert solver._window.size == 0 and solver.prescribed.size == solver._held.size
+    assert solver.near_window.size == 0 and solver.prescribed.size == solver._held.size
 
 
 def test_a_window_over_every_node_is_the_fine_response(cube, node):

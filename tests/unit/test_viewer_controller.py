@@ -277,7 +277,7 @@ def test_the_near_field_is_a_setting_and_a_cut_in_the_viewer_switches_it_off(hyb
     c.pointer_down(top, above(top), DOWN)
     c.pointer_move(top + [0.0, 0.0, 0.005], above(top), DOWN)
     c.advance(0.1)
-    assert c.solver._window.size > 0                                   # the grab prescribed its window
+    assert c.solver.near_window.size > 0                                   # the grab prescribed its window
     c.pointer_up()
     c.configure(near_field=None)
     assert c.solver.near_field is None
@@ -299,10 +299,10 @@ def test_the_near_field_is_a_setting_and_a_cut_in_the_viewer_switches_it_off(hyb
 def test_picking_up_the_scalpel_starts_building_the_first_cut_factor(hybrid):
     c = Controller(hybrid)
     c.advance(0.05)                          # the layer is factorised by its first steps
-    statics = c.solver._statics
-    assert getattr(statics, "_cut_base", None) is None
+    statics = c.solver.built_statics
+    assert getattr(statics, "cut_base", None) is None
     c.set_mode("scalpel")
-    assert statics._cut_base.result() is not None    # built while the user aims, before any press
+    assert statics.cut_base.result() is not None    # built while the user aims, before any press
 
 
 def test_the_quadratic_m_v_is_a_setting_that_replaces_the_near_field(hybrid):

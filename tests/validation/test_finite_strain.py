@@ -145,7 +145,7 @@ def test_turning_the_supports_turns_the_body_rigidly_where_linear_elasticity_inf
     linear = LinearFEM(mesh, fixed=bottom)
     free = linear.free_dofs
     flat = np.where(linear.fixed_dofs, moved, 0.0).ravel()
-    flat[free] = linear._lu.solve(-(linear.stiffness @ flat)[free])
+    flat[free] = linear.factor.solve(-(linear.stiffness @ flat)[free])
     volume = tet_signed_volumes(mesh.points + flat.reshape(-1, 3), mesh.tets).sum()
     assert volume / np.prod(SIZE) > 1.2
 

@@ -79,7 +79,7 @@ class ExplicitFactor:
         self._cholmod, self._dense = cholmod, dense
         # CHOLMOD's getfactor turns the factor it reads into a symbolic one: L is read from a second factorisation
         # in the same order (so the same permutation)
-        explicit = factorise_spd(matrix, dof_node, order=self.factor.order)._factor
+        explicit = factorise_spd(matrix, dof_node, order=self.factor.order).cholmod
         positions = dense(np.arange(self.size, dtype=np.float64).reshape(-1, 1))
         cholmod.solve(explicit, positions, sys=7)
         #: ``(n₀,) int64``: the dof at each position of the factor's order
@@ -109,13 +109,13 @@ class ExplicitFactor:
     def forward(self, b: np.ndarray) -> np.ndarray:
         """``(n₀,)`` L⁻¹ P b (in the factor's order)."""
         w = self._dense(np.ascontiguousarray(b[self.order], dtype=np.float64).reshape(-1, 1))
-        self._cholmod.solve(self.factor._factor, w, sys=4)
+        self._cholmod.solve(self.factor.cholmod, w, sys=4)
         return np.asarray(w).ravel()
 
     def backward(self, w: np.ndarray) -> np.ndarray:
         """``(n₀,)`` Pᵀ L⁻ᵀ w (back in the matrix's order)."""
         x = self._dense(np.ascontiguousarray(w, dtype=np.float64).reshape(-1, 1))
-        self._cholmod.solve(self.factor._factor, x, sys=5)
+        self._cholmod.solve(self.factor.cholmod, x, sys=5)
         out = np.empty(self.size)
         out[self.order] = np.asarray(x).ravel()
         return out

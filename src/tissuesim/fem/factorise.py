@@ -42,7 +42,8 @@ def _nested_dissection(reduced: sp.csc_matrix, dof_node: np.ndarray):
 
 
 class _Cholmod:
-    """CHOLMOD supernodal LLᵀ of K_ff (cvxopt) in a given or AMD ordering; ``solve`` takes ``(f,)`` or ``(f, m)``."""
+    """CHOLMOD supernodal LLᵀ of K_ff (cvxopt) in a given or AMD ordering; ``solve`` takes ``(f,)`` or ``(f, m)``;
+    ``cholmod`` is CHOLMOD's factor object, for solves of its own systems (:mod:`.factor_update`)."""
 
     def __init__(self, reduced: sp.csc_matrix, order):
         from cvxopt import cholmod, matrix, spmatrix
@@ -51,11 +52,11 @@ class _Cholmod:
         a = spmatrix(lower.data, matrix(lower.row.astype(np.int64)), matrix(lower.col.astype(np.int64)), lower.shape)
         del lower  # the factor needs the memory (a quadratic reference level: ~1 GB here)
         if order is None:
-            self._factor = cholmod.symbolic(a, uplo="L")
+            self.cholmod = cholmod.symbolic(a, uplo="L")
         else:  # CHOLMOD factorises A(p, p) and permutes in its solve
-            self._factor = cholmod.symbolic(a, p=matrix(order.astype(np.int64)), uplo="L")
+            self.cholmod = cholmod.symbolic(a, p=matrix(order.astype(np.int64)), uplo="L")
         try:
-            cholmod.numeric(a, self._factor)
+            cholmod.numeric(a, self.cholmod)
         except ArithmeticError:  # a non-positive (or zero) pivot: K_ff is not positive definite
             raise SolverError(
                 "the constrained stiffness matrix is not positive definite (Cholesky failed); "
@@ -66,7 +67,7 @@ class _Cholmod:
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         x = self._matrix(np.ascontiguousarray(rhs, dtype=np.float64))
-        self._solve(self._factor, x)
+        self._solve(self.cholmod, x)
         return np.array(x).reshape(rhs.shape)
 
     def workspace(self, size: int):
@@ -76,7 +77,7 @@ class _Cholmod:
 
     def solve_in_place(self, buffer) -> None:
         """Overwrite a :meth:`workspace` buffer holding b with the solution x of K x = b (allocates nothing)."""
-        self._solve(self._factor, buffer)
+        self._solve(self.cholmod, buffer)
 
 
 class _PermutedLU:

@@ -72,6 +72,7 @@ class LinearFEM:
             part only).
         spring_stiffness: the springs' ``(3n, 3n)`` CSR part [N/m] (None without springs).
         reduced_stiffness: K_ff [N/m], ``(f, f)`` CSC, the rows and columns of the free dofs (springs included).
+        factor: K_ff's factor (:func:`~.factorise.factorise_spd`): ``factor.solve(b)`` for ``(f,)`` or ``(f, m)``.
     """
 
     def __init__(
@@ -99,7 +100,7 @@ class LinearFEM:
         self.spring_stiffness = None if springs is None else spring_stiffness(n, *springs)
         full = self.stiffness if springs is None else self.stiffness + self.spring_stiffness
         self.reduced_stiffness = full[self.free_dofs][:, self.free_dofs].tocsc()
-        self._lu = factorise_spd(self.reduced_stiffness, self.free_dofs // 3)
+        self.factor = factorise_spd(self.reduced_stiffness, self.free_dofs // 3)
         self._columns: dict[int, np.ndarray] = {}
         self._patches: dict[tuple[bytes, bytes], np.ndarray] = {}     # insertion order = least recently used first
 
@@ -121,7 +122,7 @@ class LinearFEM:
             bad = np.flatnonzero(~np.all(np.isfinite(forces), axis=1))
             raise SolverError(f"{bad.size} nodal forces are non-finite (first nodes: {first_indices(bad)})")
         u = np.zeros(3 * self.node_count)
-        u[self.free_dofs] = self._lu.solve(forces.ravel()[self.free_dofs])
+        u[self.free_dofs] = self.factor.solve(forces.ravel()[self.free_dofs])
         return u.reshape(-1, 3)
 
     def reactions(self, displacement: ArrayLike) -> np.ndarray:
@@ -173,7 +174,7 @@ class LinearFEM:
         """``(3n, m) float64`` displacements [m] of every dof (node-major) in ``m`` load cases ``(3n, m)`` [N]: one
         call of the factor for them all (a force on a fixed dof moves nothing, as in :meth:`solve`)."""
         u = np.zeros((3 * self.node_count, forces.shape[1]))
-        u[self.free_dofs] = self._lu.solve(np.ascontiguousarray(forces[self.free_dofs]))
+        u[self.free_dofs] = self.factor.solve(np.ascontiguousarray(forces[self.free_dofs]))
         return u
 
     def _unit_load_solution(self, nodes: np.ndarray) -> np.ndarray:
@@ -246,7 +247,7 @@ class LinearFEM:
         """``(n, 3)`` displacements [m] under ``load`` ``(n,)`` (the share of each node) times ``direction``."""
         forces = load[:, None] * direction[None, :]
         u = np.zeros(3 * self.node_count)
-        u[self.free_dofs] = self._lu.solve(np.ascontiguousarray(forces.ravel()[self.free_dofs]))
+        u[self.free_dofs] = self.factor.solve(np.ascontiguousarray(forces.ravel()[self.free_dofs]))
         return u.reshape(-1, 3)
 
     @property

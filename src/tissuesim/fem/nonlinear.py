@@ -394,7 +394,7 @@ class NonlinearFEM(_HyperelasticStatics):
         volumes = np.ascontiguousarray(mesh.volumes, dtype=np.float64)[:, None]
         self._setup(material, self.linear.material, mesh.points, self.linear.fixed_dofs,
                     np.ascontiguousarray(mesh.tets, dtype=np.int64), shape_gradients(mesh)[:, None], volumes,
-                    self.linear._lu)
+                    self.linear.factor)
         self._springs = self.linear.spring_stiffness      # the LinearFEM's springs (ligaments), if any
 
 
@@ -432,5 +432,5 @@ class QuadraticNonlinearFEM(_HyperelasticStatics):
         fixed_mask[self.linear.free_dofs] = False
         self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3),
                     np.ascontiguousarray(self.linear.elements, dtype=np.int64), *quadrature_gradients(mesh),
-                    self.linear._factor)
+                    self.linear.factor)
         self._springs = self.linear.spring_stiffness      # the QuadraticFEM's springs (ligaments), if any

@@ -125,6 +125,7 @@ class QuadraticFEM:
         points: ``(N, 3) float64`` all nodes [m]: the mesh's, then the midsides.
         edges: ``(e, 2) int64`` the edge of each midside node (node ``n + e``).
         elements: ``(m, 10) int64`` corners and midsides of each tet.
+        factor: K_ff's factor (:func:`~.factorise.factorise_spd`): ``factor.solve(b)`` for ``(f,)`` or ``(f, m)``.
     """
 
     def __init__(self, mesh: TetMesh, *, youngs_modulus: float, poisson_ratio: float,
@@ -152,7 +153,7 @@ class QuadraticFEM:
             stiffness = stiffness + self.spring_stiffness
         reduced = stiffness[self.free_dofs][:, self.free_dofs].tocsc()
         del stiffness
-        self._factor = factorise_spd(reduced, self.free_dofs // 3)
+        self.factor = factorise_spd(reduced, self.free_dofs // 3)
 
     @property
     def node_count(self) -> int:
@@ -212,7 +213,7 @@ class QuadraticFEM:
         """``(3N, k) float64`` displacements [m] of all dofs (node-major) under ``k`` load cases ``(3N, k)`` [N]: one
         call of the factor for them all."""
         u = np.zeros((3 * self.node_count, forces.shape[1]))
-        u[self.free_dofs] = self._factor.solve(np.ascontiguousarray(forces[self.free_dofs]))
+        u[self.free_dofs] = self.factor.solve(np.ascontiguousarray(forces[self.free_dofs]))
         return u
 
 

@@ -32,12 +32,12 @@ class _Base:
     def __init__(self, statics: LayerStatics):
         from ..fem.factor_update import ExplicitFactor, SparseColumns
 
-        dt, factor, inertia, _, _ = statics._dynamic
+        dt, factor, inertia, _, _ = statics.dynamic
         self.dt, self.inertia = dt, inertia
         self.stiffness = statics.stiffness
         self.free_nodes = statics.free_nodes
         self.prescribed = statics.prescribed
-        self.factor = ExplicitFactor((statics._free_stiffness + sp.diags(inertia)).tocsc(), statics._dof_node,
+        self.factor = ExplicitFactor((statics.free_stiffness + sp.diags(inertia)).tocsc(), statics.dof_node,
                                      factor=factor)
         self.mass = inertia[::3] * dt * dt       # the free nodes' masses at the base [kg]
         self.columns = SparseColumns(self.factor)
@@ -93,9 +93,9 @@ def prepare(statics: LayerStatics) -> None:
     """Start building, in the background, what the first cut of a layer ``statics`` needs (its explicit factor:
     a second factorisation), so that the first move does not wait for it. Nothing to prepare for a layer not
     stepped yet, or factorised without CHOLMOD (then each cut refactorises the layer, as without this module)."""
-    if (type(statics) is LayerStatics and statics._dynamic is not None and hasattr(statics._dynamic[1], "workspace")
-            and getattr(statics, "_cut_base", None) is None):
-        statics._cut_base = _Pending(lambda: _Base(statics))
+    if (type(statics) is LayerStatics and statics.dynamic is not None and hasattr(statics.dynamic[1], "workspace")
+            and statics.cut_base is None):
+        statics.cut_base = _Pending(lambda: _Base(statics))
 
 
 class _Successor(_Pending):
@@ -132,9 +132,9 @@ def after_cut(statics: LayerStatics, *, change: sp.csr_matrix, mass: np.ndarray,
         if statics.refactorised is not None:     # dt changed since the base: go on from the layer factorised anew
             return after_cut(statics.refactorised, change=change, mass=mass, prescribed=prescribed)
         base, total = statics.base, _padded(statics.change, change.shape[0]) + change
-    elif type(statics) is LayerStatics and statics._dynamic is not None:
+    elif type(statics) is LayerStatics and statics.dynamic is not None:
         prepare(statics)
-        pending = getattr(statics, "_cut_base", None)
+        pending = statics.cut_base
         base, total = (None if pending is None else pending.result()), change
     else:
         return None
@@ -158,7 +158,7 @@ def after_cut(statics: LayerStatics, *, change: sp.csr_matrix, mass: np.ndarray,
 def _factorised(statics: LayerStatics, mass: np.ndarray, dt: float, *, explicit: bool = True) -> LayerStatics:
     """``statics`` with its implicit step's factor for ``dt`` made now, and (``explicit``) its explicit factor
     started in the background."""
-    statics._dynamic = (dt, *statics._dynamic_factor(mass, dt))
+    statics.dynamic = (dt, *statics.dynamic_factor(mass, dt))
     if explicit:
         prepare(statics)
     return statics

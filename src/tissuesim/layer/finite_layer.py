@@ -195,11 +195,11 @@ class FiniteLayer(LayerStatics):
     def _newton_direction(self, x: np.ndarray, residual: np.ndarray) -> np.ndarray:
         """``(3f,)`` Newton step H⁻¹ r, with H's definite part where H is not positive definite."""
         try:
-            factor = factorise_spd(self.tangent(x), self._dof_node)
+            factor = factorise_spd(self.tangent(x), self.dof_node)
         except SolverError:
             self.definite_steps += 1
             try:
-                factor = factorise_spd(self.tangent(x, definite=True), self._dof_node)
+                factor = factorise_spd(self.tangent(x, definite=True), self.dof_node)
             except SolverError:
                 raise SolverError("the surface layer does not hold every free node (even the definite part of its "
                                   "tangent is singular): a cut may have left a flap that only its inertia holds (use "
@@ -265,8 +265,8 @@ class FiniteLayer(LayerStatics):
         step_predict(positions, velocities, self._old, self._predicted, free, self.prescribed, targets, dt,
                      1.0 - damping)
         if free.size:
-            if self._dynamic is None or self._dynamic[0] != dt:
-                self._dynamic = (dt, *self._dynamic_factor(mass, dt))
+            if self.dynamic is None or self.dynamic[0] != dt:
+                self.dynamic = (dt, *self.dynamic_factor(mass, dt))
             self._relax(positions, forces, iterations)
         step_velocities(positions, velocities, self._old, dt)
 
@@ -277,7 +277,7 @@ class FiniteLayer(LayerStatics):
 
     def _relax(self, positions: np.ndarray, forces: np.ndarray, iterations: int) -> None:
         """The implicit step's ``iterations`` line-searched corrections of ``positions``, in place."""
-        _, factor, inertia, buffer, rhs = self._dynamic
+        _, factor, inertia, buffer, rhs = self.dynamic
         energy = layer_energy_gradient(positions, *self._moving, self._gradient)
         if len(self._first_steps) != iterations:
             self._first_steps = [1.0] * iterations

@@ -135,6 +135,14 @@ class LayerStatics:
 
     :meth:`displacement` raises SolverError if the free part K_ff is singular (a free node the layer does not hold
     in some direction, as a cut can leave); :meth:`implicit_step` never needs K_ff alone.
+
+    Attributes:
+        free_stiffness: ``(3f, 3f)`` CSC K_ff [N/m] of the free nodes' dofs; ``dof_node`` ``(3f,) int64`` the node
+            of each.
+        dynamic: ``(dt [s], factor, inertia, buffer, rhs)`` of the last :meth:`implicit_step`'s dt
+            (:meth:`dynamic_factor`), or None before the first.
+        cut_base: what the first cut of this layer starts from, built ahead in the background
+            (:func:`~tissuesim.layer.cut_statics.prepare`), or None.
     """
 
     def __init__(self, stiffness: sp.csr_matrix, *, prescribed: ArrayLike):
@@ -148,10 +156,11 @@ class LayerStatics:
         stiffness = stiffness.tocsr()
         self.stiffness = stiffness
         self._coupling = stiffness[free_dofs][:, fixed_dofs].tocsr()
-        self._free_stiffness = stiffness[free_dofs][:, free_dofs].tocsc()
-        self._dof_node = free_dofs // 3
+        self.free_stiffness = stiffness[free_dofs][:, free_dofs].tocsc()
+        self.dof_node = free_dofs // 3
         self._factor = None  # K_ff's, on the first static solve (a cut can leave it singular; M/dt² + K_ff is not)
-        self._dynamic: tuple[float, object] | None = None
+        self.dynamic: tuple[float, object] | None = None
+        self.cut_base = None
 
     def implicit_step(self, positions: np.ndarray, velocities: np.ndarray, rest: np.ndarray, forces: np.ndarray,
                       targets: np.ndarray, mass: np.ndarray, dt: float, damping: float) -> None:
@@ -165,9 +174,9 @@ class LayerStatics:
         if self.free_nodes.size == 0:  # every node prescribed (e.g. a near field over the whole surface)
             implicit_update(np.zeros(0), positions, velocities, rest, self.free_nodes, self.prescribed, targets, dt)
             return
-        if self._dynamic is None or self._dynamic[0] != dt:
-            self._dynamic = (dt, *self._dynamic_factor(mass, dt))
-        _, factor, inertia, buffer, rhs = self._dynamic
+        if self.dynamic is None or self.dynamic[0] != dt:
+            self.dynamic = (dt, *self.dynamic_factor(mass, dt))
+        _, factor, inertia, buffer, rhs = self.dynamic
         coupling = self._coupling
         implicit_rhs(positions, velocities, rest, self.free_nodes, inertia, 1.0 - damping, dt, forces,
                      coupling.indptr, coupling.indices, coupling.data, self.prescribed, targets, rhs)
@@ -178,9 +187,12 @@ class LayerStatics:
             solution = rhs
         implicit_update(solution, positions, velocities, rest, self.free_nodes, self.prescribed, targets, dt)
 
-    def _dynamic_factor(self, mass, dt):
+    def dynamic_factor(self, mass: np.ndarray, dt: float) -> tuple[object, np.ndarray, object, np.ndarray]:
+        """``(factor, inertia (3f,) [N/m], buffer, rhs (3f,))``: the factor of M/dt² + K_ff for the lumped ``mass``
+        ``(n,)`` [kg] and step ``dt`` [s], the inertia M/dt² of the free dofs, and the right-hand side's workspace (a
+        CHOLMOD buffer and its NumPy view; None and an array without CHOLMOD)."""
         inertia = np.repeat(mass[self.free_nodes], 3) / (dt * dt)
-        factor = factorise_spd((self._free_stiffness + sp.diags(inertia)).tocsc(), self._dof_node)
+        factor = factorise_spd((self.free_stiffness + sp.diags(inertia)).tocsc(), self.dof_node)
         if hasattr(factor, "workspace"):
             buffer, rhs = factor.workspace(inertia.size)
         else:
@@ -206,7 +218,7 @@ class LayerStatics:
         """K_ff's factor, made on first use."""
         if self._factor is None:
             try:
-                self._factor = factorise_spd(self._free_stiffness, self._dof_node)
+                self._factor = factorise_spd(self.free_stiffness, self.dof_node)
             except SolverError as error:
                 raise SolverError(f"the surface layer does not hold every free node ({error}); a cut may have left "
                                   "a flap that only its inertia holds") from None

@@ -55,9 +55,9 @@ class ScriptedTool:
         self._positions = np.array([key.position for key in spec.path], dtype=np.float64).reshape(-1, 3)
         self._pressed = [key.pressed for key in spec.path]
         self._turns = _orientations(spec.path)
-        self._shaft = None if getattr(spec, "shaft", None) is None else np.asarray(spec.shaft, dtype=np.float64)
+        self.shaft_offset = None if getattr(spec, "shaft", None) is None else np.asarray(spec.shaft, dtype=np.float64)
         self._position = None      # where the tool was last put [m]
-        self._grip = None          # a grasper's orientation at its grab (a scipy Rotation)
+        self.grip = None          # a grasper's orientation at its grab (a scipy Rotation)
 
     def target(self, time: float) -> tuple[bool, np.ndarray | None]:
         """Whether the path has the tool pressed at ``time`` [s], and where ``(3,) float64`` [m] (None before the
@@ -167,7 +167,7 @@ def _make_probe(spec, solver):
 
 def _put_probe(scripted: ScriptedTool, position: np.ndarray, time: float) -> None:
     # the contact solved where the probe is now (a frame's iterations), as the simulator does
-    shaft = None if scripted._shaft is None else position + scripted._shaft
+    shaft = None if scripted.shaft_offset is None else position + scripted.shaft_offset
     scripted.tool.settle(position, shaft)
 
 
@@ -179,13 +179,13 @@ def _make_grasper(spec, solver):
 
 def _grasp(scripted: ScriptedTool, position: np.ndarray, time: float) -> None:
     scripted.tool.grab(position)
-    scripted._grip = scripted.orientation(time)
+    scripted.grip = scripted.orientation(time)
     _carry(scripted, position, time)
 
 
 def _carry(scripted: ScriptedTool, position: np.ndarray, time: float) -> None:
     # the jaws' turn since the grab, about the jaws: their orientation now times the grab's inverse
-    turn = (scripted.orientation(time) * scripted._grip.inv()).as_matrix()
+    turn = (scripted.orientation(time) * scripted.grip.inv()).as_matrix()
     scripted.tool.move_to(position, turn)
 
 

@@ -102,6 +102,11 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         last_solve: :class:`SolveReport` of the last :meth:`solve_static`, or None.
         largest_displacement: largest node displacement from rest [m] after the last step or solve (0 at rest);
             :attr:`warning` says when it lies beyond linear elasticity.
+        previous_positions: ``(n, 3) float64`` [m] the quasi-static loop's last positions, a workspace.
+        patch_cache: ``{(node, R): (nodes, shares)}`` the contact patches found so far (:meth:`contact_patch`);
+            ``lumped_area_cache``: ``(n,) float64`` [m²] the lumped areas they are weighted by, or None.
+        active_cut_updater: the :class:`~.cut_carry.SolverCut` that carries this solver over cuts, from its first
+            cut on (:func:`~.cut_carry.cut_updater`), else None.
     """
 
     # The method's card: everything the experiments, the viewer, the CLI, the docs and the tests list about a method
@@ -132,6 +137,11 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
     #: for :attr:`cut_refusal`'s reason.
     cut_carrier: ClassVar[type | str | None] = None
     cut_refusal: ClassVar[str | None] = None
+    #: What :class:`~.snapshot.Snapshot` puts back besides the positions, the velocities and the loads: arrays a step
+    #: reads, restored in place (other arrays may be views of them), and values, rebound as they were. A subclass
+    #: extends its parent's.
+    kept_arrays: ClassVar[tuple[str, ...]] = ()
+    kept_values: ClassVar[tuple[str, ...]] = ("largest_displacement", "last_solve")
     #: Where the method's weight under ``gravity`` is not the elastic body's: a sentence saying how far off, warned
     #: of (:class:`~tissuesim.errors.TissuesimWarning`) when a solver is built with gravity; None where it is.
     gravity_caveat: ClassVar[str | None] = None
@@ -183,10 +193,10 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         check_supports_hold(self.rest_positions, self._pieces(), self.fixed, self.attached_nodes, self.name)
         self.forces = np.zeros((n, 3))
         self._loads: list[Load] = []
-        self._patches: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
-        self._lumped_areas: np.ndarray | None = None
+        self.patch_cache: dict[tuple[int, float | None], tuple[np.ndarray, np.ndarray]] = {}
+        self.lumped_area_cache: np.ndarray | None = None
         self.state = State.at_rest(self.rest_positions)
-        self._previous = np.array(self.rest_positions)  # workspace of the quasi-static loop
+        self.previous_positions = np.array(self.rest_positions)  # workspace of the quasi-static loop
         extent = self.rest_positions.max(axis=0) - self.rest_positions.min(axis=0)
         self.size = float(np.linalg.norm(extent))
         self.runaway_distance = RUNAWAY_SIZES * self.size
@@ -198,6 +208,7 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         self.static_fallbacks = 0
         #: ``(k, 3) float64`` where :meth:`set_fixed_positions` put the fixed vertices [m] (at rest until then).
         self.fixed_positions = np.array(self.rest_positions[self.fixed])
+        self.active_cut_updater = None
 
     # ----------------------------------------------------------------------------------------------- state access
     @property

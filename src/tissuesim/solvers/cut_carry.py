@@ -182,7 +182,7 @@ class SolverCut:
         s.rest_positions = s.hybrid.surface.vertices
         s.state.positions, s.state.velocities = result.positions, result.velocities
         s.forces = spare.extend("forces", s.forces, np.zeros((added, 3)))
-        s._previous = spare.extend("previous", s._previous, result.positions[result.old_count:])
+        s.previous_positions = spare.extend("previous", s.previous_positions, result.positions[result.old_count:])
         if new_fixed.size:
             s.fixed = spare.extend("fixed", s.fixed, new_fixed.astype(s.fixed.dtype))
             # a copy of a fixed vertex is held where its original is (moved, with a moving base)
@@ -218,15 +218,15 @@ class SolverCut:
         vertices (the whole-surface search of :meth:`contact_patch` would find the same nodes, in the same order, in
         O(n))."""
         s = self.solver
-        s._patches.clear()
-        s._lumped_areas = self.lumped
+        s.patch_cache.clear()
+        s.lumped_area_cache = self.lumped
         new = np.arange(result.old_count, len(result.rest))
         for load in s.loads:
             if load.radius is not None:
                 near = new[np.linalg.norm(result.rest[new] - result.rest[load.node], axis=1) <= load.radius]
                 if not np.isin(near, s.fixed).any():    # else the full search refuses the patch, saying why
                     nodes = np.concatenate([load.nodes, near])
-                    s._remember((load.node, load.radius), (nodes, self.lumped[nodes] / self.lumped[nodes].sum()))
+                    s.remember_patch((load.node, load.radius), (nodes, self.lumped[nodes] / self.lumped[nodes].sum()))
             s.move_load(load, node=load.node)
 
     def _update_lumped(self, result) -> None:
@@ -314,7 +314,7 @@ class _Undo:
     AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "_is_prescribed"),
                ("updater", "_held_mask"))
     #: arrays it writes in place elsewhere too (the bound rows of spring neighbours, the hybrid's M_V slots)
-    WHOLE = (("solver", "_slot"), ("updater", "gershgorin"))
+    WHOLE = (("solver", "output_slot"), ("updater", "gershgorin"))
 
     def __init__(self, updater: SolverCut, plan):
         s = updater.solver
@@ -331,7 +331,7 @@ class _Undo:
         arrays += [(getattr(owners[o], name, None), slice(None)) for o, name in self.WHOLE]
         self.copies = [(a, at, a[at].copy()) for a, at in arrays if isinstance(a, np.ndarray)]
         self.loads = (s.kept_loads(), s.forces, s.load_nodes, s.forces[s.load_nodes].copy())
-        self.patches = dict(s._patches)
+        self.patches = dict(s.patch_cache)
 
     def restore(self) -> None:
         """Everything as when this was made."""
@@ -349,8 +349,8 @@ class _Undo:
         for load, *fields in kept:       # the same handles, as they were
             load.node, load.force, load.radius, load.nodes, load.shares = fields
         forces[nodes] = values
-        s._patches.clear()
-        s._patches.update(self.patches)
+        s.patch_cache.clear()
+        s.patch_cache.update(self.patches)
 
     def commit(self) -> None:
         """Keep the move: the journals stop recording."""
@@ -369,13 +369,13 @@ def members(values: np.ndarray, sorted_set: np.ndarray) -> np.ndarray:
 def cut_updater(solver: Solver) -> SolverCut:
     """The updater that carries ``solver`` over cuts (created on first use and kept on the solver): its class's
     :attr:`~tissuesim.solvers.base.Solver.cut_carrier`."""
-    updater = getattr(solver, "_cut_updater", None)
+    updater = solver.active_cut_updater
     if updater is None:
         reason = refusal(solver)
         if reason is not None:
             raise SolverError(reason)
         updater = carrier_class(type(solver))(solver)
-        solver._cut_updater = updater
+        solver.active_cut_updater = updater
     return updater
 
 

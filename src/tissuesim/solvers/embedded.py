@@ -54,7 +54,12 @@ def hold_at_rest(rest: np.ndarray, nodes: np.ndarray, positions: np.ndarray) -> 
 
 @register("embedded")
 class EmbeddedSolver(Solver):
-    """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring)."""
+    """M_S follows M_V's static linear FEM by barycentric embedding (see the module docstring).
+
+    Attributes:
+        output_displacement: ``(c, 3) float64`` [m] M_V's displacement at the nodes that carry M_S.
+        volume_stale: M_V's answer is due again (the loads changed).
+    """
 
     label = "embedded surface"
     short_label = "Emb."
@@ -64,6 +69,8 @@ class EmbeddedSolver(Solver):
     static = True
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:EmbeddedCut"
+    kept_arrays = (*Solver.kept_arrays, "output_displacement")      # M_V's answer, due again when stale
+    kept_values = (*Solver.kept_values, "volume_stale")
 
     def __init__(self, hybrid_mesh: HybridMesh, **common: object):
         super().__init__(hybrid_mesh, **common)
@@ -81,9 +88,9 @@ class EmbeddedSolver(Solver):
         self.carrier_nodes = np.unique(tets[self.tet_of]).astype(np.int64)
         self.node_slot = np.full(volume.node_count, -1, dtype=np.int64)
         self.node_slot[self.carrier_nodes] = np.arange(self.carrier_nodes.size)
-        self._u = np.zeros((self.carrier_nodes.size, 3))
+        self.output_displacement = np.zeros((self.carrier_nodes.size, 3))
         self._tets = tets.astype(np.int64)
-        self._dirty = False
+        self.volume_stale = False
         self.finite = finite_volume(self, volume, self.fem)
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
@@ -100,7 +107,7 @@ class EmbeddedSolver(Solver):
         return mapped_compliance(self.fem, self._tets[self.tet_of[nodes]], self.weights[nodes])
 
     def _on_load_changed(self) -> None:
-        self._dirty = True
+        self.volume_stale = True
 
     def _pieces(self) -> np.ndarray:
         """M_V's pieces: the volume holds the surface together where a cut splits it."""
@@ -111,16 +118,16 @@ class EmbeddedSolver(Solver):
         if self.finite is not None:
             self._finite_solve()
             return
-        self._u[:] = 0.0        # the sum of each load's patch response (linear)
-        one = np.empty_like(self._u) if len(self._loads) > 1 else self._u
+        self.output_displacement[:] = 0.0        # the sum of each load's patch response (linear)
+        one = np.empty_like(self.output_displacement) if len(self._loads) > 1 else self.output_displacement
         for load in self._loads:
             self.fem.patch_response(self._tets[self.tet_of[load.nodes]].ravel(),
                                     (self.weights[load.nodes] * load.shares[:, None]).ravel(), load.force,
                                     output_nodes=self.carrier_nodes, out=one)
-            if one is not self._u:
-                self._u += one
+            if one is not self.output_displacement:
+                self.output_displacement += one
         if self._constant_u is not None:
-            self._u += self._constant_u[self.carrier_nodes]
+            self.output_displacement += self._constant_u[self.carrier_nodes]
 
     def _tet_loads(self) -> tuple[np.ndarray, np.ndarray]:
         """``(M_V nodes (4p,), forces (4p, 3) [N])``: each loaded M_S node's share of its load split over its tet's
@@ -139,7 +146,7 @@ class EmbeddedSolver(Solver):
         if self._constant_load is not None:
             forces += self._constant_load
         self.volume_displacement = solve_volume(self, forces)
-        self._u[:] = self.volume_displacement[self.carrier_nodes]
+        self.output_displacement[:] = self.volume_displacement[self.carrier_nodes]
 
     def _move_fixed(self, positions: np.ndarray) -> None:
         move_supports(self, positions)
@@ -149,7 +156,7 @@ class EmbeddedSolver(Solver):
         self._solve()
         # v = (p_new − p)/dt keeps the state meaningful for callers that look at velocities.
         state.velocities[:] = state.positions
-        map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self._u,
+        map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self.output_displacement,
                      state.positions)
         if self.finite is None:
             hold_at_rest(self.rest_positions, self.fixed, state.positions)

@@ -92,6 +92,17 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         control_displacement: ``(c,) (c, 3) float64`` M_V displacement of the control nodes [m], in the order of
             ``hybrid.control``.
         quadratic_field: the :class:`~.quadratic_field.QuadraticField` of ``element="quadratic"``, else None.
+        embedding_tet, embedding_weights: ``(n,) int64``, ``(n, 4) float64`` each M_S vertex's M_V tet and its
+            barycentric weights there (the warm start's embedding).
+        output_slot: ``(N,) int64`` each M_V node's row in ``output_displacement`` (−1: not output);
+            output_displacement: ``(o, 3) float64`` [m] M_V's displacement at the nodes the surface reads (the
+            control nodes first).
+        warm_positions, warm_target: ``(n, 3) float64`` [m] rest + the embedded displacement applied so far, and the
+            one M_V's answer now gives; ``warm_delta`` ``(n, 3)`` [m] their difference, a workspace.
+        volume_stale: M_V's answer is due again (the loads changed); ``volume_settled``: a finite-strain M_V's
+            relaxation has reached its equilibrium.
+        near_window, near_window_slots: ``(w,) int64`` the near field's prescribed M_S nodes and their rows in
+            ``prescribed``; ``near_window_node``: the contact node they surround (−1: none).
     """
 
     label = "hybrid FEM + PBD"
@@ -104,6 +115,12 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     materials = ("linear", "corotated", "neo-hookean")
     cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
     body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it
+    # where M_V's output and the warm start's embedded field were last brought to, and whether they are due again, so
+    # the first step after a restore moves the surface as it would have (a pending warm-start move included); the
+    # near field's window as it was
+    kept_arrays = (*SurfaceLayerSolver.kept_arrays, "output_displacement", "warm_positions", "warm_target")
+    kept_values = (*SurfaceLayerSolver.kept_values, "volume_stale", "volume_settled", "near_window",
+                   "near_window_slots", "near_window_node")
 
     def __init__(self, hybrid_mesh: HybridMesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
                  near_field: float | None = None, element: str = "linear", **options: object):
@@ -137,7 +154,7 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         #: ``(N, 3) float64`` the volume's finite-strain displacement [m] (zero with the linear material).
         self.volume_displacement = np.zeros((volume.node_count, 3))
         self._volume_forces = np.zeros((volume.node_count, 3))
-        self._volume_settled = True
+        self.volume_settled = True
         self._init_near_field(near_field)
         self.quadratic_field = None
         if self.element == "quadratic":
@@ -146,22 +163,22 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self.control_count = control.size
         # M_V nodes whose displacement a step needs: control nodes first, then (warm start) the embedding tets.
         tets = volume.tets.astype(np.int64)
-        self._tet_of = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
+        self.embedding_tet = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
         self._tets = tets
-        self._weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
-        extra = np.setdiff1d(np.unique(tets[self._tet_of]), control_volume) if self.warm_start else np.zeros(0, int)
+        self.embedding_weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
+        extra = np.setdiff1d(np.unique(tets[self.embedding_tet]), control_volume) if self.warm_start else np.zeros(0, int)
         self.output_nodes = np.concatenate([control_volume, extra]).astype(np.int64)
-        self._slot = np.full(volume.node_count, -1, dtype=np.int64)
-        self._slot[self.output_nodes] = np.arange(self.output_nodes.size)
-        self._u = np.zeros((self.output_nodes.size, 3))
-        self.control_displacement = self._u[: self.control_count]  # a view: updated with _u
-        self._embedded = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
-        self._embedded_new = np.array(self.rest_positions)
-        self._delta = np.zeros_like(self._embedded)
+        self.output_slot = np.full(volume.node_count, -1, dtype=np.int64)
+        self.output_slot[self.output_nodes] = np.arange(self.output_nodes.size)
+        self.output_displacement = np.zeros((self.output_nodes.size, 3))
+        self.control_displacement = self.output_displacement[: self.control_count]  # a view: updated with _u
+        self.warm_positions = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
+        self.warm_target = np.array(self.rest_positions)
+        self.warm_delta = np.zeros_like(self.warm_positions)
         self._constant_u = None if self._constant_load is None or self.finite is not None else (
             self.fem.solve(self._constant_load))
         constant = self._constant_load if self.quadratic_field is None else self.quadratic_field.constant_load
-        self._dirty = constant is not None    # the first step moves M_V under its weight
+        self.volume_stale = constant is not None    # the first step moves M_V under its weight
 
     def _pieces(self) -> np.ndarray:
         """M_V's pieces: the volume holds the surface together where a cut splits it."""
@@ -171,8 +188,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     def _init_near_field(self, near_field) -> None:
         self.near_field = None
         self._near = None
-        self._window = self._window_slots = np.zeros(0, dtype=np.int64)
-        self._window_node = -1
+        self.near_window = self.near_window_slots = np.zeros(0, dtype=np.int64)
+        self.near_window_node = -1
         if near_field is None:
             return
         if self.gravity is not None or self.attachments:
@@ -238,17 +255,17 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         warn(f"cutting switches the hybrid's near field (W = {1e3 * self.near_field:g} mm) off: its fine "
              "volume is not cut; the paper's hybrid carries on")
         self.near_field, self._near = None, None
-        self._window = self._window_slots = np.zeros(0, dtype=np.int64)
+        self.near_window = self.near_window_slots = np.zeros(0, dtype=np.int64)
         self._set_prescribed(self._held)
-        self._dirty = True
+        self.volume_stale = True
 
     # The FEM part is redone only when the load changes: with a constant load it is constant (linear statics).
     def _on_load_changed(self) -> None:
         super()._on_load_changed()
-        self._dirty = True
+        self.volume_stale = True
 
     def _on_reset(self) -> None:
-        self._embedded[:] = self.rest_positions
+        self.warm_positions[:] = self.rest_positions
         self.volume_displacement[:] = 0.0 if self.finite is None else carried_rest(self)
         if self._near is not None:
             self._near.reset()
@@ -261,9 +278,9 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         matrix, shift = move_supports(self, positions)
         # the surface layer goes with its volume (its warm start then adds nothing), so its first steps need not
         # find the carried body from the one left behind
-        for carried in (self.state.positions, self._embedded):
+        for carried in (self.state.positions, self.warm_positions):
             carried[:] = carried @ matrix.T + shift
-        self._dirty = True
+        self.volume_stale = True
 
     def _finite_response(self, exact: bool) -> None:
         """M_V's finite-strain displacement of the output nodes into ``_u``: converged (``exact``) or relaxed by
@@ -276,10 +293,10 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
             forces += self._constant_load
         if exact:
             self.volume_displacement = solve_volume(self, forces)
-            self._volume_settled = True
+            self.volume_settled = True
         else:
-            self._volume_settled = self.finite.relax(forces, self.volume_displacement, iterations=VOLUME_ITERATIONS)
-        self._u[:] = self.volume_displacement[self.output_nodes]
+            self.volume_settled = self.finite.relax(forces, self.volume_displacement, iterations=VOLUME_ITERATIONS)
+        self.output_displacement[:] = self.volume_displacement[self.output_nodes]
         pinned = self.prescribed[self.control_count:]    # the fixed nodes that are not control nodes
         self.targets[self.control_count:] = self.fixed_positions[np.searchsorted(self.fixed, pinned)]
 
@@ -306,18 +323,18 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         if self._near is not None:
             self._prescribe_window(self._loads[0].node if self._loads else -1)
         c = self.control_count
-        np.add(self.rest_positions[self.control], self._u[:c], out=self.targets[:c])
-        if self._near is not None and self._window.size:
+        np.add(self.rest_positions[self.control], self.output_displacement[:c], out=self.targets[:c])
+        if self._near is not None and self.near_window.size:
             self._prescribe_near(exact)
         if self.warm_start:
-            map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
-                         self._embedded_new)
+            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot, self.output_displacement,
+                         self.warm_target)
             # Move every node by the change of the embedded field (exactly zero when it did not change); the
             # kernel then overrides the prescribed nodes.
-            np.subtract(self._embedded_new, self._embedded, out=self._delta)
-            self.state.positions += self._delta
-            self._embedded[:] = self._embedded_new
-        self._dirty = False
+            np.subtract(self.warm_target, self.warm_positions, out=self.warm_delta)
+            self.state.positions += self.warm_delta
+            self.warm_positions[:] = self.warm_target
+        self.volume_stale = False
 
     def _quadratic_update(self, exact: bool) -> None:
         """``element="quadratic"``: the prescribed vertices' targets are M_V's quadratic field under the loads and
@@ -330,29 +347,29 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
             forces = field.volume_forces(self._loads)
             if exact:
                 self.volume_displacement = solve_volume(self, forces)
-                self._volume_settled = True
+                self.volume_settled = True
             else:
-                self._volume_settled = self.finite.relax(forces, self.volume_displacement,
+                self.volume_settled = self.finite.relax(forces, self.volume_displacement,
                                                          iterations=VOLUME_ITERATIONS)
             u = field.surface(self.volume_displacement)
-        carried = np.add(self.rest_positions, u, out=self._embedded_new)
+        carried = np.add(self.rest_positions, u, out=self.warm_target)
         carried[self.fixed] = self.fixed_positions
-        self.state.positions += carried - self._embedded
-        self._embedded[:] = carried
+        self.state.positions += carried - self.warm_positions
+        self.warm_positions[:] = carried
         self.targets[:] = carried[self.prescribed]
-        self._u[: self.control_count] = u[self.control]
-        self._dirty = False
+        self.output_displacement[: self.control_count] = u[self.control]
+        self.volume_stale = False
 
     def _linear_response(self) -> None:
         """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
-        self._u[:] = 0.0
-        one = np.empty_like(self._u) if len(self._loads) > 1 else self._u
+        self.output_displacement[:] = 0.0
+        one = np.empty_like(self.output_displacement) if len(self._loads) > 1 else self.output_displacement
         for load in self._loads:
             self.fem.patch_response(*self._coarse_split(load), load.force, output_nodes=self.output_nodes, out=one)
-            if one is not self._u:
-                self._u += one
+            if one is not self.output_displacement:
+                self.output_displacement += one
         if self._constant_u is not None:
-            self._u += self._constant_at_outputs()
+            self.output_displacement += self._constant_at_outputs()
 
     def _constant_at_outputs(self) -> np.ndarray:
         """``(s, 3)`` the constant load's response at the output nodes [m], kept while they stay the same (a cut
@@ -368,8 +385,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         quadratic M_V: its field at the vertex)."""
         nodes = self.attached_nodes
         if self.quadratic_field is not None:
-            return self._embedded[nodes]
-        u = self._u[self._slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
+            return self.warm_positions[nodes]
+        u = self.output_displacement[self.output_slot[self.load_volume_nodes[nodes]]]            # (p, 3 nodes, 3)
         return self.rest_positions[nodes] + np.einsum("pj,pjk->pk", self.load_weights[nodes], u)
 
     def _admit(self, load) -> None:
@@ -382,17 +399,17 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         :data:`VOLUME_ITERATIONS` iterations toward it; still moving means M_V's part is not settled either)."""
         iterations = None if exact or self._near.finite is None else VOLUME_ITERATIONS
         load = self._loads[0]
-        self.targets[self._window_slots] = self.rest_positions[self._window] + self._near.displacement(
-            load.nodes, load.shares, load.force, self._window, iterations=iterations)
+        self.targets[self.near_window_slots] = self.rest_positions[self.near_window] + self._near.displacement(
+            load.nodes, load.shares, load.force, self.near_window, iterations=iterations)
         if iterations is not None and not self._near.settled:
-            self._volume_settled = False
+            self.volume_settled = False
 
     def _prescribe_window(self, node: int) -> None:
         """The window: the M_S nodes within W of the contact node but the pinned ones. Its control nodes keep
         their slots (their targets become the fine response); the others are prescribed after the held nodes."""
-        if node == self._window_node:    # a drag changes the force, not the window
+        if node == self.near_window_node:    # a drag changes the force, not the window
             return
-        self._window_node = node
+        self.near_window_node = node
         rest = self.rest_positions
         if node < 0:
             window = np.zeros(0, dtype=np.int64)
@@ -403,17 +420,17 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self._set_prescribed(np.concatenate([self._held, added]))
         slot = np.full(self.node_count, -1, dtype=np.int64)
         slot[self.prescribed] = np.arange(self.prescribed.size)
-        self._window, self._window_slots = window, slot[window]
+        self.near_window, self.near_window_slots = window, slot[window]
 
     def _prepare_static(self) -> None:
-        if self._dirty or not self._volume_settled:
+        if self.volume_stale or not self.volume_settled:
             self._update_fem()
 
     def _finite_start(self, positions: np.ndarray) -> None:
         """The finite-strain layer starts from the surface carried by M_V's finite-strain displacement (its
         embedding, as ``warm_start``), much closer than the linear layer's answer once M_V turns."""
         if self.warm_start:
-            map_embedded(self.rest_positions, self._tets, self._tet_of, self._weights, self._slot, self._u,
+            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot, self.output_displacement,
                          positions)
             positions[self.prescribed] = self.targets
 

@@ -21,31 +21,31 @@ class LoadPatches:
         BoundaryConditionError if ``node`` itself is fixed (the load would vanish into the support).
         """
         key = self._patch_key(node, radius)
-        patch = self._patches.get(key)
+        patch = self.patch_cache.get(key)
         if patch is None:
             patch = self._new_patch(*key)
             self._refuse_held(*key, patch[0])
-            self._remember(key, patch)
+            self.remember_patch(key, patch)
         return patch
 
     def support_reached(self, node: int, radius: float | None = None) -> np.ndarray:
         """``(k,) int64`` the fixed M_S nodes that a load at ``node`` with tip ``radius`` [m] would reach; empty
         when :meth:`set_load` accepts that load (what :meth:`PinHead.grab <tissuesim.PinHead.grab>` looks for)."""
         key = self._patch_key(node, radius)
-        if key in self._patches:
+        if key in self.patch_cache:
             return np.zeros(0, dtype=np.int64)
         patch = self._new_patch(*key)
         held = self._held_in(patch[0])
         if not held.size:
-            self._remember(key, patch)  # the grab that asked loads it next
+            self.remember_patch(key, patch)  # the grab that asked loads it next
         return held
 
-    def _remember(self, key: tuple[int, float | None], patch: tuple[np.ndarray, np.ndarray]) -> None:
-        if len(self._patches) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
-            self._patches.clear()
+    def remember_patch(self, key: tuple[int, float | None], patch: tuple[np.ndarray, np.ndarray]) -> None:
+        if len(self.patch_cache) > 256:  # a long interactive session grabs many nodes: keep the cache bounded
+            self.patch_cache.clear()
         for array in patch:             # loads hand these out: nobody may change the cache through them
             array.flags.writeable = False
-        self._patches[key] = patch
+        self.patch_cache[key] = patch
 
     def _held_in(self, nodes: np.ndarray) -> np.ndarray:
         """``(k,) int64`` the fixed nodes among ``nodes``."""
@@ -61,9 +61,9 @@ class LoadPatches:
         """``(n,) float64`` M_S rest area [m²] each vertex stands for (a third of its triangles')."""
         from ..loads import lumped_areas
 
-        if self._lumped_areas is None:
-            self._lumped_areas = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
-        return self._lumped_areas
+        if self.lumped_area_cache is None:
+            self.lumped_area_cache = lumped_areas(self.rest_positions, self.hybrid.surface.triangles)
+        return self.lumped_area_cache
 
     def _new_patch(self, node: int, radius: float | None) -> tuple[np.ndarray, np.ndarray]:
         from ..loads import contact_patch

@@ -212,6 +212,9 @@ class MassSpringSolver(Solver):
         thickness_ratio: β, the dimensionless thickness h = β l of the spring-stiffness formula
             k = E h Σ A_T / l²; default the calibrated value :data:`tissuesim.solvers.calibrated.MASS_SPRING_THICKNESS`.
         damping: fraction of velocity removed per step (default :data:`DEFAULT_DAMPING`).
+
+    Attributes:
+        acceleration: ``(n, 3) float64`` [m/s²] the substep's accelerations, a workspace.
     """
 
     label = "mass-spring"
@@ -221,6 +224,7 @@ class MassSpringSolver(Solver):
     in_paper = True
     free_scalars = {"springs": ("thickness_ratio", 10.0, 3000.0)}
     linear_in_load = False      # a spring's force turns with it
+    kept_values = (*Solver.kept_values, "inv_mass")
 
     gravity_caveat = ("springs on the surface have no volume to carry its weight and no unique rest under it (a "
                       "column's top sags 0.005-0.01 of the analytic ρgH²/(2E); the models are 85-98 % off the fine "
@@ -245,7 +249,7 @@ class MassSpringSolver(Solver):
         self.inv_mass[self.fixed] = 0.0
         self.omega_max = _omega_bound(self.springs, self.stiffness, self.inv_mass, self.attached_nodes,
                                       self.attached_stiffness)
-        self._accel = np.zeros_like(self.state.positions)
+        self.acceleration = np.zeros_like(self.state.positions)
         self._gravity = np.zeros(3) if self.gravity is None else np.array(self.gravity)
 
     @Solver.dt.setter
@@ -273,7 +277,7 @@ class MassSpringSolver(Solver):
     def _step(self, dt: float) -> None:
         substeps = self.substeps(dt)
         keep = (1.0 - self.damping) ** (1.0 / substeps)
-        mass_spring_step(self.state.positions, self.state.velocities, self._accel, self.inv_mass, self.forces,
+        mass_spring_step(self.state.positions, self.state.velocities, self.acceleration, self.inv_mass, self.forces,
                          self.springs, self.rest_lengths, self.stiffness, dt, substeps, keep, self.attached_nodes,
                          self.attached_stiffness, self.attached_anchors, self._gravity, self.gravity is not None)
         count, first = inverted_triangles(self.rest_positions, self.state.positions, self.hybrid.surface.triangles)

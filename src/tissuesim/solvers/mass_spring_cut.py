@@ -88,7 +88,7 @@ class MassSpringCut(SolverCut):
         near = self._springs_at(touched)
         self._recompute_rows(np.unique(np.concatenate([touched, s.springs[near].ravel()])))
         s.omega_max = float(np.sqrt(self.gershgorin.max()))
-        s._accel = self.spare.extend("accel", s._accel, np.zeros((added, 3)))
+        s.acceleration = self.spare.extend("accel", s.acceleration, np.zeros((added, 3)))
 
     def _springs_at(self, vertices: np.ndarray) -> np.ndarray:
         """``(k,) int64`` the springs with an end in ``vertices`` (ascending): the stretch and bending springs of

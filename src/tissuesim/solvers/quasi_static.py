@@ -116,7 +116,7 @@ class QuasiStaticSolve:
             self.last_solve = SolveReport(iterations, True, 0.0, tolerance, time.perf_counter() - start,
                                           **self._measures())
             return self.state.positions.copy()
-        previous = self._previous
+        previous = self.previous_positions
         previous[:] = self.state.positions
         steps, motion, settled = 0, np.inf, False
         history = []

@@ -4,29 +4,19 @@ grabbed region, a probe's press that is refused. Everything a step reads is kept
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from typing import TYPE_CHECKING
-
 import copy
+from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from .base import Solver
 
-#: The hybrid's record of where its prescribed nodes and its warm start's embedded field were last brought to, and
-#: whether they are due again: put back in place, so the first step after a grab moves the surface exactly as it
-#: would have without it (a pending warm-start move included).
-_WARM_ARRAYS = ("_u", "targets", "_embedded", "_embedded_new")
-_WARM_FLAGS = ("_dirty", "_volume_settled")
-#: What a hybrid's near field rebinds when its contact moves (its window of prescribed nodes): put back as it was.
-_WINDOW = ("prescribed", "inv_mass", "_statics", "_window", "_window_slots", "_window_node")
-#: What the solver reports of the state it reached (:attr:`~.base.Solver.warning` reads the first).
-_REPORTS = ("largest_displacement", "last_solve")
-
 
 class Snapshot:
-    """A solver's state (positions, velocities, loads, the hybrid's warm start and finite-strain volume with what
-    its iterations have learnt, what it reports of them), taken when made and put back by :meth:`restore`."""
+    """A solver's state (positions, velocities, loads, the finite-strain volume with what its iterations have learnt,
+    and what its class names in :attr:`~.base.Solver.kept_arrays` and :attr:`~.base.Solver.kept_values`: the
+    hybrid's warm start, what it reports), taken when made and put back by :meth:`restore`."""
 
     def __init__(self, solver: Solver):
         self.positions = solver.positions.copy()
@@ -36,10 +26,8 @@ class Snapshot:
         self.volume = None if volume is None else volume.copy()
         finite = getattr(solver, "finite", None)      # the finite-strain volume's quasi-Newton memory
         self.relax = None if finite is None else finite.relax_memory()
-        self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy())
-                       for name in _WARM_ARRAYS if hasattr(solver, name)}
-        self.flags = {name: getattr(solver, name) for name in _WARM_FLAGS + _WINDOW + _REPORTS
-                      if hasattr(solver, name)}
+        self.arrays = {name: (getattr(solver, name), getattr(solver, name).copy()) for name in solver.kept_arrays}
+        self.flags = {name: getattr(solver, name) for name in solver.kept_values}
 
     def restore(self, solver: Solver) -> None:
         solver.put_back_loads(self.loads)

@@ -115,9 +115,17 @@ class SurfaceLayerSolver(Solver):
         mass: ``(n,) float64`` lumped node masses [kg].
         stretch_compliance, bend_compliance: xpbd form: ``(e,)`` [m/N] and ``(b,)`` [1/(N·m)] compliances.
         prestress_tension: T [N/m] of the prestrain (0 without one).
+        stretch_multipliers, bend_multipliers: ``(e,)``, ``(b,) float64`` the XPBD Lagrange multipliers of the
+            stretch [N] and bending [N·m] constraints (``integrator="xpbd"``; reset each step).
+        rest_angle: ``(b,) float64`` [rad] each hinge's rest angle, signed or not as ``signed_bending``.
+        predicted: ``(n, 3) float64`` [m] the step's predicted positions (eq 16), a workspace.
+        built_statics: the layer's static solver once :meth:`statics` has built it, else None (a cut drops it).
     """
 
     cut_carrier = "tissuesim.solvers.surface_layer_cut:SurfaceLayerCut"
+    # the prescribed nodes' targets, and what a window of prescribed nodes rebinds (the hybrid's near field)
+    kept_arrays = (*Solver.kept_arrays, "targets")
+    kept_values = (*Solver.kept_values, "prescribed", "inv_mass", "built_statics")
     #: Whether the layer stands for the whole body, so that it carries the weight (``gravity``) and the attachments
     #: (the pbd method); the hybrid's M_V carries them instead (:mod:`.gravity`).
     body_on_layer: ClassVar[bool] = True
@@ -151,7 +159,7 @@ class SurfaceLayerSolver(Solver):
         self.iterations = int(iterations)
         self.constraints = SurfaceConstraints.from_surface(hybrid_mesh.surface)
         self.signed_bending = (form == "xpbd") if signed_bending is None else signed_bending
-        self._rest_angle = (self.constraints.rest_signed_angle if self.signed_bending
+        self.rest_angle = (self.constraints.rest_signed_angle if self.signed_bending
                             else self.constraints.rest_angle)
         option, value = frozen.option(self.name, form)
         given = {"thickness_ratio": thickness_ratio, "stiffness": stiffness, "mass_scale": mass_scale}
@@ -173,11 +181,11 @@ class SurfaceLayerSolver(Solver):
         self.inv_mass = 1.0 / self.mass
         self.prescribed = np.zeros(0, dtype=np.int64)
         self.targets = np.zeros((0, 3))
-        self._statics = None
-        self._predicted = np.zeros_like(self.state.positions)
+        self.built_statics = None
+        self.predicted = np.zeros_like(self.state.positions)
         # XPBD multipliers, reset each step (kernels.xpbd_step).
-        self._lambda_stretch = np.zeros(self.constraints.stretch_count)
-        self._lambda_bend = np.zeros(self.constraints.bending_count)
+        self.stretch_multipliers = np.zeros(self.constraints.stretch_count)
+        self.bend_multipliers = np.zeros(self.constraints.bending_count)
         if form == "xpbd" and integrator == "xpbd":
             warn(XPBD_OFF_EQUILIBRIUM)
         if self.body_on_layer and self.attachments and (form, integrator) != ("xpbd", "implicit"):
@@ -337,17 +345,17 @@ class SurfaceLayerSolver(Solver):
     def statics(self) -> LayerStatics | FiniteLayer:
         """The static solver of this layer and its prescribed nodes (built on first use: one sparse factorisation):
         :class:`~tissuesim.layer.static.LayerStatics` with the linear material, else the finite-strain layer."""
-        if self._statics is None and self.material != "linear":
+        if self.built_statics is None and self.material != "linear":
             from ..layer.finite_layer import FiniteLayer
 
             c = self.constraints
-            self._statics = FiniteLayer(self.rest_positions, edges=c.edges, rest_length=c.rest_length,
+            self.built_statics = FiniteLayer(self.rest_positions, edges=c.edges, rest_length=c.rest_length,
                                         stretch_compliance=self.stretch_compliance, hinges=c.bending,
-                                        rest_angle=self._rest_angle, bend_compliance=self.bend_compliance,
+                                        rest_angle=self.rest_angle, bend_compliance=self.bend_compliance,
                                         prescribed=self.prescribed)
-        if self._statics is None:
-            self._statics = self._new_linear_statics()
-        return self._statics
+        if self.built_statics is None:
+            self.built_statics = self._new_linear_statics()
+        return self.built_statics
 
     def linear_statics(self) -> LayerStatics:
         """The layer's small-strain :class:`~tissuesim.layer.static.LayerStatics`: :meth:`statics` with the linear
@@ -381,7 +389,7 @@ class SurfaceLayerSolver(Solver):
 
     def _set_prescribed(self, nodes: np.ndarray) -> None:
         """Prescribe ``nodes`` (M_S indices), at rest until the subclass moves ``targets``."""
-        self._statics = None
+        self.built_statics = None
         self.prescribed = np.ascontiguousarray(nodes, dtype=np.int64)
         self.targets = np.array(self.rest_positions[self.prescribed])
         self.inv_mass = 1.0 / self.mass
@@ -392,11 +400,11 @@ class SurfaceLayerSolver(Solver):
         if self.form == "xpbd" and self.integrator == "implicit":
             self._implicit_step(dt)
         elif self.form == "xpbd":
-            xpbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.applied_forces(),
+            xpbd_step(s.positions, s.velocities, self.predicted, self.inv_mass, self.applied_forces(),
                       self.prescribed, self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length,
-                      self.stretch_compliance, c.bending, self._rest_angle, self.bend_compliance,
-                      self._lambda_stretch, self._lambda_bend, self.signed_bending)
+                      self.stretch_compliance, c.bending, self.rest_angle, self.bend_compliance,
+                      self.stretch_multipliers, self.bend_multipliers, self.signed_bending)
         else:
-            pbd_step(s.positions, s.velocities, self._predicted, self.inv_mass, self.applied_forces(), self.prescribed,
+            pbd_step(s.positions, s.velocities, self.predicted, self.inv_mass, self.applied_forces(), self.prescribed,
                      self.targets, dt, self.damping, self.iterations, c.edges, c.rest_length, self.stiffness,
-                     c.bending, self._rest_angle, self.stiffness, self.signed_bending)
+                     c.bending, self.rest_angle, self.stiffness, self.signed_bending)

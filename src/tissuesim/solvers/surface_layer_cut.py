@@ -94,8 +94,8 @@ class SurfaceLayerCut(SolverCut):
         bend = {"bending": np.array(c.bending), "rest_angle": np.array(c.rest_angle),
                 "rest_signed_angle": np.array(c.rest_signed_angle), "hinge_area": np.array(c.hinge_area)}
         if xpbd:
-            stretch.update(compliance=np.array(solver.stretch_compliance), multiplier=solver._lambda_stretch)
-            bend.update(compliance=np.array(solver.bend_compliance), multiplier=solver._lambda_bend)
+            stretch.update(compliance=np.array(solver.stretch_compliance), multiplier=solver.stretch_multipliers)
+            bend.update(compliance=np.array(solver.bend_compliance), multiplier=solver.bend_multipliers)
         self.stretch = Rows(stretch, len(c.edges), {"edges": 0, "rest_length": 1.0, "edge_area": 1.0,
                                                      "compliance": 1.0, "multiplier": 0.0})
         self.bend = Rows(bend, len(c.bending), {"bending": 0, "rest_angle": np.pi, "rest_signed_angle": 0.0,
@@ -113,10 +113,10 @@ class SurfaceLayerCut(SolverCut):
                                        rest_length=a["rest_length"], edge_area=a["edge_area"],
                                        bending=b["bending"], rest_angle=b["rest_angle"],
                                        rest_signed_angle=b["rest_signed_angle"], hinge_area=b["hinge_area"])
-        s._rest_angle = b["rest_signed_angle"] if s.signed_bending else b["rest_angle"]
+        s.rest_angle = b["rest_signed_angle"] if s.signed_bending else b["rest_angle"]
         if s.form == "xpbd":
-            s.stretch_compliance, s._lambda_stretch = a["compliance"], a["multiplier"]
-            s.bend_compliance, s._lambda_bend = b["compliance"], b["multiplier"]
+            s.stretch_compliance, s.stretch_multipliers = a["compliance"], a["multiplier"]
+            s.bend_compliance, s.bend_multipliers = b["compliance"], b["multiplier"]
 
     def update(self, result: CutResult, n: int, released: np.ndarray, touched: np.ndarray) -> None:
         s = self.solver
@@ -147,8 +147,8 @@ class SurfaceLayerCut(SolverCut):
         self._bind()
         self.local_masses(touched, self.mass_total)
         added = len(result.parents)
-        s._predicted = self.spare.extend("predicted", s._predicted, np.zeros((added, 3)))
-        statics, s._statics = s._statics, None
+        s.predicted = self.spare.extend("predicted", s.predicted, np.zeros((added, 3)))
+        statics, s.built_statics = s.built_statics, None
         self.prescribe(result, n, released, touched)
         s.inv_mass = self.spare.extend("inv_mass", s.inv_mass, np.zeros(added))
         s.inv_mass[touched] = np.where(self.is_prescribed[touched], 0.0, 1.0 / s.mass[touched])
@@ -157,7 +157,7 @@ class SurfaceLayerCut(SolverCut):
             # does not apply, the layer is factorised again when next needed
             from ..layer.cut_statics import after_cut
 
-            s._statics = after_cut(statics, change=self._stiffness_of(rows, hrows) - removed, mass=s.mass,
+            s.built_statics = after_cut(statics, change=self._stiffness_of(rows, hrows) - removed, mass=s.mass,
                                    prescribed=s.prescribed)
 
     def prepare(self) -> None:
@@ -167,7 +167,7 @@ class SurfaceLayerCut(SolverCut):
         if s.form == "xpbd" and s.material == "linear":
             from ..layer.cut_statics import prepare
 
-            prepare(s._statics)
+            prepare(s.built_statics)
 
     def _stiffness_of(self, rows, hinge_rows):
         """``(3n, 3n)`` the linear layer's stiffness [N/m] of these stretch and hinge rows (None where the layer
@@ -253,14 +253,14 @@ class HybridCut(SurfaceLayerCut):
         volume_nodes = np.asarray(h.coarse_volume_nodes, dtype=np.int64)[coarse_nodes[h.coarse_triangle[new]]]
         s.load_volume_nodes = spare.extend("load_volume_nodes", s.load_volume_nodes, volume_nodes)
         s.load_weights = h.coarse_barycentric
-        s._tet_of = spare.extend("tet_of", s._tet_of, h.embedding_tet[new].astype(np.int64))
-        s._weights = h.embedding_barycentric
-        spare.rewrite(s._embedded, result.moved, result.moves.values(s._embedded))     # with their rest
-        embedded = result.interpolate(s._embedded)
-        s._embedded = spare.extend("embedded", s._embedded, embedded)
-        s._embedded_new = spare.extend("embedded_new", s._embedded_new, embedded)
-        s._delta = spare.extend("delta", s._delta, np.zeros_like(embedded))
-        s._dirty = True
+        s.embedding_tet = spare.extend("tet_of", s.embedding_tet, h.embedding_tet[new].astype(np.int64))
+        s.embedding_weights = h.embedding_barycentric
+        spare.rewrite(s.warm_positions, result.moved, result.moves.values(s.warm_positions))     # with their rest
+        embedded = result.interpolate(s.warm_positions)
+        s.warm_positions = spare.extend("embedded", s.warm_positions, embedded)
+        s.warm_target = spare.extend("embedded_new", s.warm_target, embedded)
+        s.warm_delta = spare.extend("delta", s.warm_delta, np.zeros_like(embedded))
+        s.volume_stale = True
 
     def _free_cut(self, touched, released) -> None:
         """The quadratic M_V prescribes every vertex but those of the triangles a cut changed (M_V is not cut, so
@@ -270,7 +270,7 @@ class HybridCut(SurfaceLayerCut):
         if released.size:
             s.control = s.control[np.isin(s.control, released, invert=True)]
             s.control_count = s.control.size
-            s.control_displacement = s._u[: s.control_count]
+            s.control_displacement = s.output_displacement[: s.control_count]
         mask = self.is_prescribed
         mask[touched] = False
         mask[s.fixed] = True
@@ -287,10 +287,10 @@ class HybridCut(SurfaceLayerCut):
         # the control part of the output nodes is the control nodes' M_V nodes, in the same order
         s.output_nodes = np.concatenate([s.output_nodes[:count][kept], s.output_nodes[:count][~kept],
                                          s.output_nodes[count:]])
-        s._slot[s.output_nodes] = np.arange(s.output_nodes.size)      # the same nodes, reordered
-        s._u = np.zeros((s.output_nodes.size, 3))
+        s.output_slot[s.output_nodes] = np.arange(s.output_nodes.size)      # the same nodes, reordered
+        s.output_displacement = np.zeros((s.output_nodes.size, 3))
         control = s.control[kept]
-        s.control_displacement = s._u[: control.size]
+        s.control_displacement = s.output_displacement[: control.size]
         s.control, s.control_count = control, control.size
         # pinned: the fixed nodes off the control list, with the released fixed ones and this cut's new fixed ones
         fixed = np.asarray(s.fixed, dtype=np.int64)
@@ -313,5 +313,5 @@ class EmbeddedCut(SolverCut):
         s, h = self.solver, self.solver.hybrid
         s.tet_of = self.spare.extend("tet_of", s.tet_of, h.embedding_tet[n:].astype(np.int64))
         s.weights = h.embedding_barycentric
-        s._dirty = True
+        s.volume_stale = True
 
