@@ -365,6 +365,10 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
     def _on_reset(self) -> None:
         """Called after :meth:`reset` restored rest positions and zero velocities."""
 
+    def before_first_cut(self) -> None:
+        """Called by the scalpel before the first cut of this solver's mesh (the hybrid's near field, whose fine
+        volume is not cut, switches off)."""
+
     # ---------------------------------------------------------------------------------------------- validation
     def _check_node(self, node) -> int:
         if not is_integer(node):

@@ -148,9 +148,7 @@ class SolverCut:
         pieces no prescribed node holds (:attr:`loose_total` after the move)."""
         s, n = self.solver, plan.old_count
         if not s.hybrid.info.get("cuts"):
-            before = getattr(s, "_before_first_cut", None)  # e.g. the hybrid's near field, whose volume is not cut
-            if before is not None:
-                before()
+            s.before_first_cut()
         new_identity = self._new_identity(plan)
         result = self.surface.apply(plan, sweep)
         self._moved = len(result.moved) > 0
@@ -270,7 +268,7 @@ class SolverCut:
         """``(count,) bool`` whether each vertex holds its piece after this move (:meth:`held_nodes`), kept per
         move: the ``new_fixed`` vertices join, the ``released`` control nodes leave (O(k), no set operations over
         the mesh)."""
-        mask = getattr(self, "_held_mask", None)
+        mask = getattr(self, "held_mask", None)
         if mask is None:
             s = self.solver
             mask = np.zeros(len(s.rest_positions), dtype=bool)
@@ -278,7 +276,7 @@ class SolverCut:
         mask = self.spare.extend("held", mask, np.zeros(count - len(mask), dtype=bool))
         mask[new_fixed] = True
         mask[released] = False
-        self._held_mask = mask
+        self.held_mask = mask
         return mask
 
     def movable(self, vertices: np.ndarray) -> np.ndarray:
@@ -311,8 +309,8 @@ class _Undo:
     the mass-spring's bound rows, the hybrid's M_V slots)."""
 
     #: per-vertex arrays a cut writes in place at old vertices of its changed rows only: (owner, attribute)
-    AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "_is_prescribed"),
-               ("updater", "_held_mask"))
+    AT_ROWS = (("solver", "mass"), ("solver", "inv_mass"), ("updater", "lumped"), ("updater", "prescribed_mask"),
+               ("updater", "held_mask"))
     #: arrays it writes in place elsewhere too (the bound rows of spring neighbours, the hybrid's M_V slots)
     WHOLE = (("solver", "output_slot"), ("updater", "gershgorin"))
 

@@ -248,7 +248,7 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         return (self.quadratic_field is not None and self.finite is None
                 and self.prescribed.size == len(self.rest_positions))
 
-    def _before_first_cut(self) -> None:
+    def before_first_cut(self) -> None:
         """The fine volume is not cut: a cut switches the near field off, back to the paper's prescribed nodes."""
         if self.near_field is None:
             return

@@ -208,13 +208,13 @@ class SurfaceLayerCut(SolverCut):
     def is_prescribed(self) -> np.ndarray:
         """``(n,) bool`` whether each vertex is prescribed (kept per cut: new vertices appended, changes set)."""
         s = self.solver
-        mask = getattr(self, "_is_prescribed", None)
+        mask = getattr(self, "prescribed_mask", None)
         if mask is None:
             mask = np.zeros(len(s.rest_positions), dtype=bool)
             mask[s.prescribed] = True
         elif len(mask) < len(s.rest_positions):
             mask = self.spare.extend("is_prescribed", mask, np.zeros(len(s.rest_positions) - len(mask), bool))
-        self._is_prescribed = mask
+        self.prescribed_mask = mask
         return mask
 
     def prescribe_more(self, nodes: np.ndarray) -> None:
