@@ -36,7 +36,7 @@ _EXPORTS = {
     "LinearFEM": "tissuesim.fem.linear",
     "QuadraticFEM": "tissuesim.fem.quadratic",
     "NonlinearFEM": "tissuesim.fem.nonlinear",
-    "QuadraticNonlinearFEM": "tissuesim.fem.nonlinear",
+    "QuadraticNonlinearFEM": "tissuesim.fem.nonlinear_quadratic",
     "make_solver": "tissuesim.solvers",
     "available_solvers": "tissuesim.solvers",
     "register": "tissuesim.solvers",

@@ -49,7 +49,8 @@ def test_loads_of_one_direction_are_reached_in_turn_and_looked_up_by_force(cube)
 
 
 def test_a_load_with_no_stable_equilibrium_is_marked_and_refused_and_so_are_larger_ones(cube, monkeypatch):
-    from tissuesim.fem.nonlinear import QuadraticNonlinearFEM, UnstableLoadError
+    from tissuesim.fem.nonlinear import UnstableLoadError
+    from tissuesim.fem.nonlinear_quadratic import QuadraticNonlinearFEM
 
     surface, node = cube
     solve = QuadraticNonlinearFEM.solve

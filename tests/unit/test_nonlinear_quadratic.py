@@ -7,7 +7,7 @@ import pytest
 
 from tissuesim.errors import MaterialError
 from tissuesim.fem.material import Material
-from tissuesim.fem.nonlinear import QuadraticNonlinearFEM
+from tissuesim.fem.nonlinear_quadratic import QuadraticNonlinearFEM
 from tissuesim.fem.quadratic import QuadraticFEM, quadratic_stiffness
 from tissuesim.mesh.regions import nodes_below
 from tissuesim.mesh.tetmesh import structured_box

@@ -10,7 +10,7 @@ from test_finite_strain import FINITE, SIZE, _analytic_uniaxial
 import tissuesim
 from tissuesim.errors import MaterialError, SolverError
 from tissuesim.experiments.protocol import load_node
-from tissuesim.fem.nonlinear import QuadraticNonlinearFEM
+from tissuesim.fem.nonlinear_quadratic import QuadraticNonlinearFEM
 from tissuesim.loads import contact_patch
 from tissuesim.mesh import models
 from tissuesim.mesh.regions import bottom_height, nodes_below

@@ -4,7 +4,7 @@ the same refined quadratic-tet levels as the linear reference (:mod:`.reference`
 * **Levels, load, support** as the linear reference's: M_S refined around the contact, TetGen, quadratic tets; a
   uniform dead traction on the refined surface's triangles within R of the load node
   (:func:`.reference.patch_traction`); the nodes at or below the bottom height fixed.
-* **Solve.** :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` (Newton with the consistent tangent, line
+* **Solve.** :class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM` (Newton with the consistent tangent, line
   search, load stepping), checked against scikit-fem's own Newton on identical meshes and against the exact
   uniaxial stretch (tests/validation/test_finite_strain_skfem.py). The loads of one direction are reached in turn,
   each from the previous one's answer.
@@ -173,7 +173,8 @@ def _compute(surface, node, radius, forces, material, youngs_modulus, poisson_ra
 def _solve_level(volume, refined, n, rest, node, radius, forces, material, youngs_modulus, poisson_ratio, say):
     """``(k, n, 3)`` M_S displacements [m] of one level under each load (NaN rows where none is stable): the loads
     of one direction in order of size, each from the last stable answer."""
-    from ..fem.nonlinear import QuadraticNonlinearFEM, UnstableLoadError
+    from ..fem.nonlinear import UnstableLoadError
+    from ..fem.nonlinear_quadratic import QuadraticNonlinearFEM
 
     height = bottom_height(rest)
     fem = QuadraticNonlinearFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,

@@ -1,7 +1,6 @@
 """Finite-strain statics on a tet mesh: the converged equilibrium of a hyperelastic body (:mod:`.hyperelastic`),
-with fixed nodes that may move (a base that is carried or turned, as by a grasper or a retractor), on linear tets
-(:class:`NonlinearFEM`) or quadratic ones (:class:`QuadraticNonlinearFEM`, :mod:`.hyperelastic_quadratic`); both
-share the solvers below and differ only in their element kernels and K₀.
+with fixed nodes that may move (a base carried or turned by a grasper or a retractor), on linear tets
+(:class:`NonlinearFEM`) or quadratic ones (:mod:`.nonlinear_quadratic`): both share :class:`HyperelasticStatics`.
 
 Two ways to the same equilibrium ∂W/∂u = f (W the stored energy, f the nodal loads), both descending the total
 potential Π(u) = W(u) − fᵀu with a backtracking line search, so every iteration lowers Π and the answer is a stable
@@ -24,6 +23,7 @@ does converge, on a state that crushes elements flat (:meth:`volume_ratios`), ca
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -31,13 +31,13 @@ from numpy.typing import ArrayLike
 from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
 from .assembly import scatter_elements, shape_gradients
-from .hyperelastic import (check_material, element_energy, element_tangents, internal_forces,
-                           material_parameters)
-from .hyperelastic_quadratic import quadrature_gradients
+from .hyperelastic import check_material, element_energy, element_tangents, internal_forces, material_parameters
 from .factorise import factorise_spd, fill_reducing_order
 from .linear import LinearFEM
 from .material import DEFAULT_POISSON_RATIO, DEFAULT_YOUNGS_MODULUS, Material
-from .quadratic import QuadraticFEM
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 #: A Newton solve has converged when the free residual is below this fraction of the load's size (the larger of the
 #: applied forces and the support reactions, so a pure motion of the supports converges too).
@@ -78,7 +78,7 @@ class UnstableLoadError(SolverError):
         self.reached = float(reached)
 
 
-class _HyperelasticStatics:
+class HyperelasticStatics:
     """Newton, line search, load stepping and the constant-factor relaxation, whatever the elements: a subclass
     calls :meth:`_setup` with its elements and their quadrature (:mod:`.hyperelastic`'s element loops)."""
 
@@ -143,7 +143,7 @@ class _HyperelasticStatics:
             self._forces += (self._springs @ u.ravel()).reshape(-1, 3)
         return self._forces
 
-    def tangent(self, u: np.ndarray, *, project: bool = True):
+    def tangent(self, u: np.ndarray, *, project: bool = True) -> sp.csr_matrix:
         """``(3n, 3n)`` CSR tangent stiffness ∂²W/∂u² [N/m] at ``u``; element tangents projected to positive
         semi-definite when ``project``."""
         np.add(self.rest, u, out=self._x)
@@ -153,7 +153,7 @@ class _HyperelasticStatics:
         return tangent if self._springs is None else (tangent + self._springs).tocsr()
 
     # --------------------------------------------------------------------------------------------- supports
-    def set_fixed_displacement(self, displacement) -> None:
+    def set_fixed_displacement(self, displacement: ArrayLike) -> None:
         """Move the supports: ``displacement`` ``(n, 3)`` [m], read at the fixed dofs only."""
         displacement = np.asarray(displacement, dtype=np.float64)
         if displacement.shape != (self.node_count, 3) or not np.all(np.isfinite(displacement)):
@@ -163,7 +163,8 @@ class _HyperelasticStatics:
         self._forget()      # the supports' motion changes ∂W/∂u_f at fixed u_f: old curvature pairs are wrong
 
     # -------------------------------------------------------------------------------------------------- solves
-    def solve(self, forces, *, initial=None, rtol: float = RTOL, max_iterations: int = MAX_NEWTON) -> np.ndarray:
+    def solve(self, forces: ArrayLike, *, initial: np.ndarray | None = None, rtol: float = RTOL,
+              max_iterations: int = MAX_NEWTON) -> np.ndarray:
         """``(n, 3)`` displacement [m] at the stable equilibrium under nodal ``forces`` ``(n, 3)`` [N] with the
         supports at :attr:`fixed_displacement` (Newton, line search, load stepping), from ``initial`` ``(n, 3)``
         (default: rest). A step that does not converge is halved: the loads and the supports'
@@ -200,7 +201,7 @@ class _HyperelasticStatics:
         self.last_iterations = iterations
         return u
 
-    def relax(self, forces, u: np.ndarray, *, iterations: int, rtol: float = RTOL) -> bool:
+    def relax(self, forces: ArrayLike, u: np.ndarray, *, iterations: int, rtol: float = RTOL) -> bool:
         """Up to ``iterations`` quasi-Newton iterations on ``u`` ``(n, 3)`` [m] in place under ``forces`` ``(n, 3)``
         [N]: the interactive path. L-BFGS (Nocedal & Wright 2006, Algorithm 7.4) whose initial inverse Hessian is
         the constant, prefactorised K₀⁻¹ (as Liu, Bouaziz & Kavan 2017 do for real-time hyperelasticity), with a
@@ -363,7 +364,7 @@ class _HyperelasticStatics:
         return forces
 
 
-class NonlinearFEM(_HyperelasticStatics):
+class NonlinearFEM(HyperelasticStatics):
     """Hyperelastic statics of ``mesh`` on linear tets (see the module docstring).
 
     Args:
@@ -396,41 +397,3 @@ class NonlinearFEM(_HyperelasticStatics):
                     np.ascontiguousarray(mesh.tets, dtype=np.int64), shape_gradients(mesh)[:, None], volumes,
                     self.linear.factor)
         self._springs = self.linear.spring_stiffness      # the LinearFEM's springs (ligaments), if any
-
-
-class QuadraticNonlinearFEM(_HyperelasticStatics):
-    """Hyperelastic statics on the quadratic (10-node) tets of :class:`~.quadratic.QuadraticFEM`
-    (:mod:`.hyperelastic_quadratic`): the same Newton, load stepping and :meth:`relax` as :class:`NonlinearFEM`, with
-    K₀ the quadratic small-strain stiffness (the tangent at rest, exactly).
-
-    Args:
-        mesh: the tet mesh whose nodes are the corners; midside nodes are added as QuadraticFEM adds them.
-        youngs_modulus: E [Pa].
-        poisson_ratio: ν [-].
-        fixed: the supports among all N corner and midside nodes, as QuadraticFEM takes them (a callable
-            ``points (N, 3) ->`` indices or a node or dof mask).
-        material: ``"corotated"`` or ``"neo-hookean"``.
-        linear: an existing QuadraticFEM of the same mesh, E, ν and supports whose factor :meth:`relax` reuses
-            (default: one is built).
-
-    Attributes:
-        linear: the small-strain quadratic model; ``rest`` ``(N, 3) float64`` [m] all its nodes.
-        elements: ``(m, 10) int64`` corners and midsides of each tet.
-        gradients: ``(m, 4, 10, 3) float64`` rest shape-function gradients at the quadrature points [1/m];
-            ``weights`` ``(m, 4)`` [m³].
-    """
-
-    def __init__(self, mesh: TetMesh, *, youngs_modulus: float = DEFAULT_YOUNGS_MODULUS,
-                 poisson_ratio: float = DEFAULT_POISSON_RATIO, fixed: Callable[[np.ndarray], ArrayLike],
-                 material: str = "neo-hookean", linear: QuadraticFEM | None = None):
-        self.material_name = check_material(material)
-        elastic = Material(youngs_modulus, poisson_ratio)
-        self.linear = linear if linear is not None else QuadraticFEM(
-            mesh, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio, fixed=fixed)
-        self.mesh = mesh
-        fixed_mask = np.ones(3 * self.linear.node_count, dtype=bool)
-        fixed_mask[self.linear.free_dofs] = False
-        self._setup(material, elastic, self.linear.points, fixed_mask.reshape(-1, 3),
-                    np.ascontiguousarray(self.linear.elements, dtype=np.int64), *quadrature_gradients(mesh),
-                    self.linear.factor)
-        self._springs = self.linear.spring_stiffness      # the QuadraticFEM's springs (ligaments), if any

@@ -28,7 +28,7 @@ from ..errors import SolverError
 from ..mesh.tetmesh import TetMesh
 from .assembly import add_bt_d_b, mirror_upper, scatter_elements, shape_gradients, strain_matrix
 from .factorise import factorise_spd
-from .linear import _check_rigid_modes, _fixed_mask
+from .supports import check_rigid_modes, fixed_mask
 from .springs import check_springs, spring_stiffness
 from .material import Material
 
@@ -141,8 +141,8 @@ class QuadraticFEM:
             raise SolverError("fixed must be a callable points (N, 3) -> fixed node indices or (N,) mask, e.g. "
                               "lambda points: nodes_below(points, height)")
         springs = check_springs(springs, len(self.points))
-        mask = _fixed_mask(np.asarray(fixed(self.points)), len(self.points), sprung=springs is not None)
-        _check_rigid_modes(mesh, mask[:n], None if springs is None else _on_corners(springs, self.edges, n))
+        mask = fixed_mask(np.asarray(fixed(self.points)), len(self.points), sprung=springs is not None)
+        check_rigid_modes(mesh, mask[:n], None if springs is None else _on_corners(springs, self.edges, n))
         self._edge_of = {(int(a), int(b)): n + k for k, (a, b) in enumerate(self.edges.tolist())}
         self.free_dofs = np.flatnonzero(~mask.ravel())
         # K itself is not kept: at the reference's largest level it is ~1 GB, and the factor needs the memory.

@@ -14,14 +14,13 @@ is refused. Arrays survive bit for bit; M'_S is stored as triangles only (its ve
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import json
 import os
 import tempfile
 import zipfile
 import zlib
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, ClassVar
+from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -53,6 +53,7 @@ from ..errors import BoundaryConditionError, SolverError, first_indices, warn
 from ..mesh.regions import bottom_height, nodes_below
 from ..fem.nonlinear import UnstableLoadError
 from ..fem.rigid_modes import connected_pieces
+from .card import MethodCard
 from .load_patches import LoadPatches
 from .attachments import attachment_springs, check_supports_hold
 from .checks import fraction, gravity_vector, is_integer, node_set, positive_number, time_step
@@ -77,7 +78,7 @@ DEFAULT_DT = 0.01  # s
 RUNAWAY_SIZES = 100.0
 
 
-class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
+class Solver(MethodCard, LoadPatches, LoadSet, QuasiStaticSolve, ABC):
     """Base class of every method: state, load and stepping (the quasi-static solve: :class:`QuasiStaticSolve`).
 
     Subclasses implement :meth:`_step` (one time step on ``self.state`` under ``self.forces``) and may override
@@ -108,43 +109,6 @@ class Solver(LoadPatches, LoadSet, QuasiStaticSolve, ABC):
         active_cut_updater: the :class:`~.cut_carry.SolverCut` that carries this solver over cuts, from its first
             cut on (:func:`~.cut_carry.cut_updater`), else None.
     """
-
-    # The method's card: everything the experiments, the viewer, the CLI, the docs and the tests list about a method
-    # is read from these (through :mod:`.registry`), so a new method is one module.
-    name: ClassVar[str] = "?"
-    #: What the method is, in a figure's legend or a panel ("hybrid FEM + PBD").
-    label: ClassVar[str] = "?"
-    #: Its column in the experiments' tables ("Ours", "PBD"): a few characters.
-    short_label: ClassVar[str] = "?"
-    #: Its colour in every plot (a Matplotlib colour), and its line style where it is drawn as a line.
-    colour: ClassVar[str] = "tab:gray"
-    line_style: ClassVar[str] = "-"
-    #: One of the methods the paper compares (§8.3: its published figures are in
-    #: :mod:`tissuesim.experiments.paper`).
-    in_paper: ClassVar[bool] = False
-    #: With the linear material, the static answer is linear in the loads (superposition holds); False where the
-    #: method is geometrically nonlinear whatever its material (springs between moving vertices).
-    linear_in_load: ClassVar[bool] = True
-    #: The method's free scalar in each of its forms, which ``tissuesim calibrate`` fits once (DESIGN: one
-    #: dimensionless scalar per method, frozen in :mod:`.calibrated`): form -> (option, lower bound, upper bound).
-    free_scalars: ClassVar[dict[str, tuple[str, float, float]]] = {}
-    #: The ``material`` options this method accepts.
-    materials: ClassVar[tuple[str, ...]] = ("linear",)
-    #: True for methods whose step is an exact static solve (one step reaches equilibrium).
-    static: ClassVar[bool] = False
-    #: How the method absorbs a cut: the :class:`~tissuesim.solvers.cut_carry.SolverCut` subclass that carries its
-    #: arrays over each move (a class, or ``"module:Class"`` imported when first needed); None: it cannot be cut,
-    #: for :attr:`cut_refusal`'s reason.
-    cut_carrier: ClassVar[type | str | None] = None
-    cut_refusal: ClassVar[str | None] = None
-    #: What :class:`~.snapshot.Snapshot` puts back besides the positions, the velocities and the loads: arrays a step
-    #: reads, restored in place (other arrays may be views of them), and values, rebound as they were. A subclass
-    #: extends its parent's.
-    kept_arrays: ClassVar[tuple[str, ...]] = ()
-    kept_values: ClassVar[tuple[str, ...]] = ("largest_displacement", "last_solve")
-    #: Where the method's weight under ``gravity`` is not the elastic body's: a sentence saying how far off, warned
-    #: of (:class:`~tissuesim.errors.TissuesimWarning`) when a solver is built with gravity; None where it is.
-    gravity_caveat: ClassVar[str | None] = None
 
     def __init__(
         self,

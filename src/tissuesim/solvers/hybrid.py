@@ -18,39 +18,24 @@ Steps 3–5 are the paper's projection (:mod:`tissuesim.layer.kernels`, one Numb
 :class:`~tissuesim.solvers.surface_layer.SurfaceLayerSolver`, stepped by implicit Euler and solved exactly in quasi-static
 solves (:mod:`tissuesim.layer.static`); steps 1–2 are the same for every form.
 
-Option ``warm_start`` (beyond the paper): when the load changes, the free M_S nodes are moved by the change of
-the embedded FEM displacement (their barycentric embedding in M_V, as the ``embedded`` method), so PBD only relaxes
-the local detail instead of propagating the whole motion from the control nodes edge by edge. It changes the path,
-not the equilibrium; docs/solvers.md measures both (steps to settle, RMSE after a few steps).
+Options beyond the paper (each module named says more; docs/solvers.md measures them):
 
-Option ``material`` (beyond the paper): ``"corotated"`` or ``"neo-hookean"`` make M_V finite-strain
-(:class:`~tissuesim.fem.nonlinear.NonlinearFEM`) and the layer nonlinear (:mod:`tissuesim.layer.finite_layer`).
-``solve_static`` then solves both to their converged equilibria (Newton); ``step`` relaxes M_V by
-:data:`VOLUME_ITERATIONS` L-BFGS iterations on the constant K₀ factor per step, warm-started, until it is at
-equilibrium, and the layer by its nonlinear implicit step: at rest under a constant load, stepping ends where ``solve_static`` does.
-
-Options ``gravity`` and ``attachments`` (beyond the paper, :mod:`.gravity`): M_V carries the body's weight (the
-consistent load of ρ g on its tets) and the attachments' stiffness (through each attached vertex's coarse triangle,
-as loads); their response is solved once and added to each load's, and the layer follows M_V through its control
-nodes, without a weight of its own (its masses are the same body's).
-
-Option ``element`` (beyond the paper, :mod:`.quadratic_field`): ``"linear"`` (default, the paper's M_V) or
-``"quadratic"``: M_V's tets get a midside node on each edge, and every M_S vertex follows M_V's quadratic field
-through its embedding (as accurate as the fine FEM on the contact references); the layer then has no free vertex.
-It takes the loads, the probe, gravity, attachments, the finite-strain materials, a moving base and cuts (a cut
-frees the vertices of the triangles it changes to the layer); the near field, which it replaces, is refused.
-
-Option ``near_field`` (beyond the paper, :mod:`.near_field`): the M_S nodes within that distance [m] of the contact
-node are prescribed, like control nodes, to the quadratic-tet FEM response of the fine volume; the layer relaxes
-the rest. It needs the fine volume, costs one factorisation when built and three back-substitutions per new contact,
-and is switched off by a cut.
+* ``warm_start``: when the load changes, the free M_S nodes move by the change of M_V's embedded displacement (as
+  the ``embedded`` method), so the layer relaxes only the local detail: it changes the path, not the equilibrium.
+* ``material="corotated"`` or ``"neo-hookean"``: M_V finite-strain (:class:`~tissuesim.fem.nonlinear.NonlinearFEM`)
+  and the layer nonlinear (:mod:`tissuesim.layer.finite_layer`); ``solve_static`` converges both (Newton), ``step``
+  relaxes M_V by :data:`VOLUME_ITERATIONS` iterations on K₀'s factor, warm-started: at rest, where the solve ends.
+* ``gravity`` and ``attachments`` (:mod:`.gravity`): M_V carries the weight and the ligaments (their response solved
+  once); the layer follows its control nodes, without a weight of its own.
+* ``element="quadratic"`` (:mod:`.quadratic_field`): every M_S vertex follows M_V's quadratic-tet field; it takes
+  every load, tool, material and support above and cuts (which free the changed triangles' vertices to the layer).
+* ``near_field`` (:mod:`.near_field`): the M_S nodes near the contact follow the fine volume's quadratic-tet
+  response, the layer relaxes the rest; it needs the fine volume and is switched off by a cut.
 """
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
-
-from functools import partial
 
 import numpy as np
 
@@ -94,13 +79,11 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         quadratic_field: the :class:`~.quadratic_field.QuadraticField` of ``element="quadratic"``, else None.
         embedding_tet, embedding_weights: ``(n,) int64``, ``(n, 4) float64`` each M_S vertex's M_V tet and its
             barycentric weights there (the warm start's embedding).
-        output_slot: ``(N,) int64`` each M_V node's row in ``output_displacement`` (−1: not output);
-            output_displacement: ``(o, 3) float64`` [m] M_V's displacement at the nodes the surface reads (the
-            control nodes first).
+        output_displacement: ``(o, 3) float64`` [m] M_V's displacement at the nodes the surface reads, control
+            nodes first; ``output_slot`` ``(N,) int64`` each M_V node's row there (−1: none).
         warm_positions, warm_target: ``(n, 3) float64`` [m] rest + the embedded displacement applied so far, and the
             one M_V's answer now gives; ``warm_delta`` ``(n, 3)`` [m] their difference, a workspace.
-        volume_stale: M_V's answer is due again (the loads changed); ``volume_settled``: a finite-strain M_V's
-            relaxation has reached its equilibrium.
+        volume_stale: M_V's answer is due again (loads changed); ``volume_settled``: finite strain, M_V at rest.
         near_window, near_window_slots: ``(w,) int64`` the near field's prescribed M_S nodes and their rows in
             ``prescribed``; ``near_window_node``: the contact node they surround (−1: none).
     """
@@ -192,28 +175,9 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self.near_window_node = -1
         if near_field is None:
             return
-        if self.gravity is not None or self.attachments:
-            raise SolverError("near_field does not take gravity or attachments yet: its fine volume responds to the "
-                              "contact's load alone; drop near_field, or the gravity and attachments")
-        if isinstance(near_field, bool) or not isinstance(near_field, (int, float, np.floating, np.integer)) \
-                or not np.isfinite(near_field) or near_field <= 0:
-            raise SolverError(f"near_field must be None or a positive, finite distance in metres (e.g. 0.015), "
-                              f"got {near_field!r}")
-        if self.hybrid.info.get("cuts"):
-            raise SolverError("near_field needs an uncut mesh: its fine volume is not cut, so it does not describe "
-                              "this surface; drop near_field on a cut mesh")
-        from ..mesh.regions import nodes_below
-        from .near_field import NearField, fixed_corners
+        from .near_field import near_field_of
 
-        fine = self.hybrid.fine_volume
-        if self.fixed_from_height or fine is None:  # as every solver's volume: the nodes at or below the height
-            fixed = partial(nodes_below, height=self.fixed_height)
-        else:
-            fixed = fixed_corners(fine, self.fixed_volume_nodes(
-                fine.points, np.asarray(self.hybrid.fine_surface_nodes, dtype=np.int64)))
-        self._near = NearField(self.hybrid, youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
-                               material=self.material,
-                               fixed=fixed)
+        self._near = near_field_of(self, near_field)
         self.near_field = float(near_field)
         self._is_free = np.ones(self.node_count, dtype=bool)
         self._is_free[self._held] = False
@@ -223,17 +187,9 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     def _init_quadratic(self) -> None:
         """``element="quadratic"``: M_V's quadratic field (:mod:`.quadratic_field`) prescribes every M_S vertex; it
         carries the weight and the finite strain in place of the linear M_V's."""
-        from ..fem.quadratic import quadratic_elements
-        from .quadratic_field import QuadraticField, quadratic_supports, surface_embedding
+        from .quadratic_field import quadratic_field_of
 
-        volume = self.hybrid.volume
-        elements, edges = quadratic_elements(volume.tets, volume.node_count)     # once: every part below reads it
-        springs = volume_springs(self, *surface_embedding(self.hybrid, elements))
-        constant = volume_constant_load(self, volume, springs, quadratic=(elements, volume.node_count + len(edges)))
-        self.quadratic_field = QuadraticField(self.hybrid, youngs_modulus=self.youngs_modulus,
-                                              poisson_ratio=self.poisson_ratio, fixed=quadratic_supports(self, edges),
-                                              material=self.material, springs=springs, constant_load=constant,
-                                              topology=(elements, edges))
+        self.quadratic_field = quadratic_field_of(self)
         self.finite = self.quadratic_field.finite
         self._constant_load = None
         self.volume_displacement = np.zeros((self.quadratic_field.node_count, 3))

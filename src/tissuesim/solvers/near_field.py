@@ -15,7 +15,7 @@ the contact.
   axis when the contact node or radius changes (cached for the last one); a change of the force alone is three
   3×3 products per window node.
 * **Finite strain.** With ``material="corotated"`` or ``"neo-hookean"`` the window follows the equilibrium of the
-  same quadratic volume (:class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM`) under the same traction as a
+  same quadratic volume (:class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM`) under the same traction as a
   dead load, warm-started from the last answer for the same contact (a drag changes only the force):
   converged by Newton (one factorisation per iteration), or approached by iterations with the constant factor of
   K₀ (the interactive path); :meth:`NearField.displacement` gives either, and the linear response, alike. On the
@@ -40,6 +40,7 @@ from ..loads import lumped_areas
 if TYPE_CHECKING:
     from ..mesh.hybrid import HybridMesh
     from ..mesh.tetmesh import TetMesh
+    from .hybrid import HybridSolver
 
 #: W [m] of the contact protocol's ``hybrid-near`` (``make_solver("hybrid", mesh, near_field=W)``), chosen on its
 #: calibration row (cube, 1 N, R = 4 mm): relative RMSE 0.254 / 0.190 / 0.187 / 0.183 at W = 8 / 12 / 16 / 24 mm,
@@ -61,7 +62,7 @@ class NearField:
     Attributes:
         surface_nodes: ``(n,) int64`` fine-volume node of each M_S vertex.
         lumped_area: ``(n,) float64`` [m²] each M_S vertex's third of its triangles' areas.
-        finite: the :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` of a finite-strain material (sharing
+        finite: the :class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM` of a finite-strain material (sharing
             :attr:`fem`'s factor), or None for ``"linear"``.
         last_iterations: Newton iterations of the last converged finite-strain :meth:`displacement` (0: its warm
             start was already in equilibrium).
@@ -81,7 +82,7 @@ class NearField:
                                 poisson_ratio=poisson_ratio, fixed=fixed)
         self.finite = None
         if material != "linear":
-            from ..fem.nonlinear import QuadraticNonlinearFEM
+            from ..fem.nonlinear_quadratic import QuadraticNonlinearFEM
 
             self.finite = QuadraticNonlinearFEM(hybrid_mesh.fine_volume, youngs_modulus=youngs_modulus,
                                                 poisson_ratio=poisson_ratio, fixed=fixed, material=material,
@@ -167,3 +168,31 @@ def fixed_corners(volume: TetMesh, fixed_volume: np.ndarray, *,
     corners[np.asarray(fixed_volume, dtype=np.int64)] = True
     mask = np.concatenate([corners, corners[edges[:, 0]] & corners[edges[:, 1]]])
     return lambda points: mask
+
+
+def near_field_of(solver: HybridSolver, distance: object) -> NearField:
+    """The :class:`NearField` of a hybrid ``solver`` built with ``near_field=distance`` [m], on its fine volume with
+    the solver's material and supports; SolverError where the option cannot be taken (gravity or attachments, a
+    distance that is not a positive number, a cut mesh)."""
+    from functools import partial
+
+    from ..mesh.regions import nodes_below
+
+    if solver.gravity is not None or solver.attachments:
+        raise SolverError("near_field does not take gravity or attachments yet: its fine volume responds to the "
+                          "contact's load alone; drop near_field, or the gravity and attachments")
+    if isinstance(distance, bool) or not isinstance(distance, (int, float, np.floating, np.integer)) \
+            or not np.isfinite(distance) or distance <= 0:
+        raise SolverError(f"near_field must be None or a positive, finite distance in metres (e.g. 0.015), "
+                          f"got {distance!r}")
+    if solver.hybrid.info.get("cuts"):
+        raise SolverError("near_field needs an uncut mesh: its fine volume is not cut, so it does not describe "
+                          "this surface; drop near_field on a cut mesh")
+    fine = solver.hybrid.fine_volume
+    if solver.fixed_from_height or fine is None:  # as every solver's volume: the nodes at or below the height
+        fixed = partial(nodes_below, height=solver.fixed_height)
+    else:
+        fixed = fixed_corners(fine, solver.fixed_volume_nodes(
+            fine.points, np.asarray(solver.hybrid.fine_surface_nodes, dtype=np.int64)))
+    return NearField(solver.hybrid, youngs_modulus=solver.youngs_modulus, poisson_ratio=solver.poisson_ratio,
+                     material=solver.material, fixed=fixed)

@@ -17,7 +17,7 @@ third of its nodes as corners, and its field is curved between the control nodes
 * **Cost.** Linear material: each contact patch's response at every vertex is three back-substitutions (one per
   axis) when the patch first acts, kept for the patches acting last; a drag that changes the force costs one
   product per vertex. Finite strain: M_V's quadratic equilibrium under the same forces
-  (:class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM`), Newton in a static solve and constant-factor iterations
+  (:class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM`), Newton in a static solve and constant-factor iterations
   per step, as the paper's M_V.
 * **Weight.** The consistent load of ρ g on the quadratic tets (:func:`~tissuesim.fem.quadratic.quadratic_body_force`),
   solved once.
@@ -27,11 +27,10 @@ third of its nodes as corners, and its field is curved between the control nodes
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
-
 import copy
 from collections import OrderedDict
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -73,7 +72,7 @@ class QuadraticField:
 
     Attributes:
         fem: the :class:`~tissuesim.fem.quadratic.QuadraticFEM` of M_V.
-        finite: its :class:`~tissuesim.fem.nonlinear.QuadraticNonlinearFEM` (finite strain) or None.
+        finite: its :class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM` (finite strain) or None.
         nodes: ``(n, 10) int64`` the ten M_V nodes each M_S vertex moves with; ``values`` ``(n, 10) float64`` [-]
             their shape functions there.
         constant_load: ``(N, 3) float64`` [N] the loads that never change, or None.
@@ -88,7 +87,7 @@ class QuadraticField:
                                 fixed=lambda points: fixed, springs=springs, topology=topology)
         self.finite = None
         if material != "linear":
-            from ..fem.nonlinear import QuadraticNonlinearFEM
+            from ..fem.nonlinear_quadratic import QuadraticNonlinearFEM
 
             self.finite = QuadraticNonlinearFEM(volume, youngs_modulus=youngs_modulus, poisson_ratio=poisson_ratio,
                                                 fixed=lambda points: fixed, material=material, linear=self.fem)
@@ -221,6 +220,22 @@ class QuadraticField:
         while len(self._points) > kept:
             self._points.popitem(last=False)
         return result
+
+
+def quadratic_field_of(solver: HybridSolver) -> QuadraticField:
+    """The :class:`QuadraticField` of a hybrid ``solver`` built with ``element="quadratic"``: its M_V with a midside
+    node on each edge, its material and supports, its attachments' springs and weight through the quadratic
+    embedding."""
+    from ..fem.quadratic import quadratic_elements
+    from .gravity import volume_constant_load, volume_springs
+
+    volume = solver.hybrid.volume
+    elements, edges = quadratic_elements(volume.tets, volume.node_count)     # once: every part below reads it
+    springs = volume_springs(solver, *surface_embedding(solver.hybrid, elements))
+    constant = volume_constant_load(solver, volume, springs, quadratic=(elements, volume.node_count + len(edges)))
+    return QuadraticField(solver.hybrid, youngs_modulus=solver.youngs_modulus, poisson_ratio=solver.poisson_ratio,
+                          fixed=quadratic_supports(solver, edges), material=solver.material, springs=springs,
+                          constant_load=constant, topology=(elements, edges))
 
 
 def surface_embedding(hybrid_mesh: HybridMesh, elements: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -203,25 +203,15 @@ class SurfaceLayerSolver(Solver):
             thickness_length=thickness_lengths(self.hybrid, c.edges, c.rest_length))
 
     def _init_prestress(self, prestrain) -> None:
-        from ..layer.prestress import check_prestrain, prestress_tension
+        from ..layer.prestress import check_prestrain, layer_tension
 
         self.prestrain = check_prestrain(prestrain)
-        self.prestress_tension = 0.0
         self._constant = (None, None)    # (the hybrid mesh, its constant forces (n, 3) [N] or None)
         self._applied, self._applied_stale = None, True     # forces + constant, redone when either changes
-        if self.prestrain == 0.0:
-            return
-        if self.form != "xpbd":
-            raise SolverError("prestrain needs the xpbd form (the pbd form's stiffness has no unit to make a tension "
-                              "from); drop form='pbd' or the prestrain")
-        if self.integrator != "implicit":
-            # measured: pbd on a cut cube, ε = 0.1, the XPBD projection left the wound 0.3-0.8 m open and moving
-            raise SolverError("prestrain needs the implicit integrator: under the tension a cut releases, the XPBD "
-                              "projection does not settle; drop integrator='xpbd' or the prestrain")
-        mean_thickness = self.thickness_ratio * self.hybrid.built_edge_length
-        self.prestress_tension = prestress_tension(youngs_modulus=self.youngs_modulus,
-                                                   poisson_ratio=self.poisson_ratio, thickness=mean_thickness,
-                                                   prestrain=self.prestrain)
+        thickness = (self.thickness_ratio or 0.0) * self.hybrid.built_edge_length     # the pbd form has none
+        self.prestress_tension = layer_tension(self.prestrain, form=self.form, integrator=self.integrator,
+                                               youngs_modulus=self.youngs_modulus, poisson_ratio=self.poisson_ratio,
+                                               thickness=thickness)
 
     def applied_forces(self) -> np.ndarray:
         """``(n, 3) float64`` nodal forces [N] the layer is solved under: the external ``forces``, plus what never

@@ -15,9 +15,8 @@ as built (:func:`~tissuesim.layer.compliance.thickness_lengths`, the rule a solv
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from types import SimpleNamespace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
