@@ -13,7 +13,7 @@ import numpy as np
 
 import tissuesim
 from tissuesim.mesh import models
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 from tissuesim.solvers import Solver, register
 
 #: The probe's radius [m] and the block's default size: 80 × 80 × 40 mm, so a ≤ 1.6 mm is small beside it.

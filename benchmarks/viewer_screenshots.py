@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from tissuesim.scalpel import Scalpel
+from tissuesim.tools.scalpel import Scalpel
 from tissuesim.viewer.app import PANEL_WIDTH, ViewerApp
 from tissuesim.viewer.controller import Controller
 from tissuesim.viewer.gl import look_at_oblique

@@ -62,10 +62,10 @@ def _play(hybrid, method: str, options: dict) -> None:
     """One configuration: built with gravity and a ligament, a grab and a drag, a grasper's lift, a probe press, a
     cut and a step."""
     from .errors import TissuesimError
-    from .grasper import Grasper
-    from .interaction import PinHead
-    from .probe import Probe
-    from .scalpel import Scalpel
+    from .tools.grasper import Grasper
+    from .tools.pinhead import PinHead
+    from .tools.probe import Probe
+    from .tools.scalpel import Scalpel
     from .solvers.attachments import Attachment
     from .solvers.registry import make_solver
 

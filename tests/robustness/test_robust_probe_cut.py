@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tissuesim import Scalpel, make_solver
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 from tissuesim.solvers import method_names
 
 CUTTING = method_names(cuts=True)

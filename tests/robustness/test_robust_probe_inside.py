@@ -8,7 +8,7 @@ import pytest
 
 from tissuesim import SolverError, make_solver
 from tissuesim.cli import main
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 from tissuesim.solvers import available_solvers
 
 METHODS = available_solvers()

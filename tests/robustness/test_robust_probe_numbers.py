@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tissuesim import PinHead, Scalpel, SolverError, make_solver
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 
 TOP = [0.0, 0.0, 0.08]          # [m] the small cube's top centre
 ABOVE = [0.0, 0.0, 0.091]       # [m] a 12 mm probe's centre, 1 mm into the top

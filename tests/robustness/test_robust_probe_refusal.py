@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from tissuesim import SolverError, make_solver
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 from tissuesim.solvers import available_solvers
 
 #: every method: the probe presses each through its own solve_static

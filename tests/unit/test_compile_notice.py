@@ -6,7 +6,7 @@ import subprocess
 import sys
 
 FIRST_KERNEL = ("import numpy as np, tissuesim\n"
-                "from tissuesim.probe_complementarity import winding_numbers\n"
+                "from tissuesim.tools.probe_complementarity import winding_numbers\n"
                 "square = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1.0]])\n"
                 "winding_numbers(np.zeros((1, 3)), square, np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]]))\n")
 

@@ -8,7 +8,7 @@ import pytest
 from tissuesim import BoundaryConditionError, HybridMesh, PinHead, SolverError, make_solver
 from tissuesim.errors import TissuesimWarning
 from tissuesim.mesh import models
-from tissuesim.probe import Probe
+from tissuesim.tools.probe import Probe
 
 RADIUS = 4e-3     # [m] the probe
 DEPTH = 0.5e-3    # [m] how far below the rest surface its lowest point is held

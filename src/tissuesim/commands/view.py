@@ -231,7 +231,7 @@ def _scene_scalpel(loaded):
     spec = _first(loaded, "scalpel")
     if spec is None or spec.depth is None:
         return None
-    from ..scalpel import Scalpel
+    from ..tools.scalpel import Scalpel
 
     return lambda solver: Scalpel(solver, depth=spec.depth)
 

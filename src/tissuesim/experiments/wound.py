@@ -20,7 +20,7 @@ import numpy as np
 
 from ..cutting.core import DEFAULT_SNAP
 from ..mesh.coincident import coincident_pairs
-from ..scalpel import Scalpel
+from ..tools.scalpel import Scalpel
 
 if TYPE_CHECKING:
     from ..solvers.base import Solver

@@ -108,7 +108,7 @@ class Coupler(ABC):
                 raise SolverError(f"grab() snaps to the node nearest the tool, but the {type(self).__name__}'s "
                                   "servo loop has not read the tool position: start() it first, or grab a node by "
                                   "its index")
-            from ..interaction import PinHead
+            from ..tools.pinhead import PinHead
 
             node = PinHead(self.solver, stiffness=self.stiffness, radius=self.radius).grab(tool)
         response = self._held.take(node)

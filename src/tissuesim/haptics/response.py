@@ -20,7 +20,7 @@ from ..solvers.snapshot import Snapshot, leaves_no_trace
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from ..grasper import Grasper
+    from ..tools.grasper import Grasper
     from ..solvers.base import Solver
 
 #: The forward-difference step of a finite-strain tangent, as a multiple of E ℓ² [N] (ℓ: the contact radius, else

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import SolverError
-from ..grasper import Grasper
+from ..tools.grasper import Grasper
 from ..solvers.checks import is_integer
 from ..solvers.load_set import ToolLoad
 from ..solvers.snapshot import refusal_restores

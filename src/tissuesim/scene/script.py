@@ -29,10 +29,10 @@ from .load import SceneError, SceneFile
 if TYPE_CHECKING:
     from scipy.spatial.transform import Rotation
 
-    from ..grasper import Grasper
-    from ..interaction import PinHead
-    from ..probe import Probe
-    from ..scalpel import Scalpel
+    from ..tools.grasper import Grasper
+    from ..tools.pinhead import PinHead
+    from ..tools.probe import Probe
+    from ..tools.scalpel import Scalpel
     from ..solvers.base import Solver
     from .schema import ToolSpec
 
@@ -43,7 +43,7 @@ class ScriptedTool:
     Attributes:
         name: the tool's name (its kind and index where the scene gives none).
         kind: ``"pin-head"``, ``"probe"``, ``"grasper"`` or ``"scalpel"``.
-        tool: the library's tool (:class:`tissuesim.PinHead`, :class:`tissuesim.probe.Probe`,
+        tool: the library's tool (:class:`tissuesim.PinHead`, :class:`tissuesim.tools.probe.Probe`,
             :class:`tissuesim.Grasper`, :class:`tissuesim.Scalpel`).
         pressed: whether it acts now.
     """
@@ -114,8 +114,9 @@ class ScriptedTool:
 
     @property
     def force(self) -> np.ndarray | None:
-        """``(3,) float64`` the force [N] the tool puts on the tissue now, or None (a scalpel, or not pressed)."""
-        return KINDS[self.kind].force(self) if self.pressed else None
+        """``(3,) float64`` the force [N] the tool puts on the tissue now (:attr:`~tissuesim.tools.base.Tool.
+        force_on_tissue`), or None (a scalpel, or not pressed)."""
+        return self.tool.force_on_tissue if self.pressed else None
 
 
 def _orientations(path) -> list:
@@ -138,18 +139,17 @@ class Kind:
 
     Attributes:
         make: ``(spec, solver) -> tool``, the library's tool. press, move: ``(scripted, position (3,) [m], time
-        [s])``, at the path's first pressed update and at each after. force: ``(scripted) -> (3,) [N] or None``,
-        the force on the tissue while pressed.
+        [s])``, at the path's first pressed update and at each after (a scene's path gives a grasper's turn and a
+        probe's shaft, and carries a grasper to static equilibrium, which the tools' own press and move do not).
     """
 
     make: Callable
     press: Callable
     move: Callable
-    force: Callable
 
 
 def _make_pin_head(spec, solver):
-    from ..interaction import PinHead
+    from ..tools.pinhead import PinHead
 
     return PinHead(solver, stiffness=spec.stiffness, radius=spec.radius)
 
@@ -160,7 +160,7 @@ def _grab_and_drag(scripted: ScriptedTool, position: np.ndarray, time: float) ->
 
 
 def _make_probe(spec, solver):
-    from ..probe import Probe
+    from ..tools.probe import Probe
 
     return Probe(solver, radius=spec.radius)
 
@@ -172,7 +172,7 @@ def _put_probe(scripted: ScriptedTool, position: np.ndarray, time: float) -> Non
 
 
 def _make_grasper(spec, solver):
-    from ..grasper import Grasper
+    from ..tools.grasper import Grasper
 
     return Grasper(solver, radius=spec.radius, tolerance=spec.tolerance)
 
@@ -190,19 +190,17 @@ def _carry(scripted: ScriptedTool, position: np.ndarray, time: float) -> None:
 
 
 def _make_scalpel(spec, solver):
-    from ..scalpel import Scalpel
+    from ..tools.scalpel import Scalpel
 
     return Scalpel(solver, depth=spec.depth) if spec.depth is not None else Scalpel(solver)
 
 
 KINDS = {
-    "pin-head": Kind(_make_pin_head, _grab_and_drag, lambda s, position, time: s.tool.drag(position),
-                     lambda s: s.tool.force(s.position)),
-    # the probe and the grasper report the force on themselves: the tissue's is its opposite
-    "probe": Kind(_make_probe, _put_probe, _put_probe, lambda s: -np.asarray(s.tool.force, dtype=np.float64)),
-    "grasper": Kind(_make_grasper, _grasp, _carry, lambda s: -np.asarray(s.tool.force, dtype=np.float64)),
+    "pin-head": Kind(_make_pin_head, _grab_and_drag, lambda s, position, time: s.tool.drag(position)),
+    "probe": Kind(_make_probe, _put_probe, _put_probe),
+    "grasper": Kind(_make_grasper, _grasp, _carry),
     "scalpel": Kind(_make_scalpel, lambda s, position, time: s.tool.press(position),
-                    lambda s, position, time: s.tool.move(position), lambda s: None),
+                    lambda s, position, time: s.tool.move(position)),
 }
 
 

@@ -1,5 +1,5 @@
 """The small-strain compliance among surface vertices that ride on a volume through weights: what a grasper's
-Newton iteration starts from (:mod:`tissuesim.grasper`). A vertex a at Σ_p w_ap u_p (its embedding, or for the
+Newton iteration starts from (:mod:`tissuesim.tools.grasper`). A vertex a at Σ_p w_ap u_p (its embedding, or for the
 hybrid its M'_S triangle's control nodes) loaded by the transpose of the same map has the compliance
 
     J[a, b] = Σ_p Σ_q w_ap K⁻¹[p, q] w_bq    (3 × 3 blocks),

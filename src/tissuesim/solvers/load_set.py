@@ -203,6 +203,11 @@ class ToolLoad:
             self.solver.remove_load(self._load)
         self._load = None
 
+    @property
+    def force(self) -> np.ndarray:
+        """``(3,) float64`` [N] the load's force while it acts, else zero."""
+        return np.array(self._load.force, dtype=np.float64) if self.acting else np.zeros(3)
+
 
 class VertexLoads:
     """A tool's own loads on a solver, one per surface vertex (a probe's contacts, a grasper's held patch): set all

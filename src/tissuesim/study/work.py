@@ -113,7 +113,7 @@ def equilibrium(solver: Solver, case: Case, node: int, load: np.ndarray) -> tupl
 def _pressed(solver, case: Case, node: int, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """A probe's: the sphere, touching the node's rest position from outside (centre x − R d), is held ``depth``
     further along d; the force on the tissue is the probe's reaction reversed."""
-    from ..probe import Probe
+    from ..tools.probe import Probe
 
     solver.reset()
     probe = Probe(solver, radius=case.radius)
@@ -126,7 +126,7 @@ def _grasped(solver, case: Case, node: int, direction: np.ndarray) -> tuple[np.n
     """A grasper's: the jaws close at rest on the surface within ``radius`` of the case's point (else the node's
     rest position) and are carried ``depth`` along d, at static equilibrium; the force on the tissue is the jaws'
     reaction reversed. A refused grab or move is raised (the case fails with its message)."""
-    from ..grasper import Grasper
+    from ..tools.grasper import Grasper
 
     solver.reset()
     grasper = Grasper(solver, radius=case.radius)

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import SolverError, TissuesimError
-from ..interaction import PinHead
+from ..tools.pinhead import PinHead
 from ..solvers.registry import make_solver, solver_class, solver_options
 from .settings import Settings, checked_settings
 

@@ -48,7 +48,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from ..errors import SolverError, TissuesimError
-from ..interaction import PinHead
+from ..tools.pinhead import PinHead
 from ..solvers.checks import checked_point
 from .building import SolverBuilding, extra_options
 from .settings import Settings, checked_settings
@@ -59,7 +59,7 @@ if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
     from ..mesh.hybrid import HybridMesh
-    from ..scalpel import Scalpel
+    from ..tools.scalpel import Scalpel
     from ..solvers.base import Solver
     from .playback import ScenePlayback
 
@@ -93,7 +93,7 @@ class FrameStats:
 def scalpel_class() -> type[Scalpel] | None:
     """The Scalpel class, or None where this installation has none (scalpel mode is then unavailable)."""
     try:
-        from ..scalpel import Scalpel
+        from ..tools.scalpel import Scalpel
     except ImportError:
         return None
     return Scalpel

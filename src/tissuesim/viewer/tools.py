@@ -1,9 +1,9 @@
 """The simulator's tools beside the live pin-head: the grasper, pin-heads left holding (a second hand), the probe and
 the brush that paints the fixed region. All are headless, driven by :class:`~tissuesim.viewer.controller.Controller`.
 
-* :class:`GrasperTool`: jaws (:class:`~tissuesim.grasper.Grasper`) that hold the surface vertices within their reach
+* :class:`GrasperTool`: jaws (:class:`~tissuesim.tools.grasper.Grasper`) that hold the surface vertices within their reach
   of the point pressed and carry them rigidly where the pointer drags the jaws, in the plane facing the camera; each
-  step first settles every held patch on its jaws (:meth:`~tissuesim.grasper.Grasper.settle`), so the tissue goes
+  step first settles every held patch on its jaws (:meth:`~tissuesim.tools.grasper.Grasper.settle`), so the tissue goes
   where the hand goes and the force is the output. Let go with the hold modifier (Shift), the jaws keep holding, so
   several hold at once;
 
@@ -12,9 +12,9 @@ the brush that paints the fixed region. All are headless, driven by :class:`~tis
   (:class:`~tissuesim.solvers.load_set.ToolLoad`), so any number act together;
 * :class:`SupportBrush`: the vertices within a brush radius of the pointer, gathered over a stroke, become the
   fixed region when the stroke ends (a new solver over the same mesh with ``fixed=`` those vertices);
-* :class:`ProbeTool`: the rigid probe (:class:`~tissuesim.probe.Probe`) pressed where the pointer touches the
+* :class:`ProbeTool`: the rigid probe (:class:`~tissuesim.tools.probe.Probe`) pressed where the pointer touches the
   surface, :attr:`ProbeTool.depth` beyond it along the view, and slid in the plane facing the camera. Where it moved,
-  the frame solves its contact quasi-statically (:meth:`~tissuesim.probe.Probe.settle`), the tissue being overdamped
+  the frame solves its contact quasi-statically (:meth:`~tissuesim.tools.probe.Probe.settle`), the tissue being overdamped
   at a hand's speed.
 """
 
@@ -25,9 +25,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..errors import SolverError
-from ..grasper import Grasper
-from ..interaction import PinHead
-from ..probe import Probe
+from ..tools.grasper import Grasper
+from ..tools.pinhead import PinHead
+from ..tools.probe import Probe
 from ..solvers.finite_strain import slow_static_solve
 from ..solvers.checks import checked_point, positive_number
 from .rays import camera_plane_point, unit_ray
@@ -159,7 +159,7 @@ class ProbeTool:
     Attributes:
         radius: R [m]; depth: how far it presses beyond the surface point it was put on, along the view [m]
             (default :data:`PRESS_FRACTION` × R).
-        probe: the :class:`~tissuesim.probe.Probe` pressing now, or None.
+        probe: the :class:`~tissuesim.tools.probe.Probe` pressing now, or None.
         held: whether it was let go with the hold modifier (it presses on until pressed elsewhere or released).
     """
 
@@ -207,10 +207,10 @@ class ProbeTool:
             self._settled = False
 
     def before_step(self) -> None:
-        """The contact solved where the probe moved (:meth:`~tissuesim.probe.Probe.settle`: a frame's iterations;
+        """The contact solved where the probe moved (:meth:`~tissuesim.tools.probe.Probe.settle`: a frame's iterations;
         it goes on at the next step if not settled), or on a method whose static solve is slow (a finite-strain
         hybrid: 0.26 s a frame on the liver) one relaxed contact update a frame
-        (:meth:`~tissuesim.probe.Probe.update`), the step relaxing the rest. A solver that cannot carry the press
+        (:meth:`~tissuesim.tools.probe.Probe.update`), the step relaxing the rest. A solver that cannot carry the press
         withdraws the probe and raises."""
         if self.probe is None or self._settled:
             return
@@ -250,7 +250,7 @@ class GrasperTool:
 
     Attributes:
         radius: the reach [m] of the next grab.
-        grasper: the :class:`~tissuesim.grasper.Grasper` the pointer drags now, or None.
+        grasper: the :class:`~tissuesim.tools.grasper.Grasper` the pointer drags now, or None.
         held: the graspers left holding, oldest first.
     """
 
@@ -314,7 +314,7 @@ class GrasperTool:
         """Every held patch settled on its jaws, each where the pointer aimed it (a frame's iterations; a patch
         not there yet, or moved by another tool, goes on at the next step). A motion the tissue cannot follow (a
         volume it would invert) is refused: those jaws stay where they were, nothing changes, and SolverError says
-        why. (:meth:`~tissuesim.grasper.Grasper.follow`: a finite-strain hybrid gets one relaxed update a frame, its
+        why. (:meth:`~tissuesim.tools.grasper.Grasper.follow`: a finite-strain hybrid gets one relaxed update a frame, its
         static solve taking seconds at 10k vertices.)"""
         for grasper in self.graspers:
             grasper.follow(self._aims.pop(grasper, None))

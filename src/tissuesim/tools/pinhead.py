@@ -22,20 +22,21 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import SolverError
-from .solvers.checks import checked_point, positive_number
-from .solvers.load_set import ToolLoad
+from ..errors import SolverError
+from ..solvers.checks import checked_point, positive_number
+from ..solvers.load_set import ToolLoad
+from .base import Tool
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solvers.base import Solver
+    from ..solvers.base import Solver
 
 #: Default snap radius in mean rest edge lengths of M_S.
 SNAP_RADIUS_EDGES = 3.0
 
 
-class PinHead:
+class PinHead(Tool):
     """Turns cursor motion into a nodal load on a solver (eq 24).
 
     Args:
@@ -73,9 +74,29 @@ class PinHead:
         self.notice = ""
         self._load = ToolLoad(solver)     # its own load: other loads on the solver act on beside it
 
+    kind = "pin-head"
+
     @property
     def grabbed(self) -> bool:
         return self.node is not None
+
+    # the Tool protocol: a press grabs, a move drags
+    def press(self, point: ArrayLike) -> int:
+        """:meth:`grab` at ``point`` [m], the force zero until the cursor moves; returns the node held."""
+        return self.grab(point)
+
+    def move(self, point: ArrayLike) -> np.ndarray:
+        """:meth:`drag` to ``point`` [m]; returns the force [N]."""
+        return self.drag(point)
+
+    @property
+    def engaged(self) -> bool:
+        return self.grabbed
+
+    @property
+    def force_on_tissue(self) -> np.ndarray | None:
+        """The force of the last drag [N] (eq 24), on the grabbed node or its patch; None when none is held."""
+        return None if self.node is None else self._load.force
 
     def grab(self, point: ArrayLike) -> int:
         """Snap to the M_S node nearest ``point`` ``(3,)`` [m] at the current positions that a load would move;

@@ -38,17 +38,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import BoundaryConditionError, SolverError, first_indices
+from ..errors import BoundaryConditionError, SolverError, first_indices
 from .probe_complementarity import half_space_compliance
 from .grasp_model import checked_rotation, fitted_model, follows_by_updates, largest_miss, solver_compliance
-from .solvers.checks import checked_point, positive_number, whole_count
-from .solvers.load_set import VertexLoads
-from .solvers.snapshot import Snapshot, refusal_restores
+from ..solvers.checks import checked_point, positive_number, whole_count
+from ..solvers.load_set import VertexLoads
+from ..solvers.snapshot import Snapshot, refusal_restores
+from .base import Tool
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solvers.base import Solver
+    from ..solvers.base import Solver
 
 #: Default tolerance: the largest distance of a held vertex from its target, as a fraction of the jaws' radius.
 TOLERANCE_FRACTION = 1e-3
@@ -79,7 +80,7 @@ _SERIALS = itertools.count()
 SINGULAR = 1e-10
 
 
-class Grasper:
+class Grasper(Tool):
     """Jaws that hold a surface patch and carry it rigidly (see the module docstring).
 
     Args:
@@ -95,6 +96,9 @@ class Grasper:
         iterations, steps, residual: of the last move: iterations, solver steps, and the largest distance of a
             held vertex from its target [m].
     """
+
+    kind = "grasper"
+    needs = "loads on surface vertices and a static solve"
 
     def __init__(self, solver: Solver, *, radius: float, tolerance: float | None = None):
         for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads",
@@ -244,6 +248,24 @@ class Grasper:
             holders.discard(self)
         self.held, self.position, self.rotation = np.zeros(0, dtype=np.int64), None, np.eye(3)
         self._grip, self._jacobian, self._learned = np.zeros((0, 3)), None, None
+
+    # the Tool protocol: a press takes hold, a move carries the jaws a frame's worth, their turn kept
+    def press(self, point: ArrayLike) -> np.ndarray:
+        """:meth:`grab` at ``point`` [m]; returns the held vertices."""
+        return self.grab(point)
+
+    def move(self, point: ArrayLike) -> None:
+        """:meth:`settle` with the jaws at ``point`` [m], turned as they are."""
+        self.settle(point, self.rotation)
+
+    @property
+    def engaged(self) -> bool:
+        return self.holding
+
+    @property
+    def force_on_tissue(self) -> np.ndarray | None:
+        """The jaws' pull on the tissue [N]: :attr:`force`'s opposite; None when nothing is held."""
+        return -self.force if self.holding else None
 
     # -------------------------------------------------------------------------------------------- the iteration
     def _iterate(self, max_iterations: int, max_steps: int) -> bool:

@@ -32,16 +32,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .cutting.core import DEFAULT_SNAP
-from .solvers.cut_carry import CutReport, cut_updater
-from .cutting.sweep import Sweep, check_snap, triangles_in_box
-from .errors import SolverError
-from .solvers.checks import checked_point, numeric_array, positive_number
+from ..cutting.core import DEFAULT_SNAP
+from ..solvers.cut_carry import CutReport, cut_updater
+from ..cutting.sweep import Sweep, check_snap, triangles_in_box
+from ..errors import SolverError
+from ..solvers.checks import checked_point, numeric_array, positive_number
+from .base import Tool
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solvers.base import Solver
+    from ..solvers.base import Solver
 
 #: Default blade length in mean rest edge lengths of M_S.
 DEPTH_EDGES = 2.0
@@ -50,7 +51,7 @@ DEPTH_EDGES = 2.0
 MOVE_REACH = 3.0
 
 
-class Scalpel:
+class Scalpel(Tool):
     """Cuts a solver's fine surface M_S as a tool moves (§7).
 
     Args:
@@ -87,9 +88,16 @@ class Scalpel:
         self._pressed_on = np.zeros(0, dtype=np.int64)     # corners of the triangle pressed on
         self._pressed_at: np.ndarray | None = None          # the press point [m]
 
+    kind = "scalpel"
+    needs = "a cut carrier (the method's cut_carrier)"
+
     @property
     def pressed(self) -> bool:
         return self.tip is not None
+
+    @property
+    def engaged(self) -> bool:
+        return self.pressed
 
     def prepare(self) -> None:
         """Get the solver ready for a cut that is about to come, e.g. when the tool is picked up: what its first
@@ -117,8 +125,8 @@ class Scalpel:
         """The triangle (row) and barycentric weights of the surface point closest to ``point``, now: searched among
         the triangles within the blade's reach (a box test), so a press costs O(1) Python work; SolverError with the
         distance when the surface is beyond the blade."""
-        from .mesh.maps import closest_among, closest_on_surface
-        from .mesh.surface import SurfaceMesh
+        from ..mesh.maps import closest_among, closest_on_surface
+        from ..mesh.surface import SurfaceMesh
 
         positions, triangles = self.solver.positions, self.solver.hybrid.surface.triangles
         reach = np.full(3, self.depth)

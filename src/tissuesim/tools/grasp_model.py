@@ -8,14 +8,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import SolverError
-from .solvers.checks import numeric_array
-from .solvers.finite_strain import slow_static_solve
+from ..errors import SolverError
+from ..solvers.checks import numeric_array
+from ..solvers.finite_strain import slow_static_solve
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solvers.base import Solver
+    from ..solvers.base import Solver
 
 #: How far a rotation matrix may be from orthonormal (max |RᵀR − I|) and still be taken as one.
 ROTATION_TOLERANCE = 1e-6

@@ -42,17 +42,18 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .errors import BoundaryConditionError, SolverError, first_indices, warn
+from ..errors import BoundaryConditionError, SolverError, first_indices, warn
 from .probe_complementarity import (complementary_forces, core_samples, gaps_and_normals, half_space_compliance,
                             undetected_depth, vertex_spans, winding_numbers)
-from .solvers.checks import checked_point, positive_number, whole_count
-from .solvers.load_set import VertexLoads
-from .solvers.snapshot import refusal_restores
+from ..solvers.checks import checked_point, positive_number, whole_count
+from ..solvers.load_set import VertexLoads
+from ..solvers.snapshot import refusal_restores
+from .base import Tool
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
 
-    from .solvers.base import Solver
+    from ..solvers.base import Solver
 
 #: Default contact tolerance: the largest complementarity residual, as a fraction of the probe's radius.
 TOLERANCE_FRACTION = 1e-3
@@ -73,7 +74,7 @@ SCALE_RANGE = (1e-3, 1e3)
 SCALE_STEP = 2.0
 
 
-class Probe:
+class Probe(Tool):
     """A rigid sphere or capsule of radius R pressing a solver's surface (see the module docstring).
 
     Args:
@@ -89,6 +90,9 @@ class Probe:
         iterations, steps, residual: of the last :meth:`press_static`: Newton iterations, solver steps, and the
             final residual [m].
     """
+
+    kind = "probe"
+    needs = "loads on surface vertices and a static solve"
 
     def __init__(self, solver: Solver, *, radius: float, tolerance: float | None = None):
         for needed in ("positions", "rest_positions", "add_load", "move_load", "remove_load", "loads", "step"):
@@ -181,6 +185,24 @@ class Probe:
         """Withdraw the probe: its loads leave the solver (the others act on); it is no longer placed."""
         self._loads.set(np.zeros(0, dtype=np.int64), np.zeros((0, 3)))
         self.center = self.end = None
+
+    # the Tool protocol: a press or a move is a frame's worth of contact where the probe is put
+    def press(self, point: ArrayLike) -> bool:
+        """:meth:`settle` with the probe's centre at ``point`` [m]; returns whether the contact converged."""
+        return self.settle(point)
+
+    def move(self, point: ArrayLike) -> bool:
+        """:meth:`settle` with the probe's centre at ``point`` [m]; returns whether the contact converged."""
+        return self.settle(point)
+
+    @property
+    def engaged(self) -> bool:
+        return self.center is not None
+
+    @property
+    def force_on_tissue(self) -> np.ndarray | None:
+        """The probe's push on the tissue [N]: :attr:`force`'s opposite; None when it is not placed."""
+        return None if self.center is None else -self.force
 
     # ------------------------------------------------------------------------------------------ contact update
     def _iterate(self, max_iterations: int, max_steps: int) -> bool:
