@@ -14,6 +14,7 @@ import numpy as np
 import tissuesim
 from tissuesim.mesh import models
 from tissuesim.tools.probe import Probe
+from tissuesim.errors import SolverError
 from tissuesim.solvers import Solver, register
 
 #: The probe's radius [m] and the block's default size: 80 × 80 × 40 mm, so a ≤ 1.6 mm is small beside it.
@@ -72,9 +73,13 @@ class QuadraticTets(Solver):
     """
 
     static = True
+    label, short_label, colour = "fine-volume FEM, quadratic tets", "FEM-Q", "black"
 
     def __init__(self, hybrid_mesh, **common):
         super().__init__(hybrid_mesh, **common)
+        if self.gravity is not None or self.attachments:
+            raise SolverError(f"the {QUADRATIC} method of the Hertz benchmark models contact loads alone: drop the "
+                              "gravity and attachments, or use fem")
         from tissuesim.fem.quadratic import QuadraticFEM
         from tissuesim.solvers.near_field import fixed_corners
 

@@ -42,6 +42,18 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip)
 
 
+@pytest.fixture(scope="module", autouse=True)
+def registries_left_as_found():
+    """A method or tool a test module registers joins every list of methods or tools in the package: it must be
+    taken back out before the next module runs (tissuesim.solvers.unregister, tissuesim.tools.base.unregister_tool)."""
+    from tissuesim.solvers import available_solvers
+    from tissuesim.tools.base import tool_kinds
+
+    before = available_solvers(), tool_kinds()
+    yield
+    assert (available_solvers(), tool_kinds()) == before, "a test module left a method or tool registered"
+
+
 @pytest.fixture(scope="session", autouse=True)
 def private_cache(tmp_path_factory):
     """Point ``TISSUESIM_CACHE`` at a folder of this run for the whole session."""
