@@ -22,7 +22,7 @@ ROLES = {
     "study": "parameter studies (Dask)", "experiments": "the paper's and the contact protocols, haptics, scenes",
     "scalpel": "the cutting tool, where recordings go", "interaction": "the contact tools", "probe_complementarity": "their arithmetic",
     "solvers": "the methods: one module each, with its card", "cutting": "the cut on arrays, the surface layer",
-    "fem": "finite elements, files", "mesh": "meshes, loads", "compile_notice": "kernel compiles announced",
+    "fem": "finite elements, files", "mesh": "meshes, loads", "compile_notice": "kernel compiles announced, the registries of names",
     "errors": "errors, the kernel cache",
 }
 

@@ -4,54 +4,38 @@ from __future__ import annotations
 
 import inspect
 from collections.abc import Callable
-from importlib import import_module
 from typing import TYPE_CHECKING
 
 from ..errors import SolverError
+from ..registry import Registry
 from .base import Solver
 
 if TYPE_CHECKING:
     from ..mesh.hybrid import HybridMesh
 
 # name -> (module, class): imported on first use, so one method's missing dependency does not break the others.
-_BUILTIN = {
+_METHODS = Registry("solver", Solver, {
     "hybrid": ("tissuesim.solvers.hybrid", "HybridSolver"),
     "pbd": ("tissuesim.solvers.pbd", "PBDSolver"),
     "mass-spring": ("tissuesim.solvers.mass_spring", "MassSpringSolver"),
     "embedded": ("tissuesim.solvers.embedded", "EmbeddedSolver"),
     "fem": ("tissuesim.solvers.fine_fem", "FineFEMSolver"),
-}
-_REGISTRY: dict[str, type] = {}
+}, attribute="name")
 
 
 def register(name: str) -> Callable[[type], type]:
     """Class decorator adding a :class:`Solver` subclass to the registry under ``name``."""
-
-    if not isinstance(name, str) or not name:
-        raise SolverError(f"a solver is registered under a non-empty string name, got {name!r}")
-
-    def decorate(cls):
-        if not (isinstance(cls, type) and issubclass(cls, Solver)):
-            raise SolverError(f"only Solver subclasses can be registered, got {cls!r}")
-        cls.name = name
-        _REGISTRY[name] = cls
-        return cls
-
-    return decorate
+    return _METHODS.register(name)
 
 
 def unregister(name: str) -> None:
     """Remove a method registered with :func:`register` (a plug-in's, a test's); the built-in methods stay."""
-    if name in _BUILTIN:
-        raise SolverError(f"{name!r} is a built-in method and cannot be unregistered")
-    if name not in _REGISTRY:
-        raise SolverError(f"no method {name!r} is registered; registered: {', '.join(available_solvers())}")
-    del _REGISTRY[name]
+    _METHODS.unregister(name)
 
 
 def available_solvers() -> tuple[str, ...]:
     """Names accepted by :func:`make_solver`: the built-in methods, then those registered since, in that order."""
-    return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
+    return _METHODS.names()
 
 
 def method_names(*, in_paper: bool | None = None, cuts: bool | None = None, material: str | None = None,
@@ -78,14 +62,7 @@ def method_names(*, in_paper: bool | None = None, cuts: bool | None = None, mate
 
 def solver_class(name: str) -> type:
     """The :class:`Solver` subclass registered as ``name``."""
-    if not isinstance(name, str):
-        raise SolverError(f"a solver name is a string, one of {', '.join(available_solvers())}; got {name!r}")
-    if name not in _REGISTRY:
-        if name not in _BUILTIN:
-            raise SolverError(f"unknown solver {name!r}; choose one of {', '.join(available_solvers())}")
-        module, cls = _BUILTIN[name]
-        _REGISTRY[name] = getattr(import_module(module), cls)
-    return _REGISTRY[name]
+    return _METHODS.get(name)
 
 
 def solver_options(name: str) -> dict[str, object]:

@@ -14,25 +14,14 @@ from __future__ import annotations
 
 from abc import ABC, abstractmethod
 from collections.abc import Callable
-from importlib import import_module
 from typing import TYPE_CHECKING, ClassVar
 
 import numpy as np
 
-from ..errors import SolverError
+from ..registry import Registry
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
-
-# kind -> (module, class): imported on first use, as the solvers' registry does.
-_BUILTIN = {
-    "pin-head": ("tissuesim.tools.pinhead", "PinHead"),
-    "probe": ("tissuesim.tools.probe", "Probe"),
-    "grasper": ("tissuesim.tools.grasper", "Grasper"),
-    "scalpel": ("tissuesim.tools.scalpel", "Scalpel"),
-}
-_REGISTRY: dict[str, type] = {}
-
 
 class Tool(ABC):
     """An instrument on a solver's surface (see the module docstring).
@@ -71,40 +60,30 @@ class Tool(ABC):
         return None
 
 
+# kind -> (module, class): imported on first use, as the methods' are.
+_TOOLS = Registry("tool", Tool, {
+    "pin-head": ("tissuesim.tools.pinhead", "PinHead"),
+    "probe": ("tissuesim.tools.probe", "Probe"),
+    "grasper": ("tissuesim.tools.grasper", "Grasper"),
+    "scalpel": ("tissuesim.tools.scalpel", "Scalpel"),
+}, attribute="kind")
+
+
 def register_tool(kind: str) -> Callable[[type], type]:
     """Class decorator adding a :class:`Tool` subclass to the registry under ``kind``."""
-    if not isinstance(kind, str) or not kind:
-        raise SolverError(f"a tool is registered under a non-empty string kind, got {kind!r}")
-
-    def decorate(cls: type) -> type:
-        if not (isinstance(cls, type) and issubclass(cls, Tool)):
-            raise SolverError(f"only Tool subclasses can be registered, got {cls!r}")
-        cls.kind = kind
-        _REGISTRY[kind] = cls
-        return cls
-
-    return decorate
+    return _TOOLS.register(kind)
 
 
 def unregister_tool(kind: str) -> None:
     """Remove a tool registered with :func:`register_tool`; the built-in tools stay."""
-    if kind in _BUILTIN:
-        raise SolverError(f"{kind!r} is a built-in tool and cannot be unregistered")
-    if kind not in _REGISTRY:
-        raise SolverError(f"no tool {kind!r} is registered; registered: {', '.join(tool_kinds())}")
-    del _REGISTRY[kind]
+    _TOOLS.unregister(kind)
 
 
 def tool_kinds() -> tuple[str, ...]:
     """The kinds :func:`tool_class` knows: the built-in tools, then those registered since."""
-    return tuple(dict.fromkeys([*_BUILTIN, *_REGISTRY]))
+    return _TOOLS.names()
 
 
 def tool_class(kind: str) -> type[Tool]:
     """The :class:`Tool` subclass of ``kind``."""
-    if kind not in _REGISTRY:
-        if kind not in _BUILTIN:
-            raise SolverError(f"unknown tool {kind!r}; choose one of {', '.join(tool_kinds())}")
-        module, name = _BUILTIN[kind]
-        _REGISTRY[kind] = getattr(import_module(module), name)
-    return _REGISTRY[kind]
+    return _TOOLS.get(kind)
