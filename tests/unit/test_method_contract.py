@@ -25,7 +25,6 @@ from tissuesim.mesh import models
 from tissuesim.solvers import available_solvers, make_solver, method_names, register, solver_class, unregister
 from tissuesim.solvers.embedded import EmbeddedSolver
 from tissuesim.solvers.registry import solver_options
-from tissuesim.solvers.snapshot import Snapshot
 
 PLUG_IN = "plug-in-embedded"
 RADIUS = 0.008           # m, the contact patch
@@ -155,9 +154,9 @@ def test_a_snapshot_put_back_steps_as_its_twin(cube, node, method):
     for solver in (first, twin):
         solver.set_load(node, FORCE, radius=RADIUS)
         solver.step()
-    snapshot = Snapshot(first)
+    snapshot = first.snapshot()
     first.solve_static(node, -FORCE, radius=RADIUS)
-    snapshot.restore(first)
+    first.restore(snapshot)
     for _ in range(3):
         first.step()
         twin.step()

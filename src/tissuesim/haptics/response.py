@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..solvers.snapshot import Snapshot, leaves_no_trace
+from ..solvers.snapshot import leaves_no_trace
 
 if TYPE_CHECKING:
     from numpy.typing import ArrayLike
@@ -63,13 +63,13 @@ def local_response(solver: Solver, node: int, *, radius: float | None,
     """
     around = np.array(around, dtype=np.float64)
     step = 1.0 if solver.material == "linear" else tangent_step(solver, radius)
-    snapshot = Snapshot(solver)
+    snapshot = solver.snapshot()
     try:
         base = solver.solve_static(node, around, radius=radius)[node]
         columns = [(solver.solve_static(node, around + step * axis, radius=radius)[node] - base) / step
                    for axis in np.eye(3)]
     finally:
-        snapshot.restore(solver)
+        solver.restore(snapshot)
     compliance = np.column_stack(columns)
     return LocalResponse(int(node), radius, base - compliance @ around, compliance, around)
 

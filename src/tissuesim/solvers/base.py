@@ -61,6 +61,7 @@ from .finite_strain import check_method_material, unstable_load_error, volume_ra
 from .load_set import Load, LoadSet
 from .quasi_static import QuasiStaticSolve
 from .report import SolveReport, validity_warning
+from .snapshot import Snapshot
 from .state import State, farthest_node
 
 if TYPE_CHECKING:
@@ -328,6 +329,14 @@ class Solver(MethodCard, LoadPatches, LoadSet, QuasiStaticSolve, ABC):
 
     def _on_reset(self) -> None:
         """Called after :meth:`reset` restored rest positions and zero velocities."""
+
+    def snapshot(self) -> Snapshot:
+        """The state a step reads (:class:`~.snapshot.Snapshot`): :meth:`restore` puts it back, bit for bit."""
+        return Snapshot(self)
+
+    def restore(self, snapshot: Snapshot) -> None:
+        """Put back the state of ``snapshot``: the next steps equal a twin's that never did the work between."""
+        snapshot.restore(self)
 
     def before_first_cut(self) -> None:
         """Called by the scalpel before the first cut of this solver's mesh (the hybrid's near field, whose fine

@@ -16,7 +16,6 @@ from ..fem.nonlinear import UnstableLoadError
 from .checks import check_force, flag, positive_number, whole_count
 from .finite_strain import check_dead_press, unstable_load_error, volume_range
 from .report import SolveReport
-from .snapshot import Snapshot
 from .state import farthest_node, motion_and_displacement, remaining_error
 
 #: Relative accuracy of a stepped quasi-static solve: its remaining error over the largest displacement (methods
@@ -76,7 +75,7 @@ class QuasiStaticSolve:
         force = check_force(force)
         self.contact_patch(node, radius)  # a refused load must leave the state as it was: check before the reset
         check_dead_press(self, node, force, radius)
-        before = Snapshot(self)
+        before = self.snapshot()
         if reset:
             self._unloaded()
         self.set_load(node, force, radius=radius)
@@ -85,7 +84,7 @@ class QuasiStaticSolve:
     def _solve_under_loads(self, dt: float, tolerance: float, rtol: float, max_steps: int, reset: bool, keep: bool):
         """:meth:`solve_static` under the loads acting: they are kept through the reset and put back if refused."""
         loads = self.kept_loads()
-        before = Snapshot(self)
+        before = self.snapshot()
         if reset:
             self._unloaded()
             self.put_back_loads(loads)

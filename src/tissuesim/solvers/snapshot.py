@@ -75,7 +75,7 @@ def _keeper(tool, *, solving: bool):
     solver = tool.solver
     kept = {name: copy.copy(value) if isinstance(value, dict) else value for name, value in vars(tool).items()}
     kept_loads = {name: dict(value.by_node) for name, value in vars(tool).items() if hasattr(value, "by_node")}
-    state = Snapshot(solver) if solving else None
+    state = solver.snapshot() if solving else None
     loads = None if solving else solver.kept_loads()
 
     def put_back() -> None:

@@ -296,7 +296,7 @@ class Grasper(Tool):
             change = np.linalg.lstsq(jacobian, error.ravel(), rcond=SINGULAR)[0]
             if self._learned is None:         # a model not yet sized by a solve: a short first step sizes it
                 change = FIRST_STEP * change
-            state, loads = Snapshot(self.solver), [dict(g._loads.by_node) for g in group]
+            state, loads = self.solver.snapshot(), [dict(g._loads.by_node) for g in group]
             held = np.concatenate([g.held for g in group])
             before = self.solver.positions[held].ravel()
             try:
