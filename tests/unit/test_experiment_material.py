@@ -16,7 +16,8 @@ from tissuesim.solvers import method_names
 
 @pytest.fixture(scope="module")
 def finite_run():
-    config = ExperimentConfig(models=("cube",), resolution=400, forces=(1.0,), methods=method_names(where=lambda cls: cls.static_by_default()),
+    config = ExperimentConfig(models=("cube",), resolution=400, forces=(1.0,),
+                              methods=method_names(where=lambda cls: cls.static_by_default()),
                               material="neo-hookean", warmup_steps=0, timing_steps=1, point_load_levels=0)
     return run_experiment(config, progress=False)
 

@@ -235,7 +235,7 @@ def test_the_finite_strain_hybrid_steps_to_its_static_sag(cube, top):
     assert np.abs(solver.displacements - static).max() <= 1e-7 * np.abs(static).max()
 
 
-@pytest.mark.parametrize("method", method_names(where=lambda cls: not cls.static_by_default()))      # a step of their own
+@pytest.mark.parametrize("method", method_names(where=lambda cls: not cls.static_by_default()))  # a step of its own
 def test_steps_under_gravity_and_attachments_allocate_no_arrays(cube, top, method, step_allocation):
     """DESIGN: nothing allocated per step, the weight and the ligaments included (an (n, 3) array: 9,264 bytes)."""
     from tissuesim.solvers import Attachment

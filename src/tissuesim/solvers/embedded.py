@@ -138,7 +138,8 @@ class EmbeddedSolver(Solver):
         return np.concatenate(nodes), np.concatenate(forces)
 
     def _finite_solve(self) -> None:
-        """M_V's finite-strain equilibrium, warm-started from the last one; the carriers' displacement into ``_u``."""
+        """M_V's finite-strain equilibrium, warm-started from the last one; the carriers' displacement into
+        ``output_displacement``."""
         forces = self._volume_forces
         forces[:] = 0.0
         if self._loads:
@@ -156,8 +157,8 @@ class EmbeddedSolver(Solver):
         self._solve()
         # v = (p_new − p)/dt keeps the state meaningful for callers that look at velocities.
         state.velocities[:] = state.positions
-        map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot, self.output_displacement,
-                     state.positions)
+        map_embedded(self.rest_positions, self._tets, self.tet_of, self.weights, self.node_slot,
+                     self.output_displacement, state.positions)
         if self.finite is None:
             hold_at_rest(self.rest_positions, self.fixed, state.positions)
         else:  # the fixed vertices where set_fixed_positions put them (at rest until then)

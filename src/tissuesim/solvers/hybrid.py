@@ -105,8 +105,9 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     kept_values = (*SurfaceLayerSolver.kept_values, "volume_stale", "volume_settled", "near_window",
                    "near_window_slots", "near_window_node")
 
-    def __init__(self, hybrid_mesh: HybridMesh, *, warm_start: bool = DEFAULT_WARM_START, damping: float = HYBRID_DAMPING,
-                 near_field: float | None = None, element: str = "linear", **options: object):
+    def __init__(self, hybrid_mesh: HybridMesh, *, warm_start: bool = DEFAULT_WARM_START,
+                 damping: float = HYBRID_DAMPING, near_field: float | None = None, element: str = "linear",
+                 **options: object):
         super().__init__(hybrid_mesh, damping=damping, **options)
         from ..fem.linear import LinearFEM
 
@@ -149,12 +150,13 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self.embedding_tet = np.ascontiguousarray(h.embedding_tet, dtype=np.int64)
         self._tets = tets
         self.embedding_weights = np.ascontiguousarray(h.embedding_barycentric, dtype=np.float64)
-        extra = np.setdiff1d(np.unique(tets[self.embedding_tet]), control_volume) if self.warm_start else np.zeros(0, int)
+        extra = (np.setdiff1d(np.unique(tets[self.embedding_tet]), control_volume) if self.warm_start
+                 else np.zeros(0, int))
         self.output_nodes = np.concatenate([control_volume, extra]).astype(np.int64)
         self.output_slot = np.full(volume.node_count, -1, dtype=np.int64)
         self.output_slot[self.output_nodes] = np.arange(self.output_nodes.size)
         self.output_displacement = np.zeros((self.output_nodes.size, 3))
-        self.control_displacement = self.output_displacement[: self.control_count]  # a view: updated with _u
+        self.control_displacement = self.output_displacement[: self.control_count]  # a view: updated with it
         self.warm_positions = np.array(self.rest_positions)  # rest + embedded displacement now applied (warm start)
         self.warm_target = np.array(self.rest_positions)
         self.warm_delta = np.zeros_like(self.warm_positions)
@@ -169,19 +171,15 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         return volume_pieces(h.volume, h.volume.tets[np.asarray(h.embedding_tet, dtype=np.int64), 0])
 
     def _init_near_field(self, near_field) -> None:
-        self.near_field = None
-        self._near = None
+        self.near_field, self._near, self.near_window_node = None, None, -1
         self.near_window = self.near_window_slots = np.zeros(0, dtype=np.int64)
-        self.near_window_node = -1
         if near_field is None:
             return
         from .near_field import near_field_of
 
-        self._near = near_field_of(self, near_field)
-        self.near_field = float(near_field)
-        self._is_free = np.ones(self.node_count, dtype=bool)
+        self._near, self.near_field = near_field_of(self, near_field), float(near_field)
+        self._is_free, self._is_pinned = np.ones(self.node_count, dtype=bool), np.zeros(self.node_count, dtype=bool)
         self._is_free[self._held] = False
-        self._is_pinned = np.zeros(self.node_count, dtype=bool)
         self._is_pinned[self.fixed] = True
 
     def _init_quadratic(self) -> None:
@@ -239,8 +237,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self.volume_stale = True
 
     def _finite_response(self, exact: bool) -> None:
-        """M_V's finite-strain displacement of the output nodes into ``_u``: converged (``exact``) or relaxed by
-        :data:`VOLUME_ITERATIONS` iterations from the last one."""
+        """M_V's finite-strain displacement of the output nodes into ``output_displacement``: converged (``exact``)
+        or relaxed by :data:`VOLUME_ITERATIONS` iterations from the last one."""
         forces = self._volume_forces
         forces[:] = 0.0
         if self._loads:
@@ -283,8 +281,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         if self._near is not None and self.near_window.size:
             self._prescribe_near(exact)
         if self.warm_start:
-            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot, self.output_displacement,
-                         self.warm_target)
+            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot,
+                         self.output_displacement, self.warm_target)
             # Move every node by the change of the embedded field (exactly zero when it did not change); the
             # kernel then overrides the prescribed nodes.
             np.subtract(self.warm_target, self.warm_positions, out=self.warm_delta)
@@ -317,7 +315,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         self.volume_stale = False
 
     def _linear_response(self) -> None:
-        """M_V's displacement of the output nodes into ``_u``: the sum of each load's patch response (linear)."""
+        """M_V's displacement of the output nodes into ``output_displacement``: the sum of each load's patch response
+        (linear)."""
         self.output_displacement[:] = 0.0
         one = np.empty_like(self.output_displacement) if len(self._loads) > 1 else self.output_displacement
         for load in self._loads:
@@ -386,8 +385,8 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
         """The finite-strain layer starts from the surface carried by M_V's finite-strain displacement (its
         embedding, as ``warm_start``), much closer than the linear layer's answer once M_V turns."""
         if self.warm_start:
-            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot, self.output_displacement,
-                         positions)
+            map_embedded(self.rest_positions, self._tets, self.embedding_tet, self.embedding_weights, self.output_slot,
+                         self.output_displacement, positions)
             positions[self.prescribed] = self.targets
 
     def _static_solve(self) -> int | None:

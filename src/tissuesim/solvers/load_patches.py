@@ -1,7 +1,7 @@
 """The contact patches of a solver's loads: which M_S nodes a load at a node with a tip of radius R reaches, with
 their area-weighted shares (:func:`tissuesim.loads.contact_patch`), cached per (node, R), and the refusal of a patch
 that reaches the fixed region. A mixin of :class:`~tissuesim.solvers.base.Solver`, which holds ``rest_positions``,
-``hybrid``, ``fixed`` and the caches ``_patches`` and ``_lumped_areas``."""
+``hybrid``, ``fixed`` and the caches ``patch_cache`` and ``lumped_area_cache``."""
 
 from __future__ import annotations
 

@@ -232,8 +232,8 @@ class MassSpringSolver(Solver):
 
     cut_carrier = "tissuesim.solvers.mass_spring_cut:MassSpringCut"
 
-    def __init__(self, hybrid_mesh: HybridMesh, *, thickness_ratio: float | None = None, damping: float = DEFAULT_DAMPING,
-                 **common: object):
+    def __init__(self, hybrid_mesh: HybridMesh, *, thickness_ratio: float | None = None,
+                 damping: float = DEFAULT_DAMPING, **common: object):
         super().__init__(hybrid_mesh, damping=damping, **common)
         if thickness_ratio is None:
             from .calibrated import MASS_SPRING_THICKNESS as thickness_ratio

@@ -62,8 +62,8 @@ class NearField:
     Attributes:
         surface_nodes: ``(n,) int64`` fine-volume node of each M_S vertex.
         lumped_area: ``(n,) float64`` [m²] each M_S vertex's third of its triangles' areas.
-        finite: the :class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM` of a finite-strain material (sharing
-            :attr:`fem`'s factor), or None for ``"linear"``.
+        finite: the :class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM` of a finite-strain material
+            (sharing :attr:`fem`'s factor), or None for ``"linear"``.
         last_iterations: Newton iterations of the last converged finite-strain :meth:`displacement` (0: its warm
             start was already in equilibrium).
         settled: whether the last :meth:`displacement` is the equilibrium (always, but after constant-factor

@@ -17,8 +17,8 @@ third of its nodes as corners, and its field is curved between the control nodes
 * **Cost.** Linear material: each contact patch's response at every vertex is three back-substitutions (one per
   axis) when the patch first acts, kept for the patches acting last; a drag that changes the force costs one
   product per vertex. Finite strain: M_V's quadratic equilibrium under the same forces
-  (:class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM`), Newton in a static solve and constant-factor iterations
-  per step, as the paper's M_V.
+  (:class:`~tissuesim.fem.nonlinear_quadratic.QuadraticNonlinearFEM`), Newton in a static solve and constant-factor
+  iterations per step, as the paper's M_V.
 * **Weight.** The consistent load of ρ g on the quadratic tets (:func:`~tissuesim.fem.quadratic.quadratic_body_force`),
   solved once.
 * **Cuts.** M_V is not cut: the vertices of the triangles a cut changes are freed to the surface layer, the others

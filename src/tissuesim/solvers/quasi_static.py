@@ -2,7 +2,7 @@
 and reaches equilibrium by the method's static solver or, where it has none, by stepping with damping until the
 surface settles; a finite-strain load with no stable equilibrium restores the state it was given. A mixin of
 :class:`~tissuesim.solvers.base.Solver`, which holds the state, the load calls, the method's ``_step`` and
-``_static_solve``, the blow-up check and the workspace ``_previous``."""
+``_static_solve``, the blow-up check and the workspace ``previous_positions``."""
 
 from __future__ import annotations
 
