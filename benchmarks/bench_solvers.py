@@ -161,7 +161,7 @@ def near_field(h, node) -> None:
         solver.set_load(node, [0.0, 0.0, -2.0], radius=radius)
         again = _timed(solver.step)
         print(f"near field, new contact R = {1e3 * radius:.0f} mm: first step {1e3 * first:.1f} ms "
-              f"({solver._window.size} window nodes, {1e3 * first / max(solver._window.size, 1):.2f} ms per node), "
+              f"({solver.near_window.size} window nodes, {1e3 * first / max(solver.near_window.size, 1):.2f} ms per node), "
               f"next force {1e3 * again:.2f} ms")
 
 

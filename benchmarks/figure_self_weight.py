@@ -16,7 +16,8 @@ import argparse
 import numpy as np
 
 from tissuesim import HybridMesh, SurfaceMesh, make_solver, models
-from tissuesim.experiments.contact_plots import COLOURS
+from tissuesim.experiments.methods import colour as method_colour
+from tissuesim.solvers import available_solvers
 from tissuesim.fem.assembly import body_force
 from tissuesim.fem.linear import LinearFEM
 from tissuesim.mesh.tetmesh import structured_box
@@ -111,7 +112,7 @@ def draw(profiles, runs, table, output: str) -> None:
         left.plot(1e3 * uz, 1e3 * zs, linestyle=":", marker=".", linewidth=1.0, color=colour,
                   label=f"linear FEM, Kuhn hexes, {layers} layers (axis)")
     for method, ((zs, uz), _) in runs.items():
-        left.scatter(1e3 * uz, 1e3 * zs, s=6, color=COLOURS.get(method), alpha=0.6, label=f"{method} (M_S vertices)")
+        left.scatter(1e3 * uz, 1e3 * zs, s=6, color=method_colour(method), alpha=0.6, label=f"{method} (M_S vertices)")
     left.set_xlabel("u_z [mm]")
     left.set_ylabel("z [mm]")
     left.set_title("column under its weight (ν = 0, base fixed)")
@@ -122,7 +123,7 @@ def draw(profiles, runs, table, output: str) -> None:
     markers = {"fem": ("o", 11), "hybrid": ("x", 8), "embedded": ("+", 10), "pbd": ("o", 5), "mass-spring": ("s", 5)}
     for method, (_, sags) in runs.items():
         marker, size = markers[method]
-        middle.plot(1e3 * expected, 1e3 * sags, marker, color=COLOURS.get(method), label=method, markersize=size,
+        middle.plot(1e3 * expected, 1e3 * sags, marker, color=method_colour(method), label=method, markersize=size,
                     markerfacecolor="none" if method == "fem" else None, linestyle="none")
     middle.set_xlabel("ρgH²/(2E) [mm]")
     middle.set_ylabel("sag of the top [mm]")
@@ -133,7 +134,7 @@ def draw(profiles, runs, table, output: str) -> None:
     width = 0.8 / len(columns)
     for k, column in enumerate(columns):
         right.bar(np.arange(len(names)) - 0.4 + (k + 0.5) * width, [table[n][column] for n in names], width,
-                  color=COLOURS.get(column, "lightgrey"), label=column,
+                  color=method_colour(column) if column in available_solvers() else "lightgrey", label=column,
                   hatch="//" if column == "fem (finer)" else None)
     right.set_xticks(np.arange(len(names)), names)
     right.set_ylabel("relative RMS difference from the fine FEM")

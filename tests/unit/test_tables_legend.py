@@ -67,3 +67,10 @@ def test_the_experiments_record_the_size_build_prints():
     row = table1_row(hybrid)
     assert info["surface"]["size_kB"] == pytest.approx(row["M_S"]["size_kb"], abs=0.05)
     assert info["volume"]["size_kB"] == pytest.approx(row["M_V"]["size_kb"], abs=0.05)
+
+
+def test_the_headline_ratios_keep_their_columns_order():
+    from tissuesim.experiments.tables import ratios
+
+    # the paper's comparisons of accuracy, then its claims on time, the fine FEM's first (tables.md, report.md)
+    assert list(ratios()) == ["Ours/PBD RMSE", "Ours/MSM RMSE", "Ours/Emb. RMSE", "FEM/Ours step", "Ours/PBD step"]

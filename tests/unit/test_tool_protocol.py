@@ -114,3 +114,16 @@ def test_a_tool_registered_outside_the_package_joins_the_kinds(sphere):
 def test_an_unknown_kind_is_refused_with_the_kinds():
     with pytest.raises(tissuesim.SolverError, match="pin-head, probe, grasper, scalpel"):
         tool_class("forceps")
+
+
+def test_a_moved_capsule_keeps_its_shaft_and_a_probe_not_placed_is_not_moved(sphere):
+    solver = tissuesim.make_solver("embedded", sphere)
+    node, top = top_of(solver)
+    probe = tool_class("probe")(solver, radius=0.025)
+    with pytest.raises(tissuesim.SolverError, match="not placed"):
+        probe.move(top)
+    center = top + (0.025 - 2e-4) * UP
+    probe.settle(center, center + [0.01, 0.0, 0.0])
+    probe.move(center + [0.0, 0.002, 0.0])
+    assert probe.end - probe.center == pytest.approx([0.01, 0.0, 0.0], abs=1e-15)
+    probe.release()

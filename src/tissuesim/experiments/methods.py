@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from ..solvers.registry import available_solvers, method_names, solver_class
 from .protocol import REFERENCE
 
 #: The paper's method, "Ours" in its tables.
@@ -20,6 +19,10 @@ VARIANT_CARDS = {"hybrid-near": ("Ours+NF", "hybrid + near field", "darkred"),
                  "hybrid-quadratic": ("Ours-Q", "hybrid, quadratic M_V", "tab:purple")}
 
 
+# The registry is read inside each function: importing it imports the solvers (and Numba), which the reports and
+# figures that read these labels do not otherwise need.
+
+
 def protocol_methods() -> tuple[str, ...]:
     """Every registered method, the reference last: what the paper's protocol runs by default."""
     return (*compared_methods(), REFERENCE)
@@ -27,11 +30,15 @@ def protocol_methods() -> tuple[str, ...]:
 
 def compared_methods() -> tuple[str, ...]:
     """Every registered method but the reference, in registration order."""
+    from ..solvers.registry import available_solvers
+
     return tuple(name for name in available_solvers() if name != REFERENCE)
 
 
 def paper_methods() -> tuple[str, ...]:
     """The methods the paper compares, the reference excluded (its published figures: :mod:`.paper`)."""
+    from ..solvers.registry import method_names
+
     return tuple(name for name in method_names(in_paper=True) if name != REFERENCE)
 
 
@@ -42,7 +49,9 @@ def ordered(names: Iterable[str]) -> list[str]:
     return [n for n in order if n in names] + sorted(names - set(order))
 
 
-def _card(name: str):
+def _card(name: str) -> type | None:
+    from ..solvers.registry import available_solvers, solver_class
+
     return solver_class(name) if name in available_solvers() else None
 
 

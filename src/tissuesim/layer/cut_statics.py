@@ -121,7 +121,7 @@ class _Successor(_Pending):
 
 
 def after_cut(statics: LayerStatics, *, change: sp.csr_matrix, mass: np.ndarray,
-              prescribed: np.ndarray) -> LayerStatics:
+              prescribed: np.ndarray) -> LayerStatics | None:
     """The layer after a cut: ``statics`` (before it) corrected by ``change`` ``(3n, 3n)`` [N/m] (the stiffness the
     cut added minus what it removed, n the vertices after it), the lumped ``mass`` ``(n,)`` [kg] and the
     ``prescribed`` nodes after it. Past :data:`MAX_MODIFIED` touched dofs the layer is factorised again here, its

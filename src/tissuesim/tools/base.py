@@ -6,8 +6,9 @@ on the tissue [N], with one sign convention for every tool: a pin-head pulling u
 pushed up into the tissue from below all give a force along +z. (Each tool's own ``force`` keeps its documented
 meaning: the probe's and the grasper's are the reaction on the tool, the opposite.)
 
-The scene script, the viewer and the haptics make tools by kind through :func:`tool_class`; a tool registered with
-:func:`register_tool` from outside the package joins them.
+:func:`tool_class` makes a tool by kind, and a tool registered with :func:`register_tool` from outside the package
+joins the kinds. The scene script reads every tool's force through the protocol; its schema, the simulator's
+pointer tools and the haptic loop still name the built-in kinds.
 """
 
 from __future__ import annotations

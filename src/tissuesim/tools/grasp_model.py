@@ -1,6 +1,6 @@
-"""What a grasper (:mod:`tissuesim.grasper`) computes that knows no grasper: the jaws' rotation checked, the model of
-the held vertices' compliance sized by a first solve, the largest miss, and the solver's hooks a grasper uses (its
-compliance, whether it follows by relaxed updates)."""
+"""What a grasper (:mod:`tissuesim.tools.grasper`) computes that knows no grasper: the jaws' rotation checked, the
+model of the held vertices' compliance sized by a first solve, the largest miss, and the solver's hooks a grasper
+uses (its compliance, whether it follows by relaxed updates)."""
 
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ ROTATION_TOLERANCE = 1e-6
 
 
 def follows_by_updates(solver: Solver) -> bool:
-    """Whether :meth:`~tissuesim.grasper.Grasper.follow` updates rather than settles on ``solver``: its static
+    """Whether :meth:`~tissuesim.tools.grasper.Grasper.follow` updates rather than settles on ``solver``: its static
     solve is slow (:func:`~.solvers.finite_strain.slow_static_solve`) and it has its own compliance to update by."""
     return slow_static_solve(solver) and getattr(solver, "point_compliance", None) is not None
 

@@ -20,10 +20,10 @@ every held vertex is within :attr:`Grasper.tolerance` of its target. J starts fr
 it has one (``point_compliance``: the fem reference, the embedded surface, the hybrid with either M_V; exact with the
 linear material, so one iteration solves it), else from a model (a method's ``compliance_model``, or an elastic
 half-space of the solver's E and ν: Boussinesq's normal compliance on each axis,
-:func:`~tissuesim.probe_complementarity.half_space_compliance`) that a short first step sizes, and learns from each
-solve by Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a frame. The
-converged answer is the solver's equilibrium with those vertices prescribed: it does not depend on J, dt, the masses
-or the iteration caps; J sets only how fast it is reached.
+:func:`~tissuesim.tools.probe_complementarity.half_space_compliance`) that a short first step sizes, and learns
+from each solve by Broyden's update; it is kept while the jaws hold, so a dragged grasper costs one or two solves a
+frame. The converged answer is the solver's equilibrium with those vertices prescribed: it does not depend on J, dt,
+the masses or the iteration caps; J sets only how fast it is reached.
 
 Refused with a reason (and then nothing changes: the solver's state and loads, and the grasper's own, are as
 before): jaws farther than their radius from the surface, a patch with a fixed vertex in it (the support holds it

@@ -16,10 +16,10 @@ conditions λ ≥ 0, g ≥ 0, λ·g = 0, to :attr:`Probe.tolerance` [m] in the r
 Algorithm (a semi-smooth Newton iteration with an approximate Jacobian): each iteration takes the gaps of the
 vertices near the probe (the active set is found again each time), predicts their motion under a change of the
 forces by the normal compliance W of an elastic half-space of the solver's E and ν (Boussinesq,
-:func:`~tissuesim.probe_complementarity.half_space_compliance`, times a scalar learned by secant from the solver's own
-answers), solves that linear complementarity problem exactly
-(:func:`~tissuesim.probe_complementarity.complementary_forces`) and applies the forces; one solve of the solver then gives the true gaps. The converged answer is the solver's own
-equilibrium under contact: the model only sets how fast it is reached, so it does not change with dt, the
+:func:`~tissuesim.tools.probe_complementarity.half_space_compliance`, times a scalar learned by secant from the
+solver's own answers), solves that linear complementarity problem exactly
+(:func:`~tissuesim.tools.probe_complementarity.complementary_forces`) and applies the forces; one solve of the
+solver then gives the true gaps. The converged answer is the solver's own equilibrium under contact: the model only sets how fast it is reached, so it does not change with dt, the
 iteration caps or the masses. :meth:`Probe.press_static` iterates to the tolerance (methods whose step is a static
 solve take one step per iteration; the others step until settled). The interactive path is one contact update per
 :meth:`Probe.move_to` or :meth:`Probe.update`, each followed by the caller's ``solver.step()``.
@@ -192,8 +192,13 @@ class Probe(Tool):
         return self.settle(point)
 
     def move(self, point: ArrayLike) -> bool:
-        """:meth:`settle` with the probe's centre at ``point`` [m]; returns whether the contact converged."""
-        return self.settle(point)
+        """:meth:`settle` with the probe's centre at ``point`` [m], a capsule's shaft carried along with it; returns
+        whether the contact converged. Refused (SolverError) for a probe not placed: :meth:`press` it first."""
+        if self.center is None:
+            raise SolverError("the probe is not placed; press(point) it first")
+        center = checked_point(point)
+        end = None if self.end is None else center + (self.end - self.center)
+        return self.settle(center, end)
 
     @property
     def engaged(self) -> bool:

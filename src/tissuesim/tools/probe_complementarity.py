@@ -1,6 +1,6 @@
 """The rigid probe's contact on arrays: where the surface's vertices lie with respect to a sphere or a capsule, the
 half-space compliance that predicts how they move under nodal normal forces, and the complementarity problem that
-gives the next forces. It knows no solver; :mod:`tissuesim.probe` drives a solver with it.
+gives the next forces. It knows no solver; :mod:`tissuesim.tools.probe` drives a solver with it.
 
 A probe is a core (a point, or a segment for a capsule) swollen by a radius R: a vertex x has the gap
 g = |x − p(x)| − R, p(x) the core's point nearest x, and the normal n = (x − p(x)) / |x − p(x)| along which the
