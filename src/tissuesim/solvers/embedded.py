@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numba import njit
 
+from ..fem.hyperelastic import MATERIALS
 from .base import Solver
 from .compliance import mapped_compliance
 from .finite_strain import finite_volume, move_supports, solve_volume
@@ -67,7 +68,7 @@ class EmbeddedSolver(Solver):
     line_style = ":"
 
     static = True
-    materials = ("linear", "corotated", "neo-hookean")
+    materials = MATERIALS       # every material of fem.hyperelastic: a volume takes finite strain
     cut_carrier = "tissuesim.solvers.surface_layer_cut:EmbeddedCut"
     kept_arrays = (*Solver.kept_arrays, "output_displacement")      # M_V's answer, due again when stale
     kept_values = (*Solver.kept_values, "volume_stale")

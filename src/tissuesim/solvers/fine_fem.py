@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..fem.hyperelastic import MATERIALS
 from ..errors import SolverError
 from .base import Solver
 from .finite_strain import finite_volume, move_supports, solve_volume
@@ -35,7 +36,7 @@ class FineFEMSolver(Solver):
     in_paper = True
 
     static = True
-    materials = ("linear", "corotated", "neo-hookean")
+    materials = MATERIALS       # every material of fem.hyperelastic: a volume takes finite strain
     cut_refusal = ("the fem reference cannot be cut: cutting its fine volume would need re-tetrahedralizing and "
                    "re-factorizing K for every move (what the hybrid avoids); cut a hybrid, pbd, mass-spring or "
                    "embedded solver")

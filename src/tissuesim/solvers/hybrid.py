@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ..fem.hyperelastic import MATERIALS
 from ..errors import BoundaryConditionError, SolverError, warn
 from .checks import check_element, flag
 from .compliance import HybridCompliance
@@ -95,7 +96,7 @@ class HybridSolver(HybridCompliance, SurfaceLayerSolver):
     in_paper = True
     free_scalars = {"xpbd": ("thickness_ratio", 0.6, 4.0), "pbd": ("stiffness", 1e-3, 1.0)}
 
-    materials = ("linear", "corotated", "neo-hookean")
+    materials = MATERIALS       # every material of fem.hyperelastic: a volume takes finite strain
     cut_carrier = "tissuesim.solvers.surface_layer_cut:HybridCut"
     body_on_layer = False       # M_V carries the weight and the attachments; the layer follows it
     # where M_V's output and the warm start's embedded field were last brought to, and whether they are due again, so
