@@ -20,9 +20,10 @@ ROOT = Path(__file__).resolve().parents[1]
 ROLES = {
     "cli": "the command line", "commands": "one module per sub-command", "viewer": "the interactive simulator",
     "study": "parameter studies (Dask)", "experiments": "the paper's and the contact protocols, haptics, scenes",
-    "scalpel": "the cutting tool, where recordings go", "interaction": "the contact tools", "probe_complementarity": "their arithmetic",
+    "tools": "the instruments, each a Tool; where recordings go",
     "solvers": "the methods: one module each, with its card", "cutting": "the cut on arrays, the surface layer",
-    "fem": "finite elements, files", "mesh": "meshes, loads", "compile_notice": "kernel compiles announced, the registries of names",
+    "fem": "finite elements, files", "mesh": "meshes, loads",
+    "compile_notice": "kernel compiles announced, the registries of names",
     "errors": "errors, the kernel cache",
 }
 
@@ -44,7 +45,7 @@ def figure(rows: list[list[str]]):
         width = 5.6 / len(modules)
         for k, module in enumerate(modules):
             x = 0.2 + k * width
-            highlight = module == "solvers"
+            highlight = module in ("solvers", "tools")
             ax.add_patch(plt.Rectangle((x + 0.04, y + 0.08), width - 0.08, 0.72, linewidth=0.8,
                                        facecolor="#f4c7c3" if highlight else "#dde7f3", edgecolor="0.35"))
             ax.text(x + width / 2, y + 0.44, module, ha="center", va="center", fontsize=8.5, family="monospace")
