@@ -32,12 +32,10 @@ def check_method_material(cls: type[Solver], material: object) -> str:
     """``material`` if method ``cls`` accepts it (``cls.materials``), else a MaterialError or SolverError."""
     material = check_material(material)
     if material not in cls.materials:
-        from .registry import method_names      # the registry imports the solvers, which import this module
-
         raise SolverError(f"the {cls.name} method takes material {' or '.join(map(repr, cls.materials))}, not "
                           f"{material!r}; finite strain ({', '.join(map(repr, MATERIALS[1:]))}) is available in "
-                          f"the methods with a volume, {', '.join(method_names(material=material))} (a surface "
-                          "alone has none, and a layer alone under a finite-strain pull tangles)")
+                          f"the methods with a volume, tissuesim.solvers.method_names(material={material!r}) (a "
+                          "surface alone has none, and a layer alone under a finite-strain pull tangles)")
     return material
 
 
