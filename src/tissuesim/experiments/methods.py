@@ -14,9 +14,10 @@ from .protocol import REFERENCE
 
 #: The paper's method, "Ours" in its tables.
 OURS = "hybrid"
-#: The contact protocol's variants of a method (its name with options): (table label, legend label, colour).
-VARIANT_CARDS = {"hybrid-near": ("Ours+NF", "hybrid + near field", "darkred"),
-                 "hybrid-quadratic": ("Ours-Q", "hybrid, quadratic M_V", "tab:purple")}
+#: The contact protocol's variants of a method (its name with options): their cards, as a method's.
+VARIANT_CARDS = {"hybrid-near": {"short_label": "Ours+NF", "label": "hybrid + near field", "colour": "darkred"},
+                 "hybrid-quadratic": {"short_label": "Ours-Q", "label": "hybrid, quadratic M_V",
+                                      "colour": "tab:purple"}}
 
 
 # The registry is read inside each function: importing it imports the solvers (and Numba), which the reports and
@@ -49,37 +50,30 @@ def ordered(names: Iterable[str]) -> list[str]:
     return [n for n in order if n in names] + sorted(names - set(order))
 
 
-def _card(name: str) -> type | None:
+def _shown(name: str, field: str, default: str) -> str:
+    """A method's or variant's ``field`` of its card, or ``default`` where it has none (a name nobody registered)."""
     from ..solvers.registry import available_solvers, solver_class
 
-    return solver_class(name) if name in available_solvers() else None
+    if name in VARIANT_CARDS:
+        return VARIANT_CARDS[name].get(field, default)
+    return getattr(solver_class(name), field) if name in available_solvers() else default
 
 
 def short_label(name: str) -> str:
     """A method's or variant's column in the tables ("Ours", "PBD", "Ours-Q"); an unknown name stands for itself."""
-    if name in VARIANT_CARDS:
-        return VARIANT_CARDS[name][0]
-    card = _card(name)
-    return card.short_label if card is not None else name
+    return _shown(name, "short_label", name)
 
 
 def label(name: str) -> str:
     """What a method or variant is, in a legend ("hybrid FEM + PBD")."""
-    if name in VARIANT_CARDS:
-        return VARIANT_CARDS[name][1]
-    card = _card(name)
-    return card.label if card is not None else name
+    return _shown(name, "label", name)
 
 
 def colour(name: str) -> str:
     """A method's or variant's colour in every plot (grey for a name nobody registered)."""
-    if name in VARIANT_CARDS:
-        return VARIANT_CARDS[name][2]
-    card = _card(name)
-    return card.colour if card is not None else "tab:gray"
+    return _shown(name, "colour", "tab:gray")
 
 
 def line_style(name: str) -> str:
     """A method's line style ("-" for a variant or a name nobody registered)."""
-    card = _card(name)
-    return card.line_style if card is not None else "-"
+    return _shown(name, "line_style", "-")
