@@ -151,11 +151,12 @@ def _wins(data: dict, winner: str, loser: str) -> tuple[int, int]:
 
 def _verdict(data: dict) -> list[str]:
     lines = []
-    for other in compared_methods():
-        won, total = _wins(data, OURS, other) if other != OURS else (0, 0)
+    published = paper_methods()
+    for other in (m for m in compared_methods() if m != OURS):
+        won, total = _wins(data, OURS, other)
         if total:
             lines.append(f"Ours (hybrid) is more accurate than {short_label(other)} in {won} of {total} cases"
-                         + (" (the paper: all of its cases)" if other in paper_methods() else " (not in the paper)")
+                         + (" (the paper: all of its cases)" if other in published else " (not in the paper)")
                          + ".")
     summary = ratio_summary(data)
     steps = [(m, s["Ours/PBD step"][0], s["FEM/Ours step"][0]) for m, s in summary.items()]
